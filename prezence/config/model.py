@@ -1,0 +1,264 @@
+"""The configuration as frozen dataclasses: what both front ends (line format, TOML) produce.
+
+Deviation, the quantity every rule is judged by, is defined here once:
+
+    deviation % = 100 × (distance of the value outside the ideal band) / scale
+
+where ``scale`` is, by default, the bound that was crossed (right for ratio-scale metrics: 225 wpm
+is 25 % above 180) and, for interval or log-scale metrics, a unit set per rule (6 dB, 10°). A
+bound of zero or below has no meaningful ratio, so such a rule must give ``scale`` explicitly.
+Inside the band the deviation is 0.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+FORMAT = 1  # version of the TOML config and scenario formats
+
+
+class Check(enum.Enum):
+    """How a metric is judged against its ideal band."""
+
+    MIN = "min"
+    MAX = "max"
+    IN_RANGE = "inRange"
+
+
+class Direction(enum.Enum):
+    """What a feedback command asks the presenter to do to the metric."""
+
+    RAISE = "raise"
+    LOWER = "lower"
+    NEUTRAL = "neutral"
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One production rule: a metric, its ideal band and the commands that correct it.
+
+    Attributes:
+        metric: module/metric name; also the default stream file stem.
+        check: min, max or inRange.
+        low: lower bound (min, inRange), in the metric's unit, after named values are resolved.
+        high: upper bound (max, inRange).
+        strict: out of range once → warn at the first free moment, ahead of non-strict rules.
+        below: command when the value is below the band (None: no cue).
+        above: command when the value is above the band (None: no cue).
+        scale: deviation scale in the metric's unit; None means "the crossed bound".
+        gain: multiplies weight growth for this rule (1.0 = the default rate).
+        offset: added to every value before it is judged (e.g. the inverse-square estimate
+            at the farthest listener, a negative number of dB).
+        stream: stream file name, relative to the session's ``streams/`` folder.
+        stale_after_s: the metric is excluded from decisions once its newest sample is older
+            than this; None uses the processor setting.
+        unit: for display only.
+        source: ``file:line`` where the rule was defined; not part of equality.
+    """
+
+    metric: str
+    check: Check
+    low: float | None = None
+    high: float | None = None
+    strict: bool = False
+    below: str | None = None
+    above: str | None = None
+    scale: float | None = None
+    gain: float = 1.0
+    offset: float = 0.0
+    stream: str = ""
+    stale_after_s: float | None = None
+    unit: str = ""
+    source: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        if not self.stream:
+            object.__setattr__(self, "stream", f"{self.metric}.txt")
+
+    def deviation(self, value: float) -> float:
+        """Percent deviation of ``value`` from the ideal band (0 inside it).
+
+        Example:
+            >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
+            >>> r.deviation(225.0)
+            25.0
+            >>> r.deviation(150.0)
+            0.0
+            >>> Rule("cv_headGaze", Check.MIN, low=0.0, scale=10.0).deviation(-25.0)
+            250.0
+        """
+        v = value + self.offset
+        if self.low is not None and v < self.low:
+            ref = self.scale if self.scale is not None else self.low
+            return 100.0 * (self.low - v) / ref
+        if self.high is not None and v > self.high:
+            ref = self.scale if self.scale is not None else self.high
+            return 100.0 * (v - self.high) / ref
+        return 0.0
+
+    def side(self, value: float) -> str | None:
+        """``"below"``, ``"above"`` or None (in range)."""
+        v = value + self.offset
+        if self.low is not None and v < self.low:
+            return "below"
+        if self.high is not None and v > self.high:
+            return "above"
+        return None
+
+    def command_for(self, value: float) -> str | None:
+        """The command that corrects ``value``, or None when in range or none is configured."""
+        s = self.side(value)
+        if s == "below":
+            return self.below
+        if s == "above":
+            return self.above
+        return None
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"metric": self.metric, "check": self.check.value}
+        for f in fields(self):
+            if f.name in ("metric", "check", "source"):
+                continue
+            v = getattr(self, f.name)
+            if f.name == "stream" and v == f"{self.metric}.txt":
+                continue
+            if v is not None and v != f.default:
+                d[f.name] = v
+        return d
+
+
+@dataclass(frozen=True)
+class RoomProfile:
+    """The room: named values for rules (``ANGLE``) and distances for the volume estimate.
+
+    Attributes:
+        name: a label.
+        values: named values usable in rules, e.g. ``{"ANGLE": -15.0}``.
+        laptop_distance_m: presenter → laptop microphone distance, where dB are measured.
+        farthest_listener_m: presenter → farthest listener; None disables the estimate.
+    """
+
+    name: str = "default"
+    values: Mapping[str, float] = field(default_factory=lambda: {"ANGLE": -15.0})
+    laptop_distance_m: float = 1.0
+    farthest_listener_m: float | None = None
+
+    def listener_offset_db(self) -> float:
+        """Inverse-square law: level change from the laptop to the farthest listener (<= 0 dB).
+
+        Example:
+            >>> round(RoomProfile(laptop_distance_m=1.0, farthest_listener_m=2.0)
+            ...       .listener_offset_db(), 2)
+            -6.02
+        """
+        if self.farthest_listener_m is None:
+            return 0.0
+        return -20.0 * math.log10(self.farthest_listener_m / self.laptop_distance_m)
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "name": self.name,
+            "values": dict(self.values),
+            "laptop_distance_m": self.laptop_distance_m,
+        }
+        if self.farthest_listener_m is not None:
+            d["farthest_listener_m"] = self.farthest_listener_m
+        return d
+
+
+@dataclass(frozen=True)
+class ProcessorSettings:
+    """How weights grow, decay and fire, and how often cues may go.
+
+    Attributes:
+        threshold: a non-strict rule becomes a candidate when its weight reaches this
+            (unit: %·s, i.e. deviation percent integrated over seconds).
+        decay_half_life_s: while in range a weight halves every this many seconds.
+        min_gap_s: quiet time between the end of one cue and the start of the next.
+        refractory_s: after a metric is cued it cannot be cued again for this long.
+        stale_after_s: default time after a metric's newest sample when it goes stale.
+        decision_period_s: how often the coach asks the processor for a decision.
+        praise_after_s: say the encouragement command after this long with every metric in
+            range and no cue; 0 disables it.
+        praise_command: the command used for encouragement.
+        strict_first: strict rules and time warnings win over non-strict ones.
+    """
+
+    threshold: float = 600.0
+    decay_half_life_s: float = 8.0
+    min_gap_s: float = 6.0
+    refractory_s: float = 40.0
+    stale_after_s: float = 6.0
+    decision_period_s: float = 0.5
+    praise_after_s: float = 150.0
+    praise_command: str | None = "encourage"
+    strict_first: bool = True
+
+    def to_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class TimeSettings:
+    """Time used vs allocated.
+
+    Attributes:
+        allocated_s: time the presenter has; None disables time warnings.
+        warn_at_s_left: give ``warn_command`` when this much time is left (each once).
+        warn_command: the time-left command; the cue carries ``minutes_left``.
+        overtime_command: given when the allocated time is over, then every ``overtime_repeat_s``.
+        overtime_repeat_s: repeat period of the overtime cue (0: only once).
+    """
+
+    allocated_s: float | None = 600.0
+    warn_at_s_left: tuple[float, ...] = (120.0, 60.0)
+    warn_command: str = "timeLeft"
+    overtime_command: str = "overtime"
+    overtime_repeat_s: float = 60.0
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        d["warn_at_s_left"] = list(self.warn_at_s_left)
+        return d
+
+
+@dataclass(frozen=True)
+class Config:
+    """A whole configuration: rules plus settings. Both front ends build one of these."""
+
+    rules: tuple[Rule, ...]
+    processor: ProcessorSettings = ProcessorSettings()
+    time: TimeSettings = TimeSettings()
+    room: RoomProfile = RoomProfile()
+    source: str = field(default="", compare=False)
+
+    def rule(self, metric: str) -> Rule:
+        """The rule for ``metric``; raises :class:`prezence.errors.UnknownName`."""
+        for r in self.rules:
+            if r.metric == metric:
+                return r
+        from prezence.errors import UnknownName
+
+        raise UnknownName("metric", metric, [r.metric for r in self.rules])
+
+    @property
+    def metrics(self) -> tuple[str, ...]:
+        return tuple(r.metric for r in self.rules)
+
+    def with_allocated(self, allocated_s: float | None) -> Config:
+        """A copy with another allocated time."""
+        return replace(self, time=replace(self.time, allocated_s=allocated_s))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The TOML form as a dict (``format``, ``room``, ``processor``, ``time``, ``rules``)."""
+        return {
+            "format": FORMAT,
+            "room": self.room.to_dict(),
+            "processor": self.processor.to_dict(),
+            "time": self.time.to_dict(),
+            "rules": [r.to_dict() for r in self.rules],
+        }

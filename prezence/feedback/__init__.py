@@ -1,0 +1,1 @@
+"""Feedback: commands → gestures and phrases, timed against the NAO's joint limits."""

@@ -1,0 +1,88 @@
+"""The command table (data in ``data/commands.toml``): direction, gesture and phrase per command."""
+
+from __future__ import annotations
+
+import functools
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from importlib import resources
+from typing import Any
+
+from prezence.config.model import Direction
+from prezence.errors import ConfigError, UnknownName
+
+COMMANDS_FILE = "commands.toml"
+
+
+@dataclass(frozen=True)
+class Command:
+    """One feedback command."""
+
+    name: str
+    direction: Direction
+    gesture: str
+    phrase: str
+    phrase_one: str | None = None
+
+    def say(self, params: Mapping[str, Any] | None = None) -> str:
+        """The phrase with the cue's parameters filled in.
+
+        Example:
+            >>> Command("timeLeft", Direction.NEUTRAL, "time_left", "{minutes} minutes left.",
+            ...         "One minute left.").say({"minutes": 2})
+            '2 minutes left.'
+        """
+        params = dict(params or {})
+        if self.phrase_one is not None and params.get("minutes") == 1:
+            return self.phrase_one
+        try:
+            return self.phrase.format(**params)
+        except (KeyError, IndexError, ValueError) as e:
+            raise ConfigError(
+                f"command '{self.name}': phrase {self.phrase!r} needs a parameter the cue lacks "
+                f"({e}); cue parameters: {sorted(params)}",
+                path=COMMANDS_FILE,
+            ) from e
+
+
+def _parse(doc: Mapping[str, Any], path: str) -> dict[str, Command]:
+    if doc.get("format") != 1:
+        raise ConfigError(f"expected format = 1, found {doc.get('format')!r}", path=path)
+    out: dict[str, Command] = {}
+    for name, entry in dict(doc.get("commands", {})).items():
+        key = f"commands.{name}"
+        try:
+            direction = Direction(entry["direction"])
+            out[name] = Command(
+                name=name,
+                direction=direction,
+                gesture=str(entry["gesture"]),
+                phrase=str(entry["phrase"]),
+                phrase_one=entry.get("phrase_one"),
+            )
+        except KeyError as e:
+            raise ConfigError(f"missing key {e}", path=path, key=key) from e
+        except ValueError as e:
+            raise ConfigError(
+                f"direction must be raise, lower or neutral, not {entry.get('direction')!r}",
+                path=path,
+                key=key,
+            ) from e
+    return out
+
+
+@functools.cache
+def load_commands() -> Mapping[str, Command]:
+    """The built-in command table."""
+    text = resources.files("prezence.feedback").joinpath("data", COMMANDS_FILE).read_text()
+    return _parse(tomllib.loads(text), COMMANDS_FILE)
+
+
+def get_command(name: str) -> Command:
+    """Look up a command; an unknown name raises :class:`UnknownName` with a suggestion."""
+    table = load_commands()
+    try:
+        return table[name]
+    except KeyError:
+        raise UnknownName("command", name, table) from None

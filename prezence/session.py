@@ -1,0 +1,129 @@
+"""The session folder: everything a talk leaves behind, and the one place that names its files.
+
+::
+
+    SESSION/
+      session.json        what ran: scenario, seed, backend, config file, format version
+      config.toml         the effective configuration (rebuild and replay use it)
+      streams/<metric>.txt   one append-only file per module, "<t> <value>" per line
+      decisions.jsonl     one JSON line per decision point (cue or no cue) of the processor
+      cues.jsonl          one JSON line per cue the robot performed, with its outcome
+      truth.jsonl         synthetic talks only: when each metric was really out of range
+      summary.json        per-metric and per-cue figures for the talk
+      report/             the post-speech report (HTML, PNG, JSON)
+
+The module files are the record: the report is rebuilt from ``streams/`` and ``cues.jsonl``,
+so a crash loses nothing that was written.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+SESSION_FORMAT = 1
+
+
+@dataclass(frozen=True)
+class SessionDir:
+    """Paths inside one session folder."""
+
+    root: Path
+
+    @property
+    def meta(self) -> Path:
+        return self.root / "session.json"
+
+    @property
+    def config(self) -> Path:
+        return self.root / "config.toml"
+
+    @property
+    def streams(self) -> Path:
+        return self.root / "streams"
+
+    @property
+    def decisions(self) -> Path:
+        return self.root / "decisions.jsonl"
+
+    @property
+    def cues(self) -> Path:
+        return self.root / "cues.jsonl"
+
+    @property
+    def truth(self) -> Path:
+        return self.root / "truth.jsonl"
+
+    @property
+    def summary(self) -> Path:
+        return self.root / "summary.json"
+
+    @property
+    def report(self) -> Path:
+        return self.root / "report"
+
+    def stream(self, filename: str) -> Path:
+        return self.streams / filename
+
+    def create(self) -> SessionDir:
+        """Make the folder (and ``streams/``); an existing session's files are replaced."""
+        self.streams.mkdir(parents=True, exist_ok=True)
+        for p in (self.decisions, self.cues, self.truth, self.summary):
+            if p.exists():
+                p.unlink()
+        for p in self.streams.glob("*.txt"):
+            p.unlink()
+        return self
+
+    def write_meta(self, meta: dict[str, Any]) -> None:
+        data = {"format": SESSION_FORMAT, **meta}
+        self.meta.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+
+    def read_meta(self) -> dict[str, Any]:
+        if not self.meta.exists():
+            return {}
+        data: dict[str, Any] = json.loads(self.meta.read_text())
+        return data
+
+
+def write_json(path: Path, data: Any) -> None:
+    """Write JSON atomically enough for a summary: to a temp file, then rename."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+    tmp.replace(path)
+
+
+class JsonlWriter:
+    """Append one JSON object per line, flushed at once (a crash keeps every finished line)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._f = path.open("a", encoding="utf-8")
+
+    def write(self, obj: dict[str, Any]) -> None:
+        self._f.write(json.dumps(obj, sort_keys=True, separators=(",", ":")) + "\n")
+        self._f.flush()
+
+    def close(self) -> None:
+        if not self._f.closed:
+            self._f.close()
+
+
+def read_jsonl(path: Path) -> list[dict[str, Any]]:
+    """Read a JSONL file; a torn last line (crash mid-write) is ignored."""
+    out: list[dict[str, Any]] = []
+    if not path.exists():
+        return out
+    lines = path.read_text(encoding="utf-8").splitlines()
+    for i, line in enumerate(lines):
+        if not line.strip():
+            continue
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError:
+            if i == len(lines) - 1:
+                break
+            raise
+    return out
