@@ -1,0 +1,176 @@
+"""The coach: one decision loop shared by headless talks, live rehearsals and replays.
+
+Each :meth:`Coach.tick` moves the robot to ``now``, hands the new samples to the processor,
+writes the decision, and, when a cue is chosen, has the robot perform it (gesture and phrase
+together). The robot is asked only when it is free, so no cue ever waits in a queue.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from prezence.backends.base import Backend, Motion
+from prezence.errors import BackendUnavailable
+from prezence.feedback.commands import get_command
+from prezence.feedback.trajectory import Trajectory
+from prezence.processor import Cue, Decision, Processor
+from prezence.samples import Sample
+from prezence.session import JsonlWriter, SessionDir
+
+log = logging.getLogger(__name__)
+
+#: Plans the gesture of a command: (gesture name, cue params) → trajectory.
+GesturePlanner = Callable[[str, Mapping[str, Any]], Trajectory]
+
+
+def default_planner(speed_fraction: float) -> GesturePlanner:
+    """The gesture library, retimed against the URDF's limits at ``speed_fraction``."""
+    from prezence.feedback.gestures import build_trajectory
+    from prezence.feedback.limits import load_limits
+
+    limits = load_limits()
+    cache: dict[tuple[str, tuple[tuple[str, Any], ...]], Trajectory] = {}
+
+    def plan(gesture: str, params: Mapping[str, Any]) -> Trajectory:
+        key = (gesture, tuple(sorted(params.items())))
+        traj = cache.get(key)
+        if traj is None:
+            traj = build_trajectory(
+                gesture, params=dict(params), speed_fraction=speed_fraction, limits=limits
+            )
+            cache[key] = traj
+        return traj
+
+    return plan
+
+
+@dataclass
+class Performance:
+    """A cue being performed: its gesture and its phrase."""
+
+    cue: Cue
+    phrase: str
+    gesture: str
+    motions: list[Motion] = field(default_factory=list)
+    dropped: str | None = None
+
+    @property
+    def done(self) -> bool:
+        return all(m.done for m in self.motions)
+
+    def record(self) -> dict[str, Any]:
+        """The cues.jsonl line for this cue."""
+        rec = self.cue.to_dict()
+        rec.update({"phrase": self.phrase, "gesture": self.gesture})
+        if self.dropped is not None:
+            rec.update({"dropped": True, "drop_reason": self.dropped, "ok": False})
+            return rec
+        ends = [m.finished_at for m in self.motions if m.finished_at is not None]
+        rec["dropped"] = False
+        rec["ok"] = all(m.ok for m in self.motions)
+        rec["planned_s"] = round(max(m.planned_s for m in self.motions), 6)
+        rec["measured_s"] = round(max(ends) - self.cue.t, 6) if ends else None
+        for m in self.motions:
+            prefix = m.kind.value
+            rec[f"{prefix}_planned_s"] = round(m.planned_s, 6)
+            if m.finished_at is not None:
+                rec[f"{prefix}_measured_s"] = round(m.finished_at - m.started_at, 6)
+            for k, v in m.info.items():
+                if k not in ("measured_s",):
+                    rec[f"{prefix}_{k}"] = v
+        return rec
+
+
+class Coach:
+    """Processor + robot + records, advanced one tick at a time.
+
+    Args:
+        processor: the Central Processor (owns the rules and the policy).
+        backend: an opened robot backend.
+        session: where decisions and cues are written.
+        planner: turns a gesture name and cue parameters into a trajectory.
+        on_cue: called with each cue when the robot starts it (closed-loop presenters listen).
+    """
+
+    def __init__(
+        self,
+        processor: Processor,
+        backend: Backend,
+        session: SessionDir,
+        *,
+        planner: GesturePlanner,
+        on_cue: Callable[[Cue], None] | None = None,
+    ) -> None:
+        self.processor = processor
+        self.backend = backend
+        self.session = session
+        self.planner = planner
+        self.on_cue = on_cue
+        self._decisions = JsonlWriter(session.decisions)
+        self._cues = JsonlWriter(session.cues)
+        self._current: Performance | None = None
+        self._free_since: float | None = 0.0
+        self.performed: list[dict[str, Any]] = []
+        self.decisions = 0
+
+    def tick(self, now: float, samples: Iterable[Sample]) -> Decision:
+        """One decision point at ``now`` with the samples that arrived since the last one."""
+        self.backend.advance(now)
+        self._settle()
+        free_since = self._free_since if not self.backend.busy else None
+        decision = self.processor.step(now, samples, free_since=free_since)
+        self._decisions.write(decision.to_dict())
+        self.decisions += 1
+        if decision.cue is not None:
+            self._perform(decision.cue, now)
+        return decision
+
+    def _perform(self, cue: Cue, now: float) -> None:
+        command = get_command(cue.command)
+        perf = Performance(cue, command.say(cue.params), command.gesture)
+        try:
+            traj = self.planner(command.gesture, cue.params)
+            perf.motions.append(self.backend.play(traj, now=now))
+            perf.motions.append(self.backend.say(perf.phrase, now=now))
+        except BackendUnavailable as e:
+            # The robot is gone: drop the cue (never queue it); the talk goes on.
+            log.warning("cue %s at %.1f s dropped: %s", cue.command, now, e)
+            perf.dropped = str(e)
+        self._current = perf
+        self._free_since = None
+        if self.on_cue is not None and perf.dropped is None:
+            self.on_cue(cue)
+        self._settle()
+
+    def _settle(self) -> None:
+        perf = self._current
+        if perf is None or not (perf.dropped is not None or perf.done):
+            return
+        rec = perf.record()
+        self._cues.write(rec)
+        self.performed.append(rec)
+        ends = [m.finished_at for m in perf.motions if m.finished_at is not None]
+        self._free_since = max(ends) if ends else perf.cue.t
+        self._current = None
+
+    def drain(self, now: float, *, step_s: float, limit_s: float = 120.0) -> float:
+        """Let the cue in progress finish (no new decisions); returns the time it ended."""
+        t = now
+        while self._current is not None and t < now + limit_s:
+            t += step_s
+            self.backend.advance(t)
+            self._settle()
+        return t
+
+    def close(self) -> None:
+        if self._current is not None:
+            rec = self._current.record()
+            rec["unfinished"] = True
+            self._cues.write(rec)
+            self.performed.append(rec)
+            self._current = None
+        self._decisions.close()
+        self._cues.close()

@@ -1,0 +1,137 @@
+"""Values the processor hands out: candidates, cues, decisions (frozen, JSON-ready)."""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+from typing import Any
+
+
+class Kind(enum.IntEnum):
+    """Candidate classes. Lower wins first under the seed's policy (``strict_first``)."""
+
+    TIME = 0  # time-left warnings and overtime
+    STRICT = 1  # a strict rule went out of range
+    WEIGHTED = 2  # a non-strict rule's weight passed the threshold
+    PRAISE = 3  # everything has gone well for a while
+
+
+@dataclass(frozen=True, slots=True)
+class Candidate:
+    """A piece of feedback that could be given now.
+
+    Attributes:
+        kind: which class of candidate.
+        command: the command to give.
+        metric: the metric it corrects (None for time and praise).
+        eligible: whether the seed's firing condition holds (strict pending, weight over the
+            threshold, a time mark crossed). Simpler policies may ignore it.
+        weight: the non-strict weight (%·s); for strict rules the peak deviation.
+        deviation: current deviation in percent (0 for time and praise).
+        value: the newest value of the metric.
+        side: "below" or "above".
+        onset: when the current problem began (sample time).
+        recency: time of the newest sample behind this candidate (tie-break).
+        params: command parameters (e.g. ``{"minutes": 2}``).
+    """
+
+    kind: Kind
+    command: str
+    metric: str | None
+    eligible: bool
+    weight: float = 0.0
+    deviation: float = 0.0
+    value: float | None = None
+    side: str | None = None
+    onset: float | None = None
+    recency: float = 0.0
+    params: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind.name.lower(),
+            "command": self.command,
+            "metric": self.metric,
+            "eligible": self.eligible,
+            "weight": round(self.weight, 3),
+            "deviation": round(self.deviation, 3),
+            "value": self.value,
+            "side": self.side,
+            "onset": self.onset,
+            "params": self.params,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class Cue:
+    """The one piece of feedback chosen at time ``t``."""
+
+    t: float
+    command: str
+    metric: str | None
+    kind: Kind
+    reason: str
+    params: dict[str, Any] = field(default_factory=dict)
+    onset: float | None = None
+    deviation: float = 0.0
+    weight: float = 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "t": self.t,
+            "command": self.command,
+            "metric": self.metric,
+            "kind": self.kind.name.lower(),
+            "reason": self.reason,
+            "params": self.params,
+            "onset": self.onset,
+            "deviation": round(self.deviation, 3),
+            "weight": round(self.weight, 3),
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class MetricView:
+    """A metric's state at a decision point (for the decision log)."""
+
+    metric: str
+    value: float | None
+    deviation: float
+    weight: float
+    stale: bool
+    refractory: bool
+    strict_pending: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "metric": self.metric,
+            "value": self.value,
+            "deviation": round(self.deviation, 3),
+            "weight": round(self.weight, 3),
+            "stale": self.stale,
+            "refractory": self.refractory,
+            "strict_pending": self.strict_pending,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class Decision:
+    """The outcome of one decision point: a cue or none, with the reason and the evidence."""
+
+    t: float
+    cue: Cue | None
+    reason: str
+    busy: bool
+    candidates: tuple[Candidate, ...] = ()
+    metrics: tuple[MetricView, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "t": round(self.t, 6),
+            "busy": self.busy,
+            "cue": self.cue.to_dict() if self.cue else None,
+            "winner": self.cue.command if self.cue else None,
+            "reason": self.reason,
+            "candidates": [c.to_dict() for c in self.candidates],
+            "metrics": [m.to_dict() for m in self.metrics],
+        }

@@ -1,0 +1,175 @@
+"""Figures for one talk, computed from what the session folder records.
+
+Everything here takes the recorded samples and cue records, never the processor's memory, so a
+summary (and the report built on it) can be rebuilt after a crash from the files alone.
+"""
+
+from __future__ import annotations
+
+import bisect
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from prezence.config.model import Config, Rule
+from prezence.samples import Sample
+
+
+def _in_range_time(
+    rule: Rule, samples: Sequence[Sample], talk_s: float, stale_s: float
+) -> dict[str, float]:
+    """Sample-and-hold the values over the talk: seconds in range, out of range, no data."""
+    in_s = out_s = 0.0
+    longest_out = 0.0
+    run_out = 0.0
+    for i, s in enumerate(samples):
+        if s.t >= talk_s:
+            break
+        nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
+        end = min(nxt, s.t + stale_s, talk_s)
+        dt = max(0.0, end - s.t)
+        if rule.side(s.value) is None:
+            in_s += dt
+            run_out = 0.0
+        else:
+            out_s += dt
+            run_out += dt
+            longest_out = max(longest_out, run_out)
+        if end < nxt:  # a gap (stale) breaks a stretch
+            run_out = 0.0
+    covered = in_s + out_s
+    return {
+        "in_range_s": round(in_s, 3),
+        "out_of_range_s": round(out_s, 3),
+        "no_data_s": round(max(0.0, talk_s - covered), 3),
+        "time_in_range": round(in_s / covered, 4) if covered > 0 else None,  # type: ignore[dict-item]
+        "longest_out_of_range_s": round(longest_out, 3),
+    }
+
+
+def _truth_intervals(truth: Sequence[Mapping[str, Any]], metric: str) -> list[tuple[float, float]]:
+    return sorted((float(x["start"]), float(x["end"])) for x in truth if x.get("metric") == metric)
+
+
+def truth_out_of_range(
+    truth: Sequence[Mapping[str, Any]], metric: str, t: float
+) -> tuple[bool, float | None]:
+    """Was ``metric`` really out of range at ``t``? Returns (flag, onset of that stretch)."""
+    iv = _truth_intervals(truth, metric)
+    starts = [a for a, _ in iv]
+    i = bisect.bisect_right(starts, t) - 1
+    if i >= 0 and iv[i][0] <= t <= iv[i][1]:
+        return True, iv[i][0]
+    return False, None
+
+
+def _truth_in_range_fraction(
+    truth: Sequence[Mapping[str, Any]], metric: str, talk_s: float
+) -> float:
+    out = sum(
+        max(0.0, min(b, talk_s) - a) for a, b in _truth_intervals(truth, metric) if a < talk_s
+    )
+    return round(1.0 - out / talk_s, 4) if talk_s > 0 else 1.0
+
+
+def build_summary(
+    config: Config,
+    streams: Mapping[str, Sequence[Sample]],
+    cues: Sequence[Mapping[str, Any]],
+    *,
+    talk_s: float,
+    truth: Sequence[Mapping[str, Any]] | None = None,
+    stream_stats: Mapping[str, Mapping[str, Any]] | None = None,
+    backend_stats: Mapping[str, Any] | None = None,
+    extra: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The ``summary.json`` of a talk.
+
+    Args:
+        config: the talk's configuration.
+        streams: samples per metric, in file order.
+        cues: records from ``cues.jsonl``.
+        talk_s: how long the talk lasted.
+        truth: ground-truth out-of-range intervals (synthetic talks only).
+        stream_stats: tailer counters per metric (malformed, truncations…).
+        backend_stats: the backend's own figures (joint-limit violations…).
+        extra: anything else to record at top level (scenario, seed, wall time…).
+    """
+    metrics: dict[str, Any] = {}
+    stale_default = config.processor.stale_after_s
+    for rule in config.rules:
+        ss = sorted(streams.get(rule.metric, ()), key=lambda s: s.t)
+        vals = np.array([s.value for s in ss], dtype=float)
+        stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
+        m: dict[str, Any] = {"samples": len(ss), "unit": rule.unit}
+        m.update(_in_range_time(rule, ss, talk_s, stale_s))
+        if len(vals):
+            p = np.percentile(vals, [10, 50, 90])
+            m.update(
+                mean=round(float(vals.mean()), 4),
+                p10=round(float(p[0]), 4),
+                p50=round(float(p[1]), 4),
+                p90=round(float(p[2]), 4),
+            )
+        gaps = [b.t - a.t for a, b in zip(ss, ss[1:], strict=False) if b.t - a.t > stale_s]
+        m["stale_episodes"] = len(gaps) + (1 if ss and talk_s - ss[-1].t > stale_s else 0)
+        if truth is not None:
+            m["truth_time_in_range"] = _truth_in_range_fraction(truth, rule.metric, talk_s)
+        if stream_stats and rule.metric in stream_stats:
+            m["stream"] = dict(stream_stats[rule.metric])
+        metrics[rule.metric] = m
+
+    cue_rows: list[dict[str, Any]] = []
+    for c in cues:
+        row = {k: c.get(k) for k in ("t", "command", "metric", "kind", "reason", "params")}
+        for k in (
+            "planned_s",
+            "measured_s",
+            "dropped",
+            "gesture_peak_velocity_ratio",
+            "gesture_violations",
+        ):
+            if k in c:
+                row[k] = c[k]
+        t = float(c["t"])
+        metric = c.get("metric")
+        onset = c.get("onset")
+        relevant: bool | None = None
+        if metric is not None:
+            if truth is not None:
+                relevant, truth_onset = truth_out_of_range(truth, metric, t)
+                if truth_onset is not None:
+                    onset = truth_onset
+            else:
+                relevant = float(c.get("deviation") or 0.0) > 0.0
+        elif c.get("kind") == "time":
+            relevant = True
+        row["onset"] = onset
+        row["latency_s"] = round(t - float(onset), 3) if onset is not None else None
+        row["relevant"] = relevant
+        cue_rows.append(row)
+
+    allocated = config.time.allocated_s
+    time_used: dict[str, Any] = {"used_s": round(talk_s, 3), "allocated_s": allocated}
+    if allocated:
+        time_used["over_under_pct"] = round(100.0 * (talk_s - allocated) / allocated, 2)
+    malformed = sum(int(s.get("malformed", 0)) for s in (stream_stats or {}).values())
+    out: dict[str, Any] = {
+        "talk_s": round(talk_s, 3),
+        "time": time_used,
+        "metrics": metrics,
+        "cues": cue_rows,
+        "counts": {
+            "cues": len(cue_rows),
+            "cues_dropped": sum(1 for c in cues if c.get("dropped")),
+            "false_alarms": sum(1 for r in cue_rows if r["relevant"] is False),
+            "malformed_samples": malformed,
+            "stale_episodes": sum(m["stale_episodes"] for m in metrics.values()),
+            "joint_limit_violations": int((backend_stats or {}).get("joint_limit_violations", 0)),
+        },
+        "backend": dict(backend_stats or {}),
+    }
+    if extra:
+        out.update(extra)
+    return out
