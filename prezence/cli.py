@@ -1,0 +1,264 @@
+"""The ``prezence`` command line.
+
+Heavy modules (the simulator, pybullet, qi) are imported inside the subcommand that needs them.
+A :class:`PrezenceError` prints ``error: …`` and exits 2 with no traceback; ``--debug`` re-raises.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from prezence import __version__
+from prezence.errors import PrezenceError
+
+log = logging.getLogger(__name__)
+
+DEMO_SCENARIO = "demo"
+
+
+def _mmss(t: float | None) -> str:
+    if t is None:
+        return "  -  "
+    sign = "-" if t < 0 else ""
+    t = abs(t)
+    return f"{sign}{int(t // 60)}:{t % 60:04.1f}"
+
+
+def format_timeline(summary: dict[str, Any]) -> str:
+    """A readable timeline of the cues and a short per-metric table."""
+    lines = []
+    head = (
+        f"Talk: {summary.get('scenario', '?')}  seed {summary.get('seed', '?')}  "
+        f"backend {summary.get('backend', '?')}  policy {summary.get('policy', '?')}"
+    )
+    lines.append(head)
+    lines.append(f"{'time':>7}  {'cue':<12} {'metric':<16} {'lat':>6} {'ok':>3}  reason")
+    for c in summary["cues"]:
+        lat = c.get("latency_s")
+        ok = "yes" if c.get("relevant") in (True, None) else "NO"
+        if c.get("dropped"):
+            ok = "drp"
+        lines.append(
+            f"{_mmss(c['t']):>7}  {c['command']:<12} {c.get('metric') or '-':<16} "
+            f"{(f'{lat:.1f}s' if lat is not None else '-'):>6} {ok:>3}  {c.get('reason', '')}"
+        )
+    if not summary["cues"]:
+        lines.append("   (no cues)")
+    lines.append("")
+    lines.append(f"{'metric':<18} {'in range':>9} {'truth':>7} {'mean':>9} {'longest out':>12}")
+    for name, m in summary["metrics"].items():
+        tir = m.get("time_in_range")
+        tt = m.get("truth_time_in_range")
+        lines.append(
+            f"{name:<18} {(f'{100 * tir:.0f}%' if tir is not None else '-'):>9} "
+            f"{(f'{100 * tt:.0f}%' if tt is not None else '-'):>7} "
+            f"{m.get('mean', float('nan')):>9.2f} {m.get('longest_out_of_range_s', 0):>11.1f}s"
+        )
+    tm = summary["time"]
+    if tm.get("allocated_s"):
+        lines.append(
+            f"time used {_mmss(tm['used_s'])} of {_mmss(tm['allocated_s'])} "
+            f"({tm['over_under_pct']:+.1f}%)"
+        )
+    c = summary["counts"]
+    lines.append(
+        f"cues {c['cues']} (dropped {c['cues_dropped']}, false alarms {c['false_alarms']}), "
+        f"malformed samples {c['malformed_samples']}, stale episodes {c['stale_episodes']}, "
+        f"joint-limit violations {c['joint_limit_violations']}"
+    )
+    if "wall_s" in summary:
+        lines.append(
+            f"simulated {summary['talk_s']:.0f} s in {summary['wall_s']:.2f} s wall "
+            f"({summary.get('realtime_factor')}x real time)"
+        )
+    return "\n".join(lines)
+
+
+def _progress_printer() -> Callable[[float, float], None] | None:
+    if not sys.stderr.isatty():
+        return None
+    last = [-1]
+
+    def show(done: float, total: float) -> None:
+        pct = int(100 * done / total) if total else 100
+        if pct != last[0]:
+            last[0] = pct
+            bar = "#" * (pct // 4)
+            sys.stderr.write(f"\r[{bar:<25}] {pct:3d}% {_mmss(done)}")
+            if pct >= 100:
+                sys.stderr.write("\n")
+            sys.stderr.flush()
+
+    return show
+
+
+def _backend_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    kw: dict[str, Any] = {}
+    if args.backend == "sim":
+        kw["gui"] = bool(getattr(args, "gui", False))
+    if args.backend == "naoqi":
+        if not args.robot:
+            raise PrezenceError("--backend naoqi needs --robot tcp://HOST:9559")
+        kw["url"] = args.robot
+    return kw
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from prezence.config.load import load_config
+    from sim.runner import run_talk
+    from sim.scenario import check_expectations
+
+    config = load_config(args.config) if args.config else None
+    out = Path(args.out) if args.out else Path("sessions") / f"{Path(args.scenario).stem}"
+    result = run_talk(
+        args.scenario,
+        out=out,
+        seed=args.seed,
+        backend=args.backend,
+        backend_kwargs=_backend_kwargs(args),
+        config=config,
+        policy=args.policy,
+        speed_fraction=args.speed,
+        realtime=args.realtime,
+        progress=None if args.quiet else _progress_printer(),
+    )
+    if args.json:
+        print(json.dumps(result.summary, indent=2, sort_keys=True))
+    else:
+        print(format_timeline(result.summary))
+        problems = check_expectations(result.scenario, result.cues)
+        if problems:
+            print("scenario expectations NOT met:")
+            for p in problems:
+                print(f"  - {p}")
+        else:
+            print("scenario expectations met")
+        print(f"session folder: {result.session.root}  (summary.json, cues.jsonl, decisions.jsonl)")
+    return 0
+
+
+def cmd_check_config(args: argparse.Namespace) -> int:
+    from prezence.config.load import check_config_files
+
+    problems = check_config_files([Path(p) for p in args.files])
+    for p in problems:
+        print(p, file=sys.stderr)
+    if not problems:
+        for f in args.files:
+            print(f"{f}: ok")
+    return 1 if problems else 0
+
+
+def cmd_gestures_check(args: argparse.Namespace) -> int:
+    from prezence.feedback.gesture_check import check_gestures
+
+    text, status = check_gestures(args.speed, as_json=args.json)
+    print(text)
+    return status
+
+
+def cmd_gestures_render(args: argparse.Namespace) -> int:
+    from sim.render import render_gesture
+
+    out = Path(args.out)
+    video = Path(args.video) if args.video else out.with_suffix(".mp4")
+    params = {"minutes": args.minutes} if args.minutes is not None else None
+    render_gesture(args.name, out, video, params=params)
+    print(f"wrote {out} and {video}")
+    return 0
+
+
+def cmd_sim_serve(args: argparse.Namespace) -> int:
+    from sim.virtual_nao import main as serve_main
+
+    argv = ["--host", args.host, "--port", str(args.port)]
+    if args.gui:
+        argv.append("--gui")
+    return int(serve_main(argv) or 0)
+
+
+def _add_run_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--backend", default="fake", help="fake | sim | naoqi (default: fake)")
+    p.add_argument("--robot", help="NAOqi URL for --backend naoqi, e.g. tcp://127.0.0.1:9559")
+    p.add_argument("--gui", action="store_true", help="sim backend: open a PyBullet window")
+    p.add_argument("--out", help="session folder (default: sessions/<scenario>)")
+    p.add_argument("--seed", type=int, default=None, help="presenter seed (default: scenario's)")
+    p.add_argument("--config", help="rules: a TOML config or a seed-format rules file")
+    p.add_argument("--policy", default="weighted", help="conflict policy (default: weighted)")
+    p.add_argument("--speed", type=float, default=0.6, help="gesture speed fraction (0..1]")
+    p.add_argument("--realtime", action="store_true", help="pace to the wall clock")
+    p.add_argument("--json", action="store_true", help="print summary.json instead")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="prezence", description="A NAO coaches you while you rehearse a talk."
+    )
+    parser.add_argument("--version", action="version", version=f"prezence {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0)
+    parser.add_argument("-q", "--quiet", action="store_true")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("run", help="run a synthetic talk headless")
+    p.add_argument("scenario", help="scenario name (see scenarios/) or a path to a TOML")
+    _add_run_args(p)
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("demo", help=f"run the '{DEMO_SCENARIO}' talk headless")
+    _add_run_args(p)
+    p.set_defaults(func=cmd_run, scenario=DEMO_SCENARIO)
+
+    p = sub.add_parser("check-config", help="validate config or rules files")
+    p.add_argument("files", nargs="+")
+    p.set_defaults(func=cmd_check_config)
+
+    g = sub.add_parser("gestures", help="check or render the gesture library")
+    gs = g.add_subparsers(dest="gcommand", required=True)
+    p = gs.add_parser("check", help="timing and limit table for every gesture")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--speed", type=float, default=0.6, help="speed fraction (default 0.6)")
+    p.set_defaults(func=cmd_gestures_check)
+    p = gs.add_parser("render", help="contact sheet PNG and video of one gesture")
+    p.add_argument("name")
+    p.add_argument("--out", required=True, help="PNG contact sheet")
+    p.add_argument("--video", help="MP4 or GIF (default: next to --out, .mp4)")
+    p.add_argument("--minutes", type=int, help="time_left: minutes to show")
+    p.set_defaults(func=cmd_gestures_render)
+
+    s = sub.add_parser("sim", help="the simulated NAO")
+    ss = s.add_subparsers(dest="scommand", required=True)
+    p = ss.add_parser("serve", help="serve a virtual NAO over the NAOqi protocol")
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--port", type=int, default=9559)
+    p.add_argument("--gui", action="store_true")
+    p.set_defaults(func=cmd_sim_serve)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = logging.WARNING - 10 * args.verbose + (20 if args.quiet else 0)
+    logging.basicConfig(
+        level=max(logging.DEBUG, level), format="%(levelname)s %(name)s: %(message)s"
+    )
+    try:
+        return int(args.func(args))
+    except PrezenceError as e:
+        if args.debug:
+            raise
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,177 @@
+"""Headless talks: a synthetic presenter, the real processor and a robot backend, on simulated time.
+
+The presenter writes module files exactly as real modules would; the coach reads them back
+through the same tailer a live talk uses, so a headless talk exercises the whole path from a
+line in a file to a gesture on the robot. The run's clock drives everything (presenter, tailer,
+processor, physics): the same seed gives the same decision log, byte for byte.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from prezence.config.load import load_config
+from prezence.config.tomlconf import dumps_config
+
+from prezence.backends.base import Backend
+from prezence.backends.registry import make_backend
+from prezence.clock import ManualClock
+from prezence.coach import Coach, default_planner
+from prezence.config.model import Config
+from prezence.processor import Cue, Decision, Processor, make_policy
+from prezence.session import SessionDir, read_jsonl, write_json
+from prezence.streams.tail import MultiTailer, read_stream
+from prezence.streams.writer import StreamWriter
+from prezence.summary import build_summary
+from sim.presenters import SyntheticPresenter
+from sim.scenario import Scenario, load_scenario
+
+log = logging.getLogger(__name__)
+
+#: Progress callback: (simulated seconds done, talk length).
+Progress = Callable[[float, float], None]
+
+
+@dataclass
+class TalkResult:
+    """What a headless talk leaves: its folder, its cues and its summary."""
+
+    session: SessionDir
+    scenario: Scenario
+    cues: list[dict[str, Any]]
+    summary: dict[str, Any]
+    decisions: int
+    wall_s: float
+
+
+def run_talk(
+    scenario: Scenario | str | Path,
+    *,
+    out: Path,
+    seed: int | None = None,
+    backend: str | Backend = "fake",
+    backend_kwargs: dict[str, Any] | None = None,
+    config: Config | None = None,
+    policy: str = "weighted",
+    speed_fraction: float = 0.6,
+    realtime: bool = False,
+    progress: Progress | None = None,
+    on_decision: Callable[[Decision], None] | None = None,
+) -> TalkResult:
+    """Run one synthetic talk from start to end and write its session folder.
+
+    Args:
+        scenario: a Scenario, a scenario name (``fast_talker``) or a path to a scenario TOML.
+        out: the session folder (created; earlier files in it are replaced).
+        seed: presenter noise and reactions; None uses the scenario's own seed.
+        backend: ``fake``, ``sim``, ``naoqi`` or an (unopened) Backend instance.
+        backend_kwargs: passed to the backend's constructor when ``backend`` is a name.
+        config: rules and settings; None loads the built-in default. The scenario's
+            allocated time replaces the config's.
+        policy: conflict resolution policy name.
+        speed_fraction: fraction of each joint's velocity limit used by gestures.
+        realtime: pace the simulated clock to the wall clock.
+        progress: called after every decision point.
+        on_decision: called with every decision (tests, live views).
+    """
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    seed = sc.seed if seed is None else seed
+    cfg = (config or load_config(None)).with_allocated(sc.allocated_s)
+    session = SessionDir(Path(out)).create()
+    session.config.write_text(dumps_config(cfg))
+    bk = (
+        backend if isinstance(backend, Backend) else make_backend(backend, **(backend_kwargs or {}))
+    )
+    session.write_meta(
+        {
+            "kind": "synthetic",
+            "scenario": sc.name,
+            "seed": seed,
+            "backend": bk.name,
+            "policy": policy,
+            "speed_fraction": speed_fraction,
+            "talk_s": sc.duration_s,
+        }
+    )
+    presenter = SyntheticPresenter(sc, cfg, seed=seed)
+    streams = {r.metric: session.stream(r.stream) for r in cfg.rules}
+    writers = {m: StreamWriter(p) for m, p in streams.items()}
+    for w in writers.values():
+        w.open()
+    tailer = MultiTailer(streams)
+    processor = Processor(cfg, policy=make_policy(policy, seed=seed))
+
+    def heard(cue: Cue) -> None:
+        presenter.on_cue(cue.t, cue.command, cue.metric, dict(cue.params))
+
+    clock = ManualClock()
+    dt = cfg.processor.decision_period_s
+    wall0 = time.perf_counter()
+    bk.open()
+    coach = Coach(processor, bk, session, planner=default_planner(speed_fraction), on_cue=heard)
+    try:
+        n_steps = int(round(sc.duration_s / dt))
+        for i in range(1, n_steps + 1):
+            now = i * dt
+            clock.set(now)
+            for s in presenter.advance(now):
+                w = writers.get(s.metric)
+                if w is not None:
+                    w.write(s.t, s.value)
+            for metric, text in presenter.garbage(now):
+                writers[metric].write_raw(text)
+            decision = coach.tick(now, tailer.poll(now))
+            if on_decision is not None:
+                on_decision(decision)
+            if progress is not None:
+                progress(now, sc.duration_s)
+            if realtime:
+                ahead = now - (time.perf_counter() - wall0)
+                if ahead > 0:
+                    time.sleep(ahead)
+        end = coach.drain(clock.now(), step_s=dt)
+        backend_stats = bk.stats()
+    finally:
+        coach.close()
+        for w in writers.values():
+            w.close()
+        bk.close()
+    wall = time.perf_counter() - wall0
+    truth = presenter.truth()
+    with session.truth.open("w") as f:
+        import json
+
+        for row in truth:
+            f.write(json.dumps(row, sort_keys=True) + "\n")
+    samples = {}
+    stats = {}
+    for m, p in streams.items():
+        samples[m], st = read_stream(p, m)
+        stats[m] = st.to_dict()
+    cues = read_jsonl(session.cues)
+    summary = build_summary(
+        cfg,
+        samples,
+        cues,
+        talk_s=sc.duration_s,
+        truth=truth,
+        stream_stats=stats,
+        backend_stats=backend_stats,
+        extra={
+            "scenario": sc.name,
+            "seed": seed,
+            "policy": policy,
+            "backend": bk.name,
+            "decisions": coach.decisions,
+            "ended_at_s": round(end, 3),
+            "wall_s": round(wall, 4),
+            "realtime_factor": round(sc.duration_s / wall, 1) if wall > 0 else None,
+        },
+    )
+    write_json(session.summary, summary)
+    return TalkResult(session, sc, cues, summary, coach.decisions, wall)
