@@ -88,9 +88,8 @@ class Processor:
         self.ingest(samples)
         for st in self._states.values():
             st.advance(now)
-        busy = free_since is None
         views = tuple(self._view(st, now) for st in self._states.values())
-        if busy:
+        if free_since is None:
             return Decision(now, None, "robot busy", True, (), views)
         gap = self.config.processor.min_gap_s
         if self._last_cue is not None and now - free_since < gap:
@@ -136,7 +135,8 @@ class Processor:
             dev = st.deviation()
             side = r.side(st.value)
             if r.strict and st.strict_pending:
-                command = r.below if (side or st.strict_side) == "below" else r.above
+                strict_side = side or st.strict_side
+                command = r.below if strict_side == "below" else r.above
                 if command is None:
                     continue
                 out.append(
@@ -148,7 +148,7 @@ class Processor:
                         weight=max(st.strict_peak, dev),
                         deviation=dev,
                         value=st.value,
-                        side=side,
+                        side=strict_side,
                         onset=st.strict_onset,
                         recency=st.last_sample_t,
                     )
@@ -274,7 +274,8 @@ class Processor:
             unit = f" {r.unit}" if r.unit else ""
             since = f" since {c.onset:.1f} s" if c.onset is not None else ""
             if c.kind == Kind.STRICT:
-                why = f"strict: {c.metric} {c.value:g} {c.side} {bound:g}{unit}{since}"
+                now_ = "" if c.deviation > 0 else f" (now {c.value:g}, back in range)"
+                why = f"strict: {c.metric} went {c.side} {bound:g}{unit}{since}{now_}"
             else:
                 why = (
                     f"{c.metric} {c.value:g} is {c.deviation:.0f}% {c.side} {bound:g}{unit}{since}"

@@ -1,0 +1,286 @@
+"""The seed's rules, one behaviour per test, driven tick by tick with explicit time."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Iterable
+
+import pytest
+
+from prezence.config.model import (
+    Check,
+    Config,
+    ProcessorSettings,
+    Rule,
+    TimeSettings,
+)
+from prezence.processor import Kind, Processor, make_policy
+from prezence.processor.types import Decision
+from prezence.samples import Sample
+
+SPEED = Rule("speech_speed", Check.IN_RANGE, 140, 180, below="speedUp", above="slowDown")
+GAZE = Rule("cv_headGaze", Check.MIN, low=-15, scale=10, below="lookUp")
+CLARITY = Rule("speech_accuracy", Check.MIN, low=0.8, below="articulate")
+STRICT_CLARITY = Rule("speech_accuracy", Check.MIN, low=0.8, strict=True, below="articulate")
+
+NO_TIME = TimeSettings(allocated_s=None)
+
+
+def make(
+    *rules: Rule,
+    policy: str = "weighted",
+    time: TimeSettings = NO_TIME,
+    **settings: float | str | None,
+) -> Processor:
+    base = {"praise_after_s": 0.0, "min_gap_s": 0.0, "refractory_s": 30.0}
+    base.update(settings)
+    cfg = Config(rules=rules, processor=ProcessorSettings(**base), time=time)  # type: ignore[arg-type]
+    return Processor(cfg, policy=make_policy(policy))
+
+
+Signal = Callable[[float], float]
+
+
+def talk(
+    p: Processor,
+    signals: dict[str, Signal],
+    *,
+    until: float,
+    dt: float = 0.5,
+    rate_hz: dict[str, float] | None = None,
+    busy: Callable[[float], bool] = lambda t: False,
+) -> list[Decision]:
+    """Feed each metric at its rate and decide every ``dt``; returns the decisions with cues."""
+    rate_hz = rate_hz or {}
+    next_t = {m: 0.0 for m in signals}
+    out = []
+    t = 0.0
+    while t < until - 1e-9:
+        t = round(t + dt, 9)
+        batch: list[Sample] = []
+        for m, f in signals.items():
+            period = 1.0 / rate_hz.get(m, 2.0)
+            while next_t[m] <= t + 1e-9:
+                batch.append(Sample(m, next_t[m], f(next_t[m])))
+                next_t[m] = round(next_t[m] + period, 9)
+        d = p.step(t, batch, free_since=None if busy(t) else 0.0)
+        if d.cue:
+            out.append(d)
+    return out
+
+
+def cues(ds: Iterable[Decision]) -> list[tuple[float, str]]:
+    return [(d.t, d.cue.command) for d in ds if d.cue]
+
+
+def test_in_range_gives_no_cue() -> None:
+    p = make(SPEED, GAZE)
+    assert (
+        cues(talk(p, {"speech_speed": lambda t: 160, "cv_headGaze": lambda t: 0}, until=300)) == []
+    )
+
+
+def test_non_strict_weight_grows_with_deviation_times_time() -> None:
+    # 25 % above 180 wpm: weight grows 25 %·s per second and fires at threshold 600 → 24 s.
+    p = make(SPEED, threshold=600)
+    ds = talk(p, {"speech_speed": lambda t: 225.0 if t >= 10 else 160.0}, until=60)
+    assert cues(ds)[0][1] == "slowDown"
+    assert cues(ds)[0][0] == pytest.approx(34.0, abs=0.6)
+
+
+def test_bigger_deviation_fires_sooner() -> None:
+    first = {}
+    for v in (198.0, 225.0, 270.0):
+        p = make(SPEED)
+        first[v] = cues(talk(p, {"speech_speed": lambda t, v=v: v}, until=200))[0][0]
+    assert first[270.0] < first[225.0] < first[198.0]
+
+
+def test_brief_glance_is_forgotten_but_reading_notes_wins() -> None:
+    glance = make(GAZE)
+    ds = talk(glance, {"cv_headGaze": lambda t: -40.0 if 70 <= t < 71.5 else 0.0}, until=200)
+    assert cues(ds) == []
+    reading = make(GAZE)
+    ds = talk(reading, {"cv_headGaze": lambda t: -40.0 if 70 <= t < 190 else 0.0}, until=200)
+    assert cues(ds)[0][1] == "lookUp"
+    assert 70 < cues(ds)[0][0] < 80
+
+
+def test_repeated_glances_decay_between_them() -> None:
+    # A glance every 20 s: the weight halves every 8 s in between, so it never accumulates.
+    p = make(GAZE)
+    ds = talk(p, {"cv_headGaze": lambda t: -40.0 if (t % 20.0) < 1.5 else 0.0}, until=600)
+    assert cues(ds) == []
+
+
+def test_module_rate_does_not_change_when_it_fires() -> None:
+    times = []
+    for hz in (1.0, 2.0, 10.0):
+        p = make(SPEED)
+        ds = talk(
+            p,
+            {"speech_speed": lambda t: 225.0 if t >= 10 else 160.0},
+            until=80,
+            rate_hz={"speech_speed": hz},
+        )
+        times.append(cues(ds)[0][0])
+    assert max(times) - min(times) <= 1.0
+
+
+def test_strict_fires_at_first_free_moment_ahead_of_heavier_weight() -> None:
+    p = make(SPEED, STRICT_CLARITY)
+    sig = {
+        "speech_speed": lambda t: 240.0,  # weight far above threshold by t=40
+        "speech_accuracy": lambda t: 0.7 if 39.0 <= t < 39.5 else 0.9,  # out of range once
+    }
+    ds = talk(p, sig, until=60, busy=lambda t: t < 40.0)
+    assert cues(ds)[0] == (40.0, "articulate")
+    assert ds[0].cue.kind == Kind.STRICT
+    assert cues(ds)[1][1] == "slowDown"
+
+
+def test_report_conflict_long_reading_beats_slightly_low_clarity() -> None:
+    # The seed's example: clarity slightly below 0.8 (most recent data), notes read for 2 min.
+    p = make(CLARITY, GAZE)
+    sig = {"speech_accuracy": lambda t: 0.77, "cv_headGaze": lambda t: -35.0 if t < 120 else 0.0}
+    ds = talk(p, sig, until=10, busy=lambda t: t < 9.0)
+    assert cues(ds)[0][1] == "lookUp"
+    assert "beat articulate" in ds[0].cue.reason or ds[0].candidates[0].command == "lookUp"
+
+
+def test_highest_weight_wins_and_ties_go_to_most_recent_data() -> None:
+    p = make(SPEED, GAZE)
+    sig = {"speech_speed": lambda t: 200.0, "cv_headGaze": lambda t: -30.0}
+    ds = talk(p, sig, until=30, busy=lambda t: t < 29)
+    assert cues(ds)[0][1] == "lookUp"  # 150 % deviation outweighs 11 %
+    # equal weights: the metric with the newer sample wins
+    rule_a = Rule("a", Check.MAX, high=10, above="slowDown")
+    rule_b = Rule("b", Check.MAX, high=10, above="softer")
+    p = make(rule_a, rule_b, stale_after_s=1000.0)
+    p.ingest([Sample("a", 0.0, 20.0), Sample("b", 0.0, 20.0)])
+    p.ingest([Sample("a", 99.0, 20.0), Sample("b", 99.5, 20.0)])
+    d = p.step(100.0, free_since=0.0)
+    assert d.cue is not None and d.cue.command == "softer"
+
+
+def test_weight_resets_after_firing() -> None:
+    p = make(SPEED, refractory_s=0.0)
+    ds = talk(p, {"speech_speed": lambda t: 225.0}, until=60)
+    assert [c for _, c in cues(ds)] == ["slowDown", "slowDown"]
+    assert cues(ds)[1][0] - cues(ds)[0][0] == pytest.approx(24.0, abs=0.6)
+
+
+def test_refractory_time_per_metric() -> None:
+    p = make(SPEED, refractory_s=60.0)
+    ds = talk(p, {"speech_speed": lambda t: 225.0}, until=100)
+    t0, t1 = cues(ds)[0][0], cues(ds)[1][0]
+    assert t1 - t0 >= 60.0
+
+
+def test_min_gap_counts_from_when_the_robot_became_free() -> None:
+    p = make(SPEED, GAZE, min_gap_s=10.0, stale_after_s=1000.0)
+    p.ingest([Sample("speech_speed", 0.0, 300.0), Sample("cv_headGaze", 0.0, -40.0)])
+    first = p.step(60.0, free_since=0.0)
+    assert first.cue is not None
+    assert p.step(62.0, free_since=None).reason == "robot busy"
+    assert p.step(66.0, free_since=65.0).cue is None  # free for 1 s only
+    assert p.step(75.5, free_since=65.0).cue is not None
+
+
+def test_no_backlog_problem_that_ended_while_busy_is_not_cued() -> None:
+    p = make(SPEED)
+    # too fast while the robot is busy, back in range before it is free
+    ds = talk(
+        p, {"speech_speed": lambda t: 240.0 if t < 40 else 160.0}, until=60, busy=lambda t: t < 45
+    )
+    assert cues(ds) == []
+
+
+def test_decision_uses_latest_data_when_robot_frees() -> None:
+    p = make(SPEED, GAZE)
+    sig = {
+        "speech_speed": lambda t: 260.0 if t < 40 else 160.0,  # was the worst, now fixed
+        "cv_headGaze": lambda t: -30.0 if t >= 30 else 0.0,  # current problem
+    }
+    ds = talk(p, sig, until=50, busy=lambda t: t < 45)
+    assert cues(ds)[0] == (45.0, "lookUp")
+
+
+def test_stale_metric_is_excluded_and_flagged() -> None:
+    p = make(GAZE, stale_after_s=3.0)
+    p.ingest([Sample("cv_headGaze", 0.0, -40.0)])
+    d = p.step(30.0, free_since=0.0)  # no sample for 30 s: stale
+    assert d.cue is None
+    assert d.metrics[0].stale is True
+    # weight accrued only while fresh (3 s × 250 %), then decayed
+    assert p.state("cv_headGaze").weight < 750.0
+
+
+def test_time_warnings_at_marks_then_overtime_repeats() -> None:
+    ts = TimeSettings(allocated_s=300.0, warn_at_s_left=(120.0, 60.0), overtime_repeat_s=60.0)
+    p = make(SPEED, time=ts)
+    ds = talk(p, {"speech_speed": lambda t: 160.0}, until=430)
+    got = [(t, c.cue.command, c.cue.params) for t, c in ((d.t, d) for d in ds)]
+    assert got[0] == (180.0, "timeLeft", {"minutes": 2})
+    assert got[1] == (240.0, "timeLeft", {"minutes": 1})
+    assert [g[1] for g in got[2:]] == ["overtime", "overtime", "overtime"]
+    assert got[2][0] == 300.0 and got[3][0] == 360.0
+
+
+def test_superseded_time_mark_is_skipped_while_busy() -> None:
+    ts = TimeSettings(allocated_s=300.0, warn_at_s_left=(120.0, 60.0))
+    p = make(SPEED, time=ts)
+    ds = talk(p, {"speech_speed": lambda t: 160.0}, until=290, busy=lambda t: 170 < t < 250)
+    assert [(d.cue.command, d.cue.params.get("minutes")) for d in ds] == [("timeLeft", 1)]
+
+
+def test_praise_after_a_long_good_stretch() -> None:
+    p = make(SPEED, praise_after_s=60.0)
+    ds = talk(p, {"speech_speed": lambda t: 160.0}, until=130)
+    assert cues(ds) == [(60.0, "encourage"), (120.0, "encourage")]
+
+
+def test_zero_bound_uses_scale_and_negative_bound_does_not_flip() -> None:
+    zero = Rule("g", Check.MIN, low=0.0, scale=10.0, below="lookUp")
+    neg = Rule("g", Check.MIN, low=-15.0, scale=10.0, below="lookUp")
+    assert zero.deviation(-5.0) == pytest.approx(50.0)
+    assert neg.deviation(-25.0) == pytest.approx(100.0)
+    assert neg.deviation(-10.0) == 0.0
+    assert math.isfinite(zero.deviation(-1e6))
+
+
+def test_same_inputs_give_identical_decision_log() -> None:
+    def run() -> str:
+        p = make(SPEED, GAZE, CLARITY, praise_after_s=50.0)
+        lines = []
+        sig = {
+            "speech_speed": lambda t: 150 + (t % 37) * 3,
+            "cv_headGaze": lambda t: -30.0 if 100 < t < 160 else 0.0,
+            "speech_accuracy": lambda t: 0.75 if t > 200 else 0.9,
+        }
+        nxt = 0.0
+        t = 0.0
+        while t < 300:
+            t += 0.5
+            batch = []
+            while nxt <= t:
+                batch += [Sample(m, nxt, f(nxt)) for m, f in sig.items()]
+                nxt += 0.5
+            lines.append(json.dumps(p.step(t, batch, free_since=0.0).to_dict(), sort_keys=True))
+        return "\n".join(lines)
+
+    assert run() == run()
+
+
+def test_unknown_metric_samples_are_counted_not_fatal() -> None:
+    p = make(SPEED)
+    p.ingest([Sample("nonsense", 1.0, 3.0)])
+    assert p.unknown_samples == 1
+
+
+def test_weights_never_negative_and_decay_when_back_in_range() -> None:
+    p = make(SPEED)
+    talk(p, {"speech_speed": lambda t: 200.0 if t < 20 else 160.0}, until=100)
+    w = p.state("speech_speed").weight
+    assert 0.0 <= w < 10.0
