@@ -30,7 +30,7 @@ def make_backend(name: str, **kwargs: Any) -> Backend:
     except ModuleNotFoundError as e:
         extra = _EXTRA.get(name, name)
         raise BackendUnavailable(
-            f"the {name} backend needs {e.name}: pip install \"prezence[{extra}]\""
+            f'the {name} backend needs {e.name}: pip install "prezence[{extra}]"'
         ) from e
     cls = getattr(module, attr)
     backend: Backend = cls(**kwargs)

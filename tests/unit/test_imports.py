@@ -1,0 +1,24 @@
+"""The product installs and runs on a real NAO alone: importing it pulls in no simulator."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+
+def test_prezence_imports_no_simulator_or_robot_sdk() -> None:
+    code = textwrap.dedent(
+        """
+        import importlib, pkgutil, sys
+        import prezence
+        skip = {"prezence.__main__"}
+        for m in pkgutil.walk_packages(prezence.__path__, "prezence."):
+            if m.name not in skip:
+                importlib.import_module(m.name)
+        heavy = {"pybullet", "gymnasium", "qi", "sim", "cv2", "matplotlib"}
+        print(sorted(heavy & {k.split(".")[0] for k in sys.modules}))
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr
