@@ -191,7 +191,7 @@ class Processor:
         if ts.allocated_s is None:
             return []
         left = ts.allocated_s - now
-        if left <= 0.0:
+        if left < 0.0:
             due = self._last_overtime == -math.inf or (
                 ts.overtime_repeat_s > 0 and now - self._last_overtime >= ts.overtime_repeat_s
             )

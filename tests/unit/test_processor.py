@@ -225,7 +225,7 @@ def test_time_warnings_at_marks_then_overtime_repeats() -> None:
     assert got[0] == (180.0, "timeLeft", {"minutes": 2})
     assert got[1] == (240.0, "timeLeft", {"minutes": 1})
     assert [g[1] for g in got[2:]] == ["overtime", "overtime", "overtime"]
-    assert got[2][0] == 300.0 and got[3][0] == 360.0
+    assert got[2][0] == 300.5 and got[3][0] == 360.5
 
 
 def test_superseded_time_mark_is_skipped_while_busy() -> None:
