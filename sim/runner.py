@@ -16,14 +16,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from prezence.config.load import load_config
-from prezence.config.tomlconf import dumps_config
-
 from prezence.backends.base import Backend
 from prezence.backends.registry import make_backend
 from prezence.clock import ManualClock
 from prezence.coach import Coach, default_planner
+from prezence.config.load import load_config
 from prezence.config.model import Config
+from prezence.config.tomlconf import dumps_config
 from prezence.processor import Cue, Decision, Processor, make_policy
 from prezence.session import SessionDir, read_jsonl, write_json
 from prezence.streams.tail import MultiTailer, read_stream
