@@ -1,0 +1,722 @@
+"""Following module stream files while they grow, and reading them whole afterwards.
+
+:class:`StreamTailer` follows one file. Each :meth:`StreamTailer.poll` costs one ``stat`` when
+nothing changed; when the file grew it opens it, reads only the new bytes (from the offset it
+reached last time) and returns the samples of the *complete* lines among them. What it copes with:
+
+- **partial last line**: bytes after the last newline are kept until the newline arrives.
+- **blank lines**: skipped silently (they still count for line numbers).
+- **bad lines** (garbage, more than two fields, NaN/inf, negative ``t``, invalid UTF-8, a line
+  longer than :data:`MAX_LINE_BYTES`): skipped and counted as ``malformed``; each is logged once
+  as a warning with ``file:line: reason`` (the first :data:`MAX_LOGGED_PROBLEMS` per stream, then
+  one notice) and the last ``max_problems`` are kept as :class:`StreamProblem` for the summary.
+  Nothing in a file's content makes ``poll`` raise.
+- **missing file**: no error; ``missing`` counts each time the file is found absent (at the start
+  or after it was deleted), and reading starts when it appears.
+- **truncated file** (size below the offset read so far, or the byte just before that offset is
+  no longer the one read there, i.e. the file was rewritten): reading restarts at byte 0 and
+  ``truncations`` is counted.
+- **replaced file** (another inode at the path, e.g. after ``os.replace``): reading restarts at
+  byte 0 of the new file and ``replaced`` is counted. The tailer does not keep files open (so a
+  writer can replace one on any OS); unread bytes of the old file are therefore lost.
+- **bare ``<value>`` lines** (the seed's format): stamped with the ``now`` given to ``poll``.
+- **timestamps going backwards**: the sample is kept as written and ``out_of_order`` counts it
+  (a sample whose ``t`` is below the previous sample's of the same stream). Ordering and
+  staleness are the processor's business; the count is for the summary. After a truncation or
+  replacement the comparison starts afresh.
+
+Line numbers are 1-based and stay right across polls; they restart at 1 with the file.
+
+:class:`MultiTailer` follows several metrics. Its :meth:`MultiTailer.wait` blocks until a watched
+file changes or a timeout passes, so a live loop wakes on new data instead of polling slowly.
+On Linux it uses inotify through a small ``ctypes`` wrapper around libc (no dependency): one watch
+per parent directory (files may not exist yet, and ``os.replace`` swaps inodes). Elsewhere, or
+when inotify is not available, a directory cannot be watched yet (it does not exist) or the
+watch limit is reached, it falls back to ``stat`` polling every ``poll_interval_s`` (5 ms).
+
+:func:`read_stream` reads a whole file at once (report, replay) through the same code.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import errno
+import logging
+import math
+import os
+import select
+import struct
+import sys
+import time
+from collections import deque
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass
+from operator import attrgetter
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Literal, NamedTuple, Protocol
+
+from prezence.samples import Sample
+from prezence.streams.codec import StreamLineError, parse_line
+
+__all__ = [
+    "MAX_LINE_BYTES",
+    "MAX_LOGGED_PROBLEMS",
+    "MultiTailer",
+    "StreamProblem",
+    "StreamTailer",
+    "TailStats",
+    "WatchMode",
+    "inotify_available",
+    "read_stream",
+]
+
+log = logging.getLogger(__name__)
+
+#: A longer line is malformed (a valid one is under 60 bytes); it also bounds the bytes kept
+#: while waiting for a newline, should a file that is not a stream be followed by mistake.
+MAX_LINE_BYTES = 4096
+#: Bad lines logged as warnings per stream; the rest are counted and kept, not logged.
+MAX_LOGGED_PROBLEMS = 20
+
+WatchMode = Literal["auto", "inotify", "poll"]
+
+
+@dataclass(frozen=True, slots=True)
+class TailStats:
+    """Counters of one stream, for the summary and the report.
+
+    Attributes:
+        samples: samples returned.
+        malformed: lines skipped as unreadable (blank lines are not counted).
+        truncations: restarts because the file shrank or was rewritten in place.
+        replaced: restarts because another file took the path.
+        out_of_order: samples whose ``t`` is below the previous sample's (kept anyway).
+        missing: times the file was found absent (at the start, or after being deleted).
+    """
+
+    samples: int = 0
+    malformed: int = 0
+    truncations: int = 0
+    replaced: int = 0
+    out_of_order: int = 0
+    missing: int = 0
+
+    def to_dict(self) -> dict[str, int]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> TailStats:
+        return cls(**{k: int(d.get(k, 0)) for k in cls.__dataclass_fields__})
+
+
+class StreamProblem(NamedTuple):
+    """One skipped line: a ``(path, line, reason)`` tuple; ``str()`` gives ``path:line: reason``."""
+
+    path: str
+    line: int
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.path}:{self.line}: {self.reason}"
+
+
+def _check_now(now: float) -> float:
+    f = float(now)
+    if not math.isfinite(f):
+        raise ValueError(f"now must be finite, got {now!r}")
+    return f
+
+
+class StreamTailer:
+    """Follows one stream file; see the module docstring for what it copes with.
+
+    Not thread-safe: poll from one thread.
+
+    Args:
+        path: the stream file (it need not exist yet).
+        metric: the metric name given to the samples.
+        max_problems: how many recent :class:`StreamProblem` to keep.
+    """
+
+    def __init__(
+        self, path: str | os.PathLike[str], metric: str, *, max_problems: int = 100
+    ) -> None:
+        if not metric:
+            raise ValueError("metric must be a non-empty name")
+        if max_problems < 0:
+            raise ValueError(f"max_problems must be >= 0, got {max_problems!r}")
+        self.path = Path(path)
+        self.metric = metric
+        self._name = str(self.path)
+        self._problems: deque[StreamProblem] = deque(maxlen=max_problems)
+        self._logged = 0
+        # counters
+        self._samples = 0
+        self._malformed = 0
+        self._truncations = 0
+        self._replaced = 0
+        self._out_of_order = 0
+        self._missing = 0
+        # position in the current file
+        self._ident: tuple[int, int] | None = None  # (st_dev, st_ino) being read; None: none
+        self._absent = False  # the absence was already counted
+        self._reset_position()
+
+    def _reset_position(self) -> None:
+        self._offset = 0  # bytes consumed, pending included
+        self._line_no = 0  # complete lines consumed
+        self._pending = b""  # bytes after the last newline
+        self._skipping = False  # dropping the rest of an over-long line
+        self._last_byte = b""  # the byte at offset - 1
+        self._last_t: float | None = None
+
+    # -- public -----------------------------------------------------------------------------
+
+    def poll(self, now: float) -> list[Sample]:
+        """Return the samples of the complete lines appended since the last poll.
+
+        Args:
+            now: the reader's time (seconds since the talk began), given to bare-value lines.
+
+        Raises:
+            ValueError: ``now`` is NaN or infinite.
+        """
+        return self._poll(_check_now(now))
+
+    def changed(self) -> bool:
+        """True when :meth:`poll` has something to look at: the file appeared, vanished, was
+        replaced, or its size differs from what was read. One ``stat``; reads nothing."""
+        try:
+            st = os.stat(self.path)
+        except FileNotFoundError:
+            return self._ident is not None or not self._absent
+        except OSError:
+            return False  # reported by poll()
+        return (st.st_dev, st.st_ino) != self._ident or st.st_size != self._offset
+
+    def finish(self) -> None:
+        """End of stream: an unterminated last line is dropped and reported as malformed.
+
+        Every writer ends its lines, so such bytes are a line torn by a crash and may hold a
+        truncated number (``12.5 15`` of ``12.5 153.25``); they are never parsed.
+        """
+        if self._pending or self._skipping:
+            self._problem(self._line_no + 1, "incomplete last line (no newline), ignored")
+            self._pending = b""
+            self._skipping = False
+
+    def stats(self) -> TailStats:
+        """The counters so far."""
+        return TailStats(
+            samples=self._samples,
+            malformed=self._malformed,
+            truncations=self._truncations,
+            replaced=self._replaced,
+            out_of_order=self._out_of_order,
+            missing=self._missing,
+        )
+
+    def problems(self) -> list[StreamProblem]:
+        """The most recent skipped lines, oldest first."""
+        return list(self._problems)
+
+    @property
+    def line_no(self) -> int:
+        """Complete lines read from the current file."""
+        return self._line_no
+
+    def __repr__(self) -> str:
+        return f"StreamTailer({self._name!r}, {self.metric!r}, offset={self._offset})"
+
+    # -- reading ----------------------------------------------------------------------------
+
+    def _poll(self, now: float | None) -> list[Sample]:
+        try:
+            st = os.stat(self.path)
+        except FileNotFoundError:
+            self._on_missing()
+            return []
+        except OSError as e:
+            self._on_error(e)
+            return []
+        ident = (st.st_dev, st.st_ino)
+        if ident != self._ident:
+            self._adopt(ident)
+        elif st.st_size == self._offset:
+            return []  # the common case: nothing new, one stat
+        elif st.st_size < self._offset:
+            self._restart_truncated(f"file shrank from {self._offset} to {st.st_size} bytes")
+        try:
+            with open(self.path, "rb") as f:
+                fst = os.fstat(f.fileno())
+                if (fst.st_dev, fst.st_ino) != self._ident:  # replaced since the stat
+                    self._adopt((fst.st_dev, fst.st_ino))
+                if fst.st_size < self._offset:
+                    self._restart_truncated(f"file shrank to {fst.st_size} bytes")
+                data = self._read_new(f)
+        except FileNotFoundError:
+            self._on_missing()
+            return []
+        except OSError as e:
+            self._on_error(e)
+            return []
+        return self._feed(data, now) if data else []
+
+    def _read_new(self, f: Any) -> bytes:
+        if self._offset == 0:
+            return bytes(f.read())
+        # Read from one byte early: if that byte is not the one read there before, the file
+        # was rewritten in place (truncated, then grew past our offset between two polls).
+        f.seek(self._offset - 1)
+        data = bytes(f.read())
+        if data[:1] == self._last_byte:
+            return data[1:]
+        self._restart_truncated("file rewritten in place")
+        f.seek(0)
+        return bytes(f.read())
+
+    def _adopt(self, ident: tuple[int, int]) -> None:
+        if self._ident is not None:
+            self._replaced += 1
+            log.info("%s: replaced by another file; reading from the start", self._name)
+        elif self._absent:
+            log.info("%s: appeared", self._name)
+        self._ident = ident
+        self._absent = False
+        self._reset_position()
+
+    def _restart_truncated(self, why: str) -> None:
+        self._truncations += 1
+        log.info("%s: %s; reading from the start", self._name, why)
+        self._reset_position()
+
+    def _on_missing(self) -> None:
+        if self._ident is not None or not self._absent:
+            self._missing += 1
+            if self._ident is not None:
+                log.warning("%s: file disappeared", self._name)
+            else:
+                log.debug("%s: does not exist (yet)", self._name)
+        self._ident = None
+        self._absent = True
+        self._reset_position()
+
+    def _on_error(self, e: OSError) -> None:
+        # Unreadable (permissions, a directory at the path…): report it like a missing file,
+        # so that a live talk goes on with the other modules.
+        if self._ident is not None or not self._absent:
+            self._missing += 1
+            log.warning("%s: cannot be read: %s", self._name, e.strerror or e)
+        self._ident = None
+        self._absent = True
+        self._reset_position()
+
+    # -- parsing (shared by poll and read_stream) -------------------------------------------
+
+    def _feed(self, data: bytes, now: float | None) -> list[Sample]:
+        self._offset += len(data)
+        self._last_byte = data[-1:]
+        buf = self._pending + data if self._pending else data
+        cut = buf.rfind(b"\n")
+        if cut < 0:
+            self._keep_pending(buf)
+            return []
+        complete, rest = buf[:cut], buf[cut + 1 :]
+        try:
+            lines: Iterable[str | bytes] = complete.decode("utf-8").split("\n")
+        except UnicodeDecodeError:
+            lines = complete.split(b"\n")  # decode line by line to find the bad ones
+        out: list[Sample] = []
+        append = out.append
+        metric = self.metric
+        last_t = self._last_t
+        for raw in lines:
+            self._line_no += 1
+            if self._skipping:  # the end of an over-long line
+                self._skipping = False
+                self._problem(self._line_no, f"line longer than {MAX_LINE_BYTES} bytes")
+                continue
+            if isinstance(raw, bytes):
+                try:
+                    line = raw.decode("utf-8")
+                except UnicodeDecodeError as e:
+                    self._problem(self._line_no, f"not UTF-8: {e.reason} at byte {e.start + 1}")
+                    continue
+            else:
+                line = raw
+            if len(line) > MAX_LINE_BYTES:
+                self._problem(self._line_no, f"line longer than {MAX_LINE_BYTES} bytes")
+                continue
+            if not line or line.isspace():
+                continue
+            try:
+                t, value = parse_line(line)
+            except StreamLineError as e:
+                self._problem(self._line_no, e.reason)
+                continue
+            if t is None:  # bare value: stamped by the reader
+                t = now if now is not None else (last_t if last_t is not None else 0.0)
+            if last_t is not None and t < last_t:
+                self._out_of_order += 1
+                if self._out_of_order == 1:
+                    log.warning(
+                        "%s:%d: t=%r goes back from %r (kept; further ones only counted)",
+                        self._name,
+                        self._line_no,
+                        t,
+                        last_t,
+                    )
+            last_t = t
+            append(Sample(metric, t, value))
+        self._last_t = last_t
+        self._samples += len(out)
+        self._keep_pending(rest)  # after the lines: they end an over-long line being skipped
+        return out
+
+    def _keep_pending(self, rest: bytes) -> None:
+        if self._skipping:
+            return  # still inside an over-long line: drop its bytes
+        if len(rest) > MAX_LINE_BYTES:
+            self._skipping = True
+            self._pending = b""
+        else:
+            self._pending = rest
+
+    def _problem(self, line_no: int, reason: str) -> None:
+        self._malformed += 1
+        self._problems.append(StreamProblem(self._name, line_no, reason))
+        self._logged += 1
+        if self._logged <= MAX_LOGGED_PROBLEMS:
+            log.warning("%s:%d: %s; line skipped", self._name, line_no, reason)
+            if self._logged == MAX_LOGGED_PROBLEMS:
+                log.warning("%s: further bad lines are counted but not logged", self._name)
+
+
+def read_stream(
+    path: str | os.PathLike[str], metric: str, *, now: float | None = None
+) -> tuple[list[Sample], TailStats]:
+    """Read a whole stream file at once (report, replay, rebuild after a crash).
+
+    Same parsing as :meth:`StreamTailer.poll` (it is one poll), followed by
+    :meth:`StreamTailer.finish`: an unterminated last line is ignored and counted as malformed.
+    A missing file gives no samples and ``missing == 1``. Use a :class:`StreamTailer` directly to
+    get the :class:`StreamProblem` list as well.
+
+    Args:
+        path: the stream file.
+        metric: the metric name given to the samples.
+        now: the time given to bare ``<value>`` lines; None gives each the ``t`` of the sample
+            before it (0.0 at the start), as the time they were written is not recorded.
+
+    Returns:
+        The samples in file order, and the counters.
+    """
+    tailer = StreamTailer(path, metric)
+    samples = tailer._poll(None if now is None else _check_now(now))
+    tailer.finish()
+    return samples, tailer.stats()
+
+
+# -- waiting for changes -----------------------------------------------------------------------
+
+
+class _Watcher(Protocol):
+    def block(self, timeout_s: float) -> bool:
+        """Return when a watched name may have changed (True), or after at most ``timeout_s``
+        (False: the caller must look for itself)."""
+
+    def close(self) -> None: ...
+
+
+class _PollWatcher:
+    """No notifications: sleep one interval, then the caller stats the files."""
+
+    def __init__(self, interval_s: float) -> None:
+        self.interval_s = interval_s
+
+    def block(self, timeout_s: float) -> bool:
+        time.sleep(min(timeout_s, self.interval_s))
+        return False
+
+    def close(self) -> None:
+        pass
+
+
+# From <sys/inotify.h>; identical on every Linux architecture.
+_IN_MODIFY = 0x002
+_IN_ATTRIB = 0x004
+_IN_CLOSE_WRITE = 0x008
+_IN_MOVED_FROM = 0x040
+_IN_MOVED_TO = 0x080
+_IN_CREATE = 0x100
+_IN_DELETE = 0x200
+_IN_DELETE_SELF = 0x400
+_IN_MOVE_SELF = 0x800
+_IN_Q_OVERFLOW = 0x4000
+_IN_IGNORED = 0x8000
+_IN_ONLYDIR = 0x01000000
+_DIR_MASK = (
+    _IN_MODIFY
+    | _IN_ATTRIB
+    | _IN_CLOSE_WRITE
+    | _IN_MOVED_FROM
+    | _IN_MOVED_TO
+    | _IN_CREATE
+    | _IN_DELETE
+    | _IN_DELETE_SELF
+    | _IN_MOVE_SELF
+    | _IN_ONLYDIR
+)
+_EVENT = struct.Struct("iIII")  # wd, mask, cookie, len; then len bytes of NUL-padded name
+
+
+def _libc() -> Any:
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        init1 = libc.inotify_init1
+        add = libc.inotify_add_watch
+    except (OSError, AttributeError):
+        return None
+    init1.argtypes = [ctypes.c_int]
+    init1.restype = ctypes.c_int
+    add.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_uint32]
+    add.restype = ctypes.c_int
+    return libc
+
+
+_LIBC: Any = _libc()
+
+
+def inotify_available() -> bool:
+    """True where :class:`MultiTailer` can use inotify (Linux with a libc that has it)."""
+    return _LIBC is not None
+
+
+class _InotifyWatcher:
+    """Watches directories for changes to given names; dirs that cannot be watched are polled."""
+
+    def __init__(self, names: Mapping[str, set[str]], interval_s: float) -> None:
+        fd = _LIBC.inotify_init1(os.O_NONBLOCK | os.O_CLOEXEC)
+        if fd < 0:
+            err = ctypes.get_errno()
+            raise OSError(err, f"inotify_init1: {os.strerror(err)}")
+        self._fd: int | None = fd
+        self._names = names  # directory -> file names in it
+        self._wd: dict[int, str] = {}
+        self._unwatched = set(names)
+        self.interval_s = interval_s
+        self._poller = select.poll()
+        self._poller.register(fd, select.POLLIN)
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Try again to watch directories that could not be watched (they did not exist)."""
+        if self._fd is None:
+            return
+        for d in sorted(self._unwatched):
+            wd = _LIBC.inotify_add_watch(self._fd, os.fsencode(d), _DIR_MASK)
+            if wd >= 0:
+                self._wd[wd] = d
+                self._unwatched.discard(d)
+            else:
+                err = ctypes.get_errno()
+                if err not in (errno.ENOENT, errno.ENOTDIR):
+                    log.debug("inotify cannot watch %s (%s): polling it", d, os.strerror(err))
+
+    def block(self, timeout_s: float) -> bool:
+        fd = self._fd
+        if fd is None:
+            raise ValueError("the watcher is closed")
+        self.refresh()
+        if self._unwatched:
+            timeout_s = min(timeout_s, self.interval_s)
+        deadline = time.monotonic() + timeout_s
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            if not self._poller.poll(math.ceil(remaining * 1000)):
+                return False
+            if self._drain(fd):
+                return True
+
+    def _drain(self, fd: int) -> bool:
+        """Read the queued events; True if one may concern a watched name."""
+        relevant = False
+        while True:
+            try:
+                buf = os.read(fd, 64 * 1024)
+            except BlockingIOError:
+                return relevant
+            pos = 0
+            while pos + _EVENT.size <= len(buf):
+                wd, mask, _cookie, n = _EVENT.unpack_from(buf, pos)
+                name = buf[pos + _EVENT.size : pos + _EVENT.size + n].rstrip(b"\0")
+                pos += _EVENT.size + n
+                if mask & _IN_Q_OVERFLOW:
+                    relevant = True
+                    continue
+                d = self._wd.get(wd)
+                if d is None:
+                    continue
+                if mask & _IN_IGNORED:  # the directory went away: poll it until it is back
+                    del self._wd[wd]
+                    self._unwatched.add(d)
+                    relevant = True
+                elif not name or os.fsdecode(name) in self._names[d]:
+                    relevant = True
+
+    def close(self) -> None:
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            self._poller.unregister(fd)
+            os.close(fd)
+
+
+class MultiTailer:
+    """Follows the stream files of several metrics.
+
+    Not thread-safe: call :meth:`poll` and :meth:`wait` from one thread. :meth:`close` (or
+    ``with``) releases the inotify descriptor, which the first :meth:`wait` creates.
+
+    Args:
+        streams: metric name -> stream file.
+        watch: how :meth:`wait` learns of changes: ``"inotify"`` (Linux), ``"poll"`` (``stat``
+            every ``poll_interval_s``) or ``"auto"`` (inotify where available).
+        poll_interval_s: the polling interval where nothing notifies.
+        max_problems: recent problems kept per stream.
+
+    Example::
+
+        with MultiTailer(streams) as tails:
+            while talking:
+                tails.wait(0.5)
+                processor.step(clock.now(), tails.poll(clock.now()))
+    """
+
+    def __init__(
+        self,
+        streams: Mapping[str, str | os.PathLike[str]],
+        *,
+        watch: WatchMode = "auto",
+        poll_interval_s: float = 0.005,
+        max_problems: int = 100,
+    ) -> None:
+        if watch not in ("auto", "inotify", "poll"):
+            raise ValueError(f"watch must be 'auto', 'inotify' or 'poll', got {watch!r}")
+        if watch == "inotify" and not inotify_available():
+            raise ValueError("watch='inotify' needs Linux with inotify; use 'auto' or 'poll'")
+        if not poll_interval_s > 0 or not math.isfinite(poll_interval_s):
+            raise ValueError(f"poll_interval_s must be > 0, got {poll_interval_s!r}")
+        self._tailers = {
+            m: StreamTailer(p, m, max_problems=max_problems) for m, p in streams.items()
+        }
+        self.watch = watch
+        self.poll_interval_s = poll_interval_s
+        self._watcher: _Watcher | None = None
+        self._closed = False
+
+    @property
+    def tailers(self) -> Mapping[str, StreamTailer]:
+        """The per-metric tailers."""
+        return self._tailers
+
+    def poll(self, now: float) -> list[Sample]:
+        """New samples of every metric, sorted by ``t`` (ties keep the metrics' order).
+
+        Raises:
+            ValueError: ``now`` is NaN or infinite.
+        """
+        now = _check_now(now)
+        out: list[Sample] = []
+        for tailer in self._tailers.values():
+            out.extend(tailer._poll(now))
+        out.sort(key=attrgetter("t"))
+        return out
+
+    def stats(self) -> dict[str, TailStats]:
+        """Counters per metric."""
+        return {m: t.stats() for m, t in self._tailers.items()}
+
+    def problems(self) -> list[StreamProblem]:
+        """Recent skipped lines, stream by stream (in the metrics' order), oldest first."""
+        return [p for t in self._tailers.values() for p in t.problems()]
+
+    def changed(self) -> bool:
+        """True when some stream has something new for :meth:`poll` (see
+        :meth:`StreamTailer.changed`)."""
+        return any(t.changed() for t in self._tailers.values())
+
+    def wait(self, timeout_s: float) -> bool:
+        """Block until a watched file changes or ``timeout_s`` passes.
+
+        Returns at once when a file already changed since the last :meth:`poll`. Events that
+        :meth:`poll` has already consumed do not wake it.
+
+        Args:
+            timeout_s: the longest wait in seconds (>= 0; ``math.inf`` waits for ever).
+
+        Returns:
+            True if a file changed (call :meth:`poll`), False on timeout.
+
+        Raises:
+            ValueError: a negative or NaN timeout, or the tailer is closed.
+        """
+        if not timeout_s >= 0:
+            raise ValueError(f"timeout_s must be >= 0, got {timeout_s!r}")
+        if self._closed:
+            raise ValueError("MultiTailer is closed")
+        watcher = self._get_watcher()
+        deadline = time.monotonic() + timeout_s
+        while True:
+            # Checked after the watches exist, so a change between this check and the block
+            # leaves an event queued and no wake-up is lost.
+            if self.changed():
+                return True
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            watcher.block(min(remaining, 3600.0))
+
+    def close(self) -> None:
+        """Release the watcher; a second call does nothing."""
+        self._closed = True
+        w, self._watcher = self._watcher, None
+        if w is not None:
+            w.close()
+
+    def __enter__(self) -> MultiTailer:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def _get_watcher(self) -> _Watcher:
+        if self._watcher is None:
+            self._watcher = self._make_watcher()
+        return self._watcher
+
+    def _make_watcher(self) -> _Watcher:
+        if self.watch == "poll" or (self.watch == "auto" and not inotify_available()):
+            return _PollWatcher(self.poll_interval_s)
+        names: dict[str, set[str]] = {}
+        for t in self._tailers.values():
+            # The directory as written, and the real one if a symlink leads elsewhere.
+            for p in {os.path.abspath(t.path), os.path.realpath(t.path)}:
+                d, name = os.path.split(p)
+                names.setdefault(d, set()).add(name)
+        try:
+            return _InotifyWatcher(names, self.poll_interval_s)
+        except OSError as e:
+            if self.watch == "inotify":
+                raise
+            log.warning("inotify unavailable (%s); polling stream files instead", e)
+            return _PollWatcher(self.poll_interval_s)

@@ -1,0 +1,362 @@
+"""Following stream files: partial, bad, missing, truncated and replaced files; waiting."""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+from pathlib import Path
+
+import pytest
+
+from prezence.samples import Sample
+from prezence.streams.tail import (
+    MAX_LINE_BYTES,
+    MultiTailer,
+    StreamProblem,
+    StreamTailer,
+    TailStats,
+    inotify_available,
+    read_stream,
+)
+
+M = "speech_speed"
+WATCH_MODES = [
+    "poll",
+    pytest.param(
+        "inotify",
+        marks=pytest.mark.skipif(not inotify_available(), reason="inotify is Linux only"),
+    ),
+]
+
+
+def append(path: Path, data: bytes) -> None:
+    with open(path, "ab") as f:
+        f.write(data)
+
+
+def values(samples: list[Sample]) -> list[float]:
+    return [s.value for s in samples]
+
+
+@pytest.fixture
+def stream(tmp_path: Path) -> Path:
+    return tmp_path / "speech_speed.txt"
+
+
+# -- lines ---------------------------------------------------------------------------------
+
+
+def test_half_a_line_gives_nothing_until_its_newline(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    append(stream, b"12.5 15")
+    assert tail.poll(20.0) == []
+    append(stream, b"3.25\n")
+    assert tail.poll(20.0) == [Sample(M, 12.5, 153.25)]
+    assert tail.poll(21.0) == []
+    assert tail.stats().samples == 1
+
+
+def test_only_new_lines_are_returned_by_each_poll(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    append(stream, b"1 10\n2 20\n")
+    assert values(tail.poll(2.0)) == [10.0, 20.0]
+    append(stream, b"3 30\n")
+    assert values(tail.poll(3.0)) == [30.0]
+
+
+def test_blank_lines_are_skipped_silently(stream: Path, caplog: pytest.LogCaptureFixture) -> None:
+    tail = StreamTailer(stream, M)
+    append(stream, b"\n1 10\n   \n\t\r\n2 20\n")
+    assert values(tail.poll(0.0)) == [10.0, 20.0]
+    assert tail.stats().malformed == 0
+    assert tail.problems() == []
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
+
+
+def test_bad_lines_are_skipped_counted_and_located_across_polls(
+    stream: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    tail = StreamTailer(stream, M)
+    append(stream, b"1 10\n\nhello\n2 nan\n")
+    assert values(tail.poll(0.0)) == [10.0]
+    append(stream, b"3 30\n1 2 3\n-4 40\ninf 5\n")
+    assert values(tail.poll(0.0)) == [30.0]
+    name = str(stream)
+    assert [(p.path, p.line) for p in tail.problems()] == [
+        (name, 3),
+        (name, 4),
+        (name, 6),
+        (name, 7),
+        (name, 8),
+    ]
+    reasons = [p.reason for p in tail.problems()]
+    assert "not a number" in reasons[0]
+    assert "not finite" in reasons[1]
+    assert "3 fields" in reasons[2]
+    assert "negative" in reasons[3]
+    assert tail.stats().malformed == 5
+    warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert f"{name}:3: " in warned[0]
+    assert len(warned) == 5  # once per line
+
+
+def test_problem_prints_as_file_line_reason() -> None:
+    p = StreamProblem("s/v.txt", 7, "value is not a number: 'x'")
+    assert str(p) == "s/v.txt:7: value is not a number: 'x'"
+    assert tuple(p) == ("s/v.txt", 7, "value is not a number: 'x'")
+
+
+def test_only_the_last_problems_are_kept(stream: Path) -> None:
+    tail = StreamTailer(stream, M, max_problems=2)
+    append(stream, b"a\nb\nc\n")
+    tail.poll(0.0)
+    assert [p.line for p in tail.problems()] == [2, 3]
+    assert tail.stats().malformed == 3
+
+
+def test_non_utf8_bytes_are_malformed_lines_not_errors(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    append(stream, b"1 10\n\xff\xfe 2\n2 \xc3\n3 30\n")
+    assert values(tail.poll(0.0)) == [10.0, 30.0]
+    assert [p.line for p in tail.problems()] == [2, 3]
+    assert "UTF-8" in tail.problems()[0].reason
+
+
+def test_an_over_long_line_is_skipped_even_when_it_arrives_in_pieces(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    append(stream, b"1 10\n" + b"9" * (MAX_LINE_BYTES + 10))
+    assert values(tail.poll(0.0)) == [10.0]
+    append(stream, b"9" * 100)
+    assert tail.poll(0.0) == []
+    append(stream, b"\n2 20\n")
+    assert values(tail.poll(0.0)) == [20.0]
+    assert [p.line for p in tail.problems()] == [2]
+    assert "longer than" in tail.problems()[0].reason
+
+
+def test_bare_values_are_stamped_with_the_poll_time(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    append(stream, b"150\n")
+    assert tail.poll(4.5) == [Sample(M, 4.5, 150.0)]
+    append(stream, b"160\n")
+    assert tail.poll(9.0) == [Sample(M, 9.0, 160.0)]
+
+
+def test_backward_timestamps_are_kept_and_counted(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    append(stream, b"5 1\n3 2\n4 3\n4 4\n")
+    assert [s.t for s in tail.poll(0.0)] == [5.0, 3.0, 4.0, 4.0]
+    assert tail.stats().out_of_order == 1
+
+
+def test_poll_rejects_a_non_finite_now(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    with pytest.raises(ValueError, match="finite"):
+        tail.poll(float("nan"))
+
+
+# -- files ---------------------------------------------------------------------------------
+
+
+def test_a_missing_file_is_counted_once_and_read_when_it_appears(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    assert tail.poll(0.0) == []
+    assert tail.poll(1.0) == []
+    assert tail.stats().missing == 1
+    stream.write_bytes(b"1 10\n")
+    assert values(tail.poll(2.0)) == [10.0]
+    assert tail.stats() == TailStats(samples=1, missing=1)
+
+
+def test_a_deleted_then_recreated_file_is_read_from_its_start(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    stream.write_bytes(b"1 10\n2 20\n")
+    tail.poll(0.0)
+    stream.unlink()
+    assert tail.poll(0.0) == []
+    stream.write_bytes(b"5 50\n")
+    assert values(tail.poll(0.0)) == [50.0]
+    assert tail.stats().missing == 1  # it was there at the first poll: the deletion counts
+
+
+def test_a_truncated_file_is_read_again_from_the_start(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    stream.write_bytes(b"1 10\n2 20\n3 30\n")
+    assert len(tail.poll(0.0)) == 3
+    stream.write_bytes(b"oops\n1 11\n")  # "w" mode: truncate, then write less
+    assert values(tail.poll(0.0)) == [11.0]
+    assert tail.stats().truncations == 1
+    assert tail.problems()[-1].line == 1  # line numbers restart with the file
+
+
+def test_a_file_rewritten_longer_between_polls_is_read_again(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    stream.write_bytes(b"10 1\n")
+    tail.poll(0.0)
+    stream.write_bytes(b"2 2\n3 3\n4 4\n")  # grew past the old offset, different bytes there
+    assert values(tail.poll(0.0)) == [2.0, 3.0, 4.0]
+    assert tail.stats().truncations == 1
+
+
+def test_a_partial_line_is_dropped_when_the_file_is_truncated(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    stream.write_bytes(b"1 10\n2 2")
+    tail.poll(0.0)
+    stream.write_bytes(b"")
+    tail.poll(0.0)
+    append(stream, b"0\n")
+    assert values(tail.poll(0.0)) == [0.0]
+
+
+def test_a_replaced_file_is_read_from_its_start(stream: Path, tmp_path: Path) -> None:
+    tail = StreamTailer(stream, M)
+    stream.write_bytes(b"1 10\n2 20\n3 30\n")
+    tail.poll(0.0)
+    new = tmp_path / "new.txt"
+    new.write_bytes(b"1 11\n2 22\n3 33\n4 44\n")
+    os.replace(new, stream)
+    assert values(tail.poll(0.0)) == [11.0, 22.0, 33.0, 44.0]
+    assert tail.stats().replaced == 1
+    assert tail.stats().truncations == 0
+
+
+def test_an_unreadable_path_is_reported_not_raised(tmp_path: Path) -> None:
+    folder = tmp_path / "dir.txt"
+    folder.mkdir()
+    tail = StreamTailer(folder, M)
+    assert tail.poll(0.0) == []
+    assert tail.stats().missing == 1
+
+
+def test_changed_says_whether_poll_has_anything_to_look_at(stream: Path) -> None:
+    tail = StreamTailer(stream, M)
+    tail.poll(0.0)
+    assert not tail.changed()
+    append(stream, b"1 1")
+    assert tail.changed()
+    tail.poll(0.0)
+    assert not tail.changed()
+    stream.unlink()
+    assert tail.changed()
+
+
+# -- whole files ---------------------------------------------------------------------------
+
+
+def test_read_stream_matches_polling_and_ignores_a_torn_last_line(stream: Path) -> None:
+    stream.write_bytes(b"1 10\nbad\n2 20\n3 30\n4 4")
+    samples, stats = read_stream(stream, M)
+    assert values(samples) == [10.0, 20.0, 30.0]
+    assert stats.malformed == 2  # "bad" and the torn "4 4"
+    tail = StreamTailer(stream, M)
+    assert tail.poll(0.0) == samples
+    tail.finish()
+    assert tail.problems()[-1].line == 5
+    assert "incomplete" in tail.problems()[-1].reason
+
+
+def test_read_stream_of_a_missing_file_is_empty(stream: Path) -> None:
+    assert read_stream(stream, M) == ([], TailStats(missing=1))
+
+
+def test_read_stream_stamps_bare_values(stream: Path) -> None:
+    stream.write_bytes(b"150\n2 160\n170\n")
+    samples, _ = read_stream(stream, M)
+    assert [s.t for s in samples] == [0.0, 2.0, 2.0]  # the t before them
+    samples, _ = read_stream(stream, M, now=30.0)
+    assert [s.t for s in samples] == [30.0, 2.0, 30.0]
+
+
+def test_tail_stats_round_trip_through_a_dict() -> None:
+    s = TailStats(samples=5, malformed=1, truncations=2, replaced=3, out_of_order=4, missing=6)
+    assert s.to_dict()["replaced"] == 3
+    assert TailStats.from_dict(s.to_dict()) == s
+
+
+# -- several streams -----------------------------------------------------------------------
+
+
+def test_multi_poll_merges_metrics_sorted_by_t_and_stable(tmp_path: Path) -> None:
+    a, b = tmp_path / "a.txt", tmp_path / "b.txt"
+    a.write_bytes(b"1 1\n3 3\n")
+    b.write_bytes(b"0.5 5\n1 6\nbad\n")
+    with MultiTailer({"a": a, "b": b}) as tails:
+        got = [(s.metric, s.t) for s in tails.poll(0.0)]
+        assert got == [("b", 0.5), ("a", 1.0), ("b", 1.0), ("a", 3.0)]
+        assert tails.stats()["b"].malformed == 1
+        assert [(p.path, p.line) for p in tails.problems()] == [(str(b), 3)]
+
+
+@pytest.mark.parametrize("watch", WATCH_MODES)
+def test_wait_returns_true_for_a_write_made_before_it(tmp_path: Path, watch: str) -> None:
+    path = tmp_path / "a.txt"
+    with MultiTailer({"a": path}, watch=watch) as tails:  # type: ignore[arg-type]
+        tails.poll(0.0)
+        assert tails.wait(0.0) is False
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND)
+        os.write(fd, b"1 2\n")
+        os.close(fd)
+        assert tails.wait(30.0) is True
+        assert values(tails.poll(1.0)) == [2.0]
+        assert tails.wait(0.0) is False
+
+
+@pytest.mark.parametrize("watch", WATCH_MODES)
+def test_wait_wakes_on_a_write_from_another_thread(tmp_path: Path, watch: str) -> None:
+    path = tmp_path / "later" / "a.txt"  # the folder does not exist yet either
+    with MultiTailer({"a": path}, watch=watch) as tails:  # type: ignore[arg-type]
+        tails.poll(0.0)
+        writer = threading.Thread(target=lambda: _create_and_write(path))
+        writer.start()
+        try:
+            assert tails.wait(30.0) is True
+        finally:
+            writer.join()
+        assert values(tails.poll(0.0)) == [2.0]
+
+
+def _create_and_write(path: Path) -> None:
+    path.parent.mkdir()
+    path.write_bytes(b"1 2\n")
+
+
+@pytest.mark.skipif(not inotify_available(), reason="inotify is Linux only")
+def test_inotify_notices_writes_and_ignores_other_files(tmp_path: Path) -> None:
+    path = tmp_path / "a.txt"
+    with MultiTailer({"a": path}, watch="inotify") as tails:
+        tails.poll(0.0)
+        watcher = tails._get_watcher()
+        (tmp_path / "other.txt").write_bytes(b"x\n")
+        assert watcher.block(0.0) is False  # an unwatched name does not wake it
+        path.write_bytes(b"1 2\n")
+        assert watcher.block(30.0) is True
+
+
+@pytest.mark.skipif(not inotify_available(), reason="inotify is Linux only")
+def test_wait_is_not_woken_by_changes_poll_already_consumed(tmp_path: Path) -> None:
+    path = tmp_path / "a.txt"
+    with MultiTailer({"a": path}, watch="inotify") as tails:
+        tails.wait(0.0)  # create the watches
+        path.write_bytes(b"1 2\n")
+        tails.poll(0.0)
+        assert tails.wait(0.01) is False
+
+
+def test_wait_after_close_raises(tmp_path: Path) -> None:
+    tails = MultiTailer({"a": tmp_path / "a.txt"})
+    tails.close()
+    tails.close()
+    with pytest.raises(ValueError, match="closed"):
+        tails.wait(0.0)
+
+
+def test_wait_rejects_a_negative_timeout(tmp_path: Path) -> None:
+    tails = MultiTailer({"a": tmp_path / "a.txt"})
+    with pytest.raises(ValueError, match="timeout_s"):
+        tails.wait(-1.0)
+
+
+def test_an_unknown_watch_mode_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="watch must be"):
+        MultiTailer({"a": tmp_path / "a.txt"}, watch="kqueue")  # type: ignore[arg-type]
