@@ -1,0 +1,116 @@
+"""Loading files: the built-in default, line files, rooms, and check-config messages."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from pathlib import Path
+
+import pytest
+
+from prezence.config.lines import LINE_KEYS
+from prezence.config.load import (
+    check_config_files,
+    default_config,
+    default_path,
+    load_config,
+    load_room,
+)
+from prezence.config.model import Check, ProcessorSettings, RoomProfile, TimeSettings
+from prezence.config.tomlconf import ROOM_KEYS, RULE_KEYS, dumps_config
+from prezence.errors import ConfigError
+from prezence.samples import DEFAULT_METRICS
+
+
+def test_none_loads_the_builtin_default() -> None:
+    assert load_config(None) == default_config()
+
+
+def test_default_toml_and_rules_txt_hold_the_same_rules() -> None:
+    assert load_config(default_path("rules.txt")).rules == default_config().rules
+
+
+def test_default_settings_equal_the_dataclass_defaults() -> None:
+    """Code that builds settings directly and the shipped file must agree."""
+    cfg = default_config()
+    assert cfg.processor == ProcessorSettings()
+    assert cfg.time == TimeSettings()
+    assert cfg.room == RoomProfile()
+
+
+def test_default_is_the_seed_model_of_ideal_delivery() -> None:
+    cfg = default_config()
+    assert cfg.metrics == DEFAULT_METRICS
+    speed = cfg.rule("speech_speed")
+    assert (speed.low, speed.high, speed.below, speed.above) == (140, 180, "speedUp", "slowDown")
+    assert speed.deviation(225.0) == pytest.approx(25.0)  # the design's worked example
+    volume = cfg.rule("speech_volume")
+    assert volume.deviation(54.0) == pytest.approx(100.0)  # 6 dB short = one scale
+    gaze = cfg.rule("cv_headGaze")
+    assert gaze.low == cfg.room.values["ANGLE"]
+    assert gaze.command_for(-30.0) == "lookUp"
+    assert not cfg.rule("speech_accuracy").strict  # so two minutes of notes ends in lookUp
+    assert cfg.time.allocated_s == 600.0
+
+
+def test_line_file_gets_default_settings(tmp_path: Path) -> None:
+    f = tmp_path / "my.rules"
+    f.write_text("cv_headGaze min ANGLE lookUp scale=10\n")
+    cfg = load_config(f)
+    assert cfg.rules[0].check is Check.MIN
+    assert cfg.processor == default_config().processor
+    assert cfg.time == default_config().time
+    assert cfg.source == str(f)
+
+
+def test_room_override_resolves_named_values(tmp_path: Path) -> None:
+    room_file = tmp_path / "hall.toml"
+    room_file.write_text('format = 1\n[room]\nname = "hall"\nvalues = { ANGLE = -4 }\n')
+    room = load_room(room_file)
+    assert load_config(None, room=room).rule("cv_headGaze").low == -4.0
+    assert load_config(default_path("rules.txt"), room=room).rule("cv_headGaze").low == -4.0
+
+
+def test_missing_file_names_the_file(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="nope.toml: cannot read"):
+        load_config(tmp_path / "nope.toml")
+
+
+def test_non_utf8_file_gives_the_line(tmp_path: Path) -> None:
+    f = tmp_path / "bad.txt"
+    f.write_bytes(b"speech_volume min 60\nx min 1 unit=\xff\n")
+    with pytest.raises(ConfigError) as info:
+        load_config(f)
+    assert info.value.line == 2
+
+
+def test_check_config_files_is_empty_when_all_is_fine(tmp_path: Path) -> None:
+    f = tmp_path / "ok.toml"
+    f.write_text(dumps_config(default_config()))
+    assert check_config_files([f, default_path("rules.txt"), default_path()]) == []
+
+
+def test_check_config_files_gives_one_message_per_problem(tmp_path: Path) -> None:
+    lines = tmp_path / "rules.txt"
+    lines.write_text("speech_speed inRange 140 180 slowDown speedUp\nspeech_volume min 60 lowder\n")
+    toml = tmp_path / "c.toml"
+    toml.write_text(
+        'format = 1\n[processor]\ntreshold = 1\n[[rules]]\nmetric = "a"\ncheck = "mni"\n'
+    )
+    messages = check_config_files([lines, toml, tmp_path / "gone.txt"])
+    assert len(messages) == 5
+    assert messages[0].startswith(f"{lines}:1:30: ")
+    assert messages[1].startswith(f"{lines}:2:")
+    assert "did you mean 'louder'?" in messages[1]
+    assert "processor.treshold" in messages[2]
+    assert "rules[0].check" in messages[3] and "did you mean 'min'?" in messages[3]
+    assert messages[4].startswith(f"{tmp_path / 'gone.txt'}: cannot read")
+
+
+def test_readme_documents_every_key() -> None:
+    readme = default_path("README.md").read_text()
+    documented = set(re.findall(r"`([a-z_]+)", readme))
+    keys = set(LINE_KEYS) | set(RULE_KEYS) | set(ROOM_KEYS)
+    keys |= {f.name for f in dataclasses.fields(ProcessorSettings)}
+    keys |= {f.name for f in dataclasses.fields(TimeSettings)}
+    assert keys - documented == set()
