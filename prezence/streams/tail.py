@@ -121,6 +121,10 @@ class StreamProblem(NamedTuple):
         return f"{self.path}:{self.line}: {self.reason}"
 
 
+def _key(st: os.stat_result) -> tuple[int, ...]:
+    return (st.st_dev, st.st_ino, st.st_size, st.st_ctime_ns)
+
+
 def _check_now(now: float) -> float:
     f = float(now)
     if not math.isfinite(f):
@@ -161,6 +165,7 @@ class StreamTailer:
         # position in the current file
         self._ident: tuple[int, int] | None = None  # (st_dev, st_ino) being read; None: none
         self._absent = False  # the absence was already counted
+        self._unreadable: tuple[int, ...] | None = None  # stat key of what could not be read
         self._reset_position()
 
     def _reset_position(self) -> None:
@@ -193,6 +198,8 @@ class StreamTailer:
             return self._ident is not None or not self._absent
         except OSError:
             return False  # reported by poll()
+        if _key(st) == self._unreadable:
+            return False
         return (st.st_dev, st.st_ino) != self._ident or st.st_size != self._offset
 
     def finish(self) -> None:
@@ -238,8 +245,12 @@ class StreamTailer:
             self._on_missing()
             return []
         except OSError as e:
-            self._on_error(e)
+            self._on_error(e, None)
             return []
+        if self._unreadable is not None:
+            if _key(st) == self._unreadable:
+                return []  # still the thing that failed: do not retry (and log) at every poll
+            self._unreadable = None
         ident = (st.st_dev, st.st_ino)
         if ident != self._ident:
             self._adopt(ident)
@@ -259,7 +270,7 @@ class StreamTailer:
             self._on_missing()
             return []
         except OSError as e:
-            self._on_error(e)
+            self._on_error(e, _key(st))
             return []
         return self._feed(data, now) if data else []
 
@@ -302,12 +313,14 @@ class StreamTailer:
         self._absent = True
         self._reset_position()
 
-    def _on_error(self, e: OSError) -> None:
+    def _on_error(self, e: OSError, key: tuple[int, ...] | None) -> None:
         # Unreadable (permissions, a directory at the path…): report it like a missing file,
-        # so that a live talk goes on with the other modules.
+        # so that a live talk goes on with the other modules. It is tried again once its stat
+        # changes (ctime moves on chmod and on writes).
         if self._ident is not None or not self._absent:
             self._missing += 1
             log.warning("%s: cannot be read: %s", self._name, e.strerror or e)
+        self._unreadable = key
         self._ident = None
         self._absent = True
         self._reset_position()
@@ -536,12 +549,13 @@ class _InotifyWatcher:
         deadline = time.monotonic() + timeout_s
         while True:
             remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return False
-            if not self._poller.poll(math.ceil(remaining * 1000)):
+            # Poll even with no time left, so that block(0) consumes what is queued.
+            if not self._poller.poll(max(0, math.ceil(remaining * 1000))):
                 return False
             if self._drain(fd):
                 return True
+            if remaining <= 0:
+                return False
 
     def _drain(self, fd: int) -> bool:
         """Read the queued events; True if one may concern a watched name."""
