@@ -1,0 +1,894 @@
+"""Vision input module: head gaze, facing the audience and gesture rate, from a video or a camera.
+
+Run it as its own process::
+
+    python -m prezence.modules.vision --video talk.mp4 --out SESSION
+    python -m prezence.modules.vision --video cam:0 --out SESSION --t0 1767225600.0
+        [--calibrate-s 3] [--audience-yaw DEG --audience-pitch DEG] [--fps 10] [--realtime]
+
+It writes four streams, ``SESSION/streams/<metric>.txt``, one ``<t> <value>`` line per sample,
+``t`` in seconds since the talk began (video time for a file; for a camera, wall time minus
+``--t0``, or since the module started):
+
+================== ===================================================== ==================
+metric              value                                                 rate
+================== ===================================================== ==================
+cv_headGaze         head pitch relative to the audience direction, deg,   each analysed frame
+                    down negative (the rule ``cv_headGaze min ANGLE``)    with a face
+cv_headYaw          head yaw relative to the audience direction, deg,     each analysed frame
+                    > 0 when the presenter turns to their own left        with a face
+cv_facingAudience   fraction of the analysed frames in the last           1 Hz
+                    ``--facing-window`` s (5) with a face whose |yaw| and
+                    |pitch| are within ``--facing-tolerance`` (20, 15 deg)
+cv_gestures         gesture bursts per minute over the last               1 Hz
+                    ``--gesture-window`` s (30; since the start, but at
+                    least 10 s, early in the talk)
+================== ===================================================== ==================
+
+Head pose (needs ``mediapipe==0.10.21`` in the vision env):
+    FaceMesh's 468 3D landmarks give raw angles: yaw = atan2(dz, dx) of the outer eye corners
+    (landmarks 33 and 263), pitch = atan2(-dz, dy) from forehead (10) to chin (152). FaceMesh's
+    depth is not to scale, so each is multiplied by a gain measured on rendered faces at known
+    angles (``tools/make_test_video.py``): :data:`YAW_GAIN`, :data:`PITCH_GAIN`. The audience
+    direction is the median pose of the first ``--calibrate-s`` seconds (the presenter looks at
+    the audience when they begin), or ``--audience-yaw/--audience-pitch`` in the same camera
+    frame (then no calibration; an axis not given is 0). Samples of the calibration seconds are
+    written once it ends, with their own times.
+
+Gestures (OpenCV only, works in any env):
+    Motion energy = the fraction of pixels of the blurred grey frame (resized to 160 px wide)
+    that changed by more than 15 grey levels since the last analysed frame, outside the face
+    box (grown by half its size sideways and up, a quarter down) when head pose runs. A frame
+    is active when its energy exceeds max(0.002, 3 x the median energy of the last 10 s).
+    Active runs less than 0.5 s apart are one burst; a burst counts once it lasts 0.2 s.
+    The rate is the bursts started in the window.
+
+Which python:
+    mediapipe 0.10.21 needs numpy<2 and OpenCV<5, so it lives in a separate venv
+    (:mod:`prezence.modules.vision_env`). Started from any other python, this module re-runs
+    itself in that venv when one exists (``--no-reexec`` stops that). With no vision env, head
+    pose is off with a message naming the one command that installs it, and the gesture rate
+    still runs.
+
+Live input never drops frames silently: frames the analysis could not keep up with are
+counted, and a warning every 10 s (and at the end) says how many and at what rate.
+
+Exit status: 0 done; 2 bad input (missing, empty, wrong format or truncated video; camera
+that cannot be opened) with ``error: FILE: …`` on stderr, or bad arguments.
+
+Measured accuracy and cost: see ``bench/bench_vision.py`` and ``tests/modules/test_vision.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import logging
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import FrameType, TracebackType
+from typing import Any
+
+import cv2
+import numpy as np
+
+from prezence.errors import PrezenceError
+from prezence.samples import GESTURES, HEAD_GAZE
+from prezence.streams.writer import StreamWriter
+
+log = logging.getLogger(__name__)
+
+HEAD_YAW = "cv_headYaw"
+FACING_AUDIENCE = "cv_facingAudience"
+METRICS = (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE, GESTURES)
+
+#: Raw FaceMesh yaw x this gain = degrees. Least-squares fit over -30..+30 deg on the rendered
+#: test face (raw = 0.80 x true there); see the final report / bench for the measurement.
+YAW_GAIN = 1.254
+#: Raw FaceMesh pitch x this gain = degrees (raw = 1.27 x true over -20..+20 deg).
+PITCH_GAIN = 0.788
+
+# Landmark indices (FaceMesh topology).
+_EYE_OUTER_RIGHT = 33  # the presenter's right eye, image left
+_EYE_OUTER_LEFT = 263
+_FOREHEAD = 10
+_CHIN = 152
+
+_REEXEC_GUARD = "PREZENCE_VISION_REEXEC"
+
+
+class VisionInputError(PrezenceError, ValueError):
+    """A video file or camera cannot be read; the message names it."""
+
+
+class VisionUnavailable(PrezenceError, RuntimeError):
+    """Head pose cannot run here: mediapipe is not importable in this python."""
+
+
+def install_hint() -> str:
+    """Return the message that says how to get head pose working."""
+    return (
+        "head pose needs mediapipe==0.10.21 (numpy<2, OpenCV<5), which lives in its own venv; "
+        "create it once with: python -m prezence.modules.vision_env install"
+    )
+
+
+def mediapipe_available() -> bool:
+    """True when ``import mediapipe`` would find a package in this python."""
+    return importlib.util.find_spec("mediapipe") is not None
+
+
+# --------------------------------------------------------------------------------------------
+# Head pose
+
+
+@dataclass(frozen=True)
+class HeadPose:
+    """One face's pose in the camera frame.
+
+    Attributes:
+        yaw: degrees, > 0 when the presenter turns to their own left (nose to the image right).
+        pitch: degrees, > 0 when the head tilts up.
+        box: the face's bounding box ``(x0, y0, x1, y1)`` in pixels.
+    """
+
+    yaw: float
+    pitch: float
+    box: tuple[int, int, int, int]
+
+
+def raw_angles(landmarks: np.ndarray) -> tuple[float, float]:
+    """Return FaceMesh's raw (yaw, pitch) in degrees, before the gains.
+
+    Args:
+        landmarks: ``(468, 3)`` or more landmarks as (x, y, z) in pixel units (FaceMesh's
+            normalised x and z times the image width, y times the height).
+
+    Example:
+        >>> pts = np.zeros((468, 3))
+        >>> pts[33], pts[263] = (-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)
+        >>> pts[10], pts[152] = (0.0, -1.0, 0.0), (0.0, 1.0, 0.0)
+        >>> raw_angles(pts)
+        (0.0, 0.0)
+    """
+    if landmarks.ndim != 2 or landmarks.shape[0] < 468 or landmarks.shape[1] != 3:
+        raise ValueError(f"expected (468, 3) landmarks, got shape {landmarks.shape}")
+    d = landmarks[_EYE_OUTER_LEFT] - landmarks[_EYE_OUTER_RIGHT]
+    yaw = math.degrees(math.atan2(float(d[2]), float(d[0])))
+    e = landmarks[_CHIN] - landmarks[_FOREHEAD]
+    pitch = math.degrees(math.atan2(float(-e[2]), float(e[1])))
+    return yaw + 0.0, pitch + 0.0
+
+
+class HeadPoseEstimator:
+    """mediapipe FaceMesh → :class:`HeadPose` per frame (one face: the biggest).
+
+    Args:
+        yaw_gain: multiplies the raw yaw (default :data:`YAW_GAIN`).
+        pitch_gain: multiplies the raw pitch (default :data:`PITCH_GAIN`).
+        static: treat every frame as unrelated (slower; for single images).
+
+    Raises:
+        VisionUnavailable: mediapipe (or its FaceMesh solution) cannot be imported here.
+    """
+
+    def __init__(
+        self, *, yaw_gain: float = YAW_GAIN, pitch_gain: float = PITCH_GAIN, static: bool = False
+    ) -> None:
+        try:
+            import mediapipe as mp
+
+            face_mesh = mp.solutions.face_mesh
+        except (ImportError, AttributeError) as e:
+            raise VisionUnavailable(f"{install_hint()} ({type(e).__name__}: {e})") from e
+        self.yaw_gain = float(yaw_gain)
+        self.pitch_gain = float(pitch_gain)
+        self._fm: Any = face_mesh.FaceMesh(
+            static_image_mode=static,
+            max_num_faces=1,
+            refine_landmarks=False,
+            min_detection_confidence=0.5,
+            min_tracking_confidence=0.5,
+        )
+
+    def landmarks(self, bgr: np.ndarray) -> np.ndarray | None:
+        """Return the ``(468, 3)`` landmarks in pixel units, or None when no face is found."""
+        if self._fm is None:
+            raise ValueError("HeadPoseEstimator is closed")
+        h, w = bgr.shape[:2]
+        res = self._fm.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        if not res.multi_face_landmarks:
+            return None
+        lm = res.multi_face_landmarks[0].landmark
+        return np.array([(p.x * w, p.y * h, p.z * w) for p in lm], dtype=np.float64)
+
+    def estimate(self, bgr: np.ndarray) -> HeadPose | None:
+        """Return the head pose in the camera frame, or None when no face is found."""
+        pts = self.landmarks(bgr)
+        if pts is None:
+            return None
+        yaw, pitch = raw_angles(pts)
+        x0, y0 = np.floor(pts[:, :2].min(axis=0)).astype(int)
+        x1, y1 = np.ceil(pts[:, :2].max(axis=0)).astype(int)
+        return HeadPose(
+            yaw * self.yaw_gain, pitch * self.pitch_gain, (int(x0), int(y0), int(x1), int(y1))
+        )
+
+    def close(self) -> None:
+        """Release the graph; a second call does nothing."""
+        fm, self._fm = self._fm, None
+        if fm is not None:
+            fm.close()
+
+    def __enter__(self) -> HeadPoseEstimator:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+class GazeTracker:
+    """Camera-frame poses → audience-relative (yaw, pitch) and the facing fraction.
+
+    Args:
+        calibrate_s: the audience direction is the median pose of frames with ``t`` below this
+            (at least 3 faces; it waits for them). 0 means the camera is the audience direction.
+        audience: ``(yaw, pitch)`` of the audience in the camera frame; skips calibration.
+        facing_window_s: the window of :meth:`facing`.
+        tolerance: ``(yaw, pitch)`` degrees within which the presenter faces the audience.
+    """
+
+    def __init__(
+        self,
+        *,
+        calibrate_s: float,
+        audience: tuple[float, float] | None = None,
+        facing_window_s: float = 5.0,
+        tolerance: tuple[float, float] = (20.0, 15.0),
+    ) -> None:
+        if not calibrate_s >= 0.0:
+            raise ValueError(f"calibrate_s must be >= 0, got {calibrate_s!r}")
+        if not facing_window_s > 0.0:
+            raise ValueError(f"facing_window_s must be > 0, got {facing_window_s!r}")
+        self.calibrate_s = float(calibrate_s)
+        self.facing_window_s = float(facing_window_s)
+        self.tolerance = (float(tolerance[0]), float(tolerance[1]))
+        self.offset: tuple[float, float] | None = None
+        if audience is not None:
+            self.offset = (float(audience[0]), float(audience[1]))
+        elif self.calibrate_s == 0.0:
+            self.offset = (0.0, 0.0)
+        self._pending: list[tuple[float, HeadPose | None]] = []
+        self._recent: deque[tuple[float, bool]] = deque()
+
+    @property
+    def calibrated(self) -> bool:
+        """True once the audience direction is known."""
+        return self.offset is not None
+
+    def update(self, t: float, pose: HeadPose | None) -> list[tuple[float, float, float]]:
+        """Feed one analysed frame; return the samples ``(t, yaw, pitch)`` now ready.
+
+        During calibration nothing is returned; when it ends, the calibration frames' samples
+        come out at once, relative to the found direction.
+        """
+        if self.offset is None:
+            self._pending.append((t, pose))
+            faces = [p for _, p in self._pending if p is not None]
+            if t < self.calibrate_s or len(faces) < 3:
+                return []
+            self.offset = (
+                float(np.median([p.yaw for p in faces])),
+                float(np.median([p.pitch for p in faces])),
+            )
+            log.info(
+                "audience direction: yaw %.1f, pitch %.1f deg (camera frame, %d faces in %.1f s)",
+                *self.offset,
+                len(faces),
+                t,
+            )
+            batch, self._pending = self._pending, []
+        else:
+            batch = [(t, pose)]
+        out: list[tuple[float, float, float]] = []
+        for tt, p in batch:
+            facing = False
+            if p is not None:
+                yaw, pitch = p.yaw - self.offset[0], p.pitch - self.offset[1]
+                out.append((tt, yaw, pitch))
+                facing = abs(yaw) <= self.tolerance[0] and abs(pitch) <= self.tolerance[1]
+            self._recent.append((tt, facing))
+        return out
+
+    def facing(self, t: float) -> float | None:
+        """Fraction of analysed frames in ``(t - window, t]`` facing the audience, or None."""
+        while self._recent and self._recent[0][0] <= t - self.facing_window_s:
+            self._recent.popleft()
+        if not self._recent or self.offset is None:
+            return None
+        return sum(f for _, f in self._recent) / len(self._recent)
+
+
+# --------------------------------------------------------------------------------------------
+# Gestures
+
+
+def motion_energy(
+    prev_gray: np.ndarray,
+    gray: np.ndarray,
+    *,
+    diff_threshold: int = 15,
+    exclude: tuple[int, int, int, int] | None = None,
+) -> float:
+    """Fraction of pixels that changed by more than ``diff_threshold`` grey levels.
+
+    Args:
+        prev_gray: the previous (blurred) grey frame.
+        gray: the current one, same shape.
+        diff_threshold: grey levels.
+        exclude: a box ``(x0, y0, x1, y1)`` in these frames' pixels left out (the face).
+    """
+    if prev_gray.shape != gray.shape:
+        raise ValueError(f"frame shapes differ: {prev_gray.shape} vs {gray.shape}")
+    moved = cv2.absdiff(prev_gray, gray) > diff_threshold
+    total = moved.size
+    if exclude is not None:
+        h, w = moved.shape
+        x0, y0 = max(0, exclude[0]), max(0, exclude[1])
+        x1, y1 = min(w, exclude[2]), min(h, exclude[3])
+        if x1 > x0 and y1 > y0:
+            moved[y0:y1, x0:x1] = False
+            total -= (x1 - x0) * (y1 - y0)
+    return float(moved.sum()) / max(total, 1)
+
+
+class GestureDetector:
+    """Motion energy per frame → gesture bursts → bursts per minute.
+
+    Args:
+        window_s: the rate's window.
+        min_window_s: early in the talk the rate divides by at least this many seconds.
+        floor: the lowest energy threshold.
+        k: the threshold is ``max(floor, k * median energy of the last baseline_s)``.
+        baseline_s: the median's window.
+        merge_s: active runs closer than this are one burst.
+        min_burst_s: a burst counts once its active frames span this long.
+        width: frames are resized to this width first (the cost and the noise fall).
+    """
+
+    def __init__(
+        self,
+        *,
+        window_s: float = 30.0,
+        min_window_s: float = 10.0,
+        floor: float = 0.002,
+        k: float = 3.0,
+        baseline_s: float = 10.0,
+        merge_s: float = 0.5,
+        min_burst_s: float = 0.2,
+        width: int = 160,
+    ) -> None:
+        if not window_s > 0.0 or not 0.0 < min_window_s <= window_s:
+            raise ValueError(f"need 0 < min_window_s <= window_s, got {min_window_s}, {window_s}")
+        self.window_s = float(window_s)
+        self.min_window_s = float(min_window_s)
+        self.floor = float(floor)
+        self.k = float(k)
+        self.baseline_s = float(baseline_s)
+        self.merge_s = float(merge_s)
+        self.min_burst_s = float(min_burst_s)
+        self.width = int(width)
+        self.bursts: list[float] = []  #: start times of the counted bursts
+        self._prev: np.ndarray | None = None
+        self._energies: deque[tuple[float, float]] = deque()
+        self._run_start: float | None = None  # first active frame of the current burst
+        self._last_active = -math.inf
+        self._counted = False
+
+    def _prepare(self, bgr: np.ndarray) -> tuple[np.ndarray, float]:
+        h, w = bgr.shape[:2]
+        s = self.width / w
+        small = cv2.resize(bgr, (self.width, max(1, round(h * s))), interpolation=cv2.INTER_AREA)
+        gray = cv2.cvtColor(small, cv2.COLOR_BGR2GRAY) if small.ndim == 3 else small
+        return cv2.GaussianBlur(gray, (5, 5), 0), s
+
+    def update(
+        self, t: float, bgr: np.ndarray, exclude: tuple[int, int, int, int] | None = None
+    ) -> float | None:
+        """Feed one analysed frame (``exclude``: a box in its pixels, e.g. the face).
+
+        Returns:
+            The start time of a burst that has just been counted, else None.
+        """
+        gray, s = self._prepare(bgr)
+        prev, self._prev = self._prev, gray
+        if prev is None or prev.shape != gray.shape:
+            return None
+        box = None
+        if exclude is not None:
+            # Hair and ears move with the head: grow the face box by half its size sideways
+            # and upwards, a quarter downwards (hands raised under the chin still count).
+            x0, y0, x1, y1 = exclude
+            fw, fh = x1 - x0, y1 - y0
+            box = (
+                int((x0 - 0.5 * fw) * s),
+                int((y0 - 0.5 * fh) * s),
+                int(math.ceil((x1 + 0.5 * fw) * s)),
+                int(math.ceil((y1 + 0.25 * fh) * s)),
+            )
+        e = motion_energy(prev, gray, exclude=box)
+        return self._step(t, e)
+
+    def _step(self, t: float, e: float) -> float | None:
+        self._energies.append((t, e))
+        while self._energies and self._energies[0][0] < t - self.baseline_s:
+            self._energies.popleft()
+        base = float(np.median([x for _, x in self._energies]))
+        active = e > max(self.floor, self.k * base)
+        if not active:
+            return None
+        if self._run_start is None or t - self._last_active > self.merge_s:
+            self._run_start = t
+            self._counted = False
+        self._last_active = t
+        if not self._counted and t - self._run_start >= self.min_burst_s:
+            self._counted = True
+            self.bursts.append(self._run_start)
+            return self._run_start
+        return None
+
+    def rate(self, t: float) -> float:
+        """Bursts per minute that started in the window ending at ``t``."""
+        n = sum(1 for b in self.bursts if t - self.window_s < b <= t)
+        span = min(self.window_s, max(t, self.min_window_s))
+        return n / span * 60.0
+
+
+# --------------------------------------------------------------------------------------------
+# Frame sources
+
+
+@dataclass
+class SourceStats:
+    """What a frame source delivered, for the end-of-run summary."""
+
+    frames: int = 0  #: frames read
+    not_analysed: int = 0  #: live only: frames the analysis could not keep up with
+    expected_frames: int | None = None  #: files: the frame count the container announces
+
+
+def open_video(path: Path) -> cv2.VideoCapture:
+    """Open a video file, checking it is one.
+
+    Raises:
+        VisionInputError: missing, empty, not decodable, no frame rate; names the file.
+    """
+    if not path.exists():
+        raise VisionInputError(f"{path}: no such file")
+    if not path.is_file():
+        raise VisionInputError(f"{path}: not a file")
+    if path.stat().st_size == 0:
+        raise VisionInputError(f"{path}: empty file (0 bytes), not a video")
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise VisionInputError(
+            f"{path}: cannot be read as a video (wrong format, or a truncated file)"
+        )
+    fps = cap.get(cv2.CAP_PROP_FPS)
+    if not (math.isfinite(fps) and fps > 0.0):
+        cap.release()
+        raise VisionInputError(f"{path}: the video states no frame rate")
+    return cap
+
+
+class FileSource:
+    """Frames of a video file with their video time; optionally paced at real time.
+
+    In real-time mode the frames a slow analysis cannot keep up with are skipped and counted.
+    """
+
+    def __init__(self, path: Path, *, realtime: bool = False) -> None:
+        self.path = Path(path)
+        self.realtime = realtime
+        self._cap = open_video(self.path)
+        self.fps = float(self._cap.get(cv2.CAP_PROP_FPS))
+        n = int(self._cap.get(cv2.CAP_PROP_FRAME_COUNT))
+        self.stats = SourceStats(expected_frames=n if n > 0 else None)
+        self.name = str(self.path)
+
+    def frames(self) -> Iterator[tuple[float, np.ndarray]]:
+        """Yield ``(t, bgr)``; t is the frame's video time."""
+        start = time.monotonic()
+        i = 0
+        while True:
+            ok, frame = self._cap.read()
+            if not ok or frame is None:
+                break
+            t = i / self.fps
+            i += 1
+            self.stats.frames += 1
+            if self.realtime:
+                ahead = t - (time.monotonic() - start)
+                if ahead > 0:
+                    time.sleep(ahead)
+                elif -ahead > 1.0 / self.fps:
+                    self.stats.not_analysed += 1
+                    continue
+            yield t, frame
+        if self.stats.frames == 0:
+            raise VisionInputError(f"{self.path}: no video frame could be decoded (truncated?)")
+
+    def close(self) -> None:
+        """Release the file."""
+        self._cap.release()
+
+
+class CameraSource:
+    """Live camera frames. A reader thread keeps only the newest frame; the frames it had to
+    replace before the analysis took them are counted (``stats.not_analysed``), never hidden.
+
+    Args:
+        index: the camera number (``cam:N``).
+        t0: wall-clock time (``time.time()``) at which the talk began.
+    """
+
+    def __init__(self, index: int, *, t0: float) -> None:
+        self.name = f"camera {index}"
+        self._cap = cv2.VideoCapture(index)
+        if not self._cap.isOpened():
+            raise VisionInputError(f"{self.name}: cannot be opened (is it connected and free?)")
+        self.fps = float(self._cap.get(cv2.CAP_PROP_FPS)) or 30.0
+        self.t0 = t0
+        self.stats = SourceStats()
+        self._cond = threading.Condition()
+        self._frame: tuple[float, np.ndarray] | None = None
+        self._taken = True
+        self._stop = False
+        self._thread = threading.Thread(target=self._read, name="prezence-camera", daemon=True)
+        self._thread.start()
+
+    def _read(self) -> None:
+        while not self._stop:
+            ok, frame = self._cap.read()
+            t = time.time() - self.t0
+            with self._cond:
+                if not ok:
+                    self._stop = True
+                    self._cond.notify_all()
+                    break
+                self.stats.frames += 1
+                if not self._taken:
+                    self.stats.not_analysed += 1
+                self._frame, self._taken = (max(t, 0.0), frame), False
+                self._cond.notify_all()
+
+    def frames(self) -> Iterator[tuple[float, np.ndarray]]:
+        """Yield ``(t, bgr)`` of the newest frame each time the analysis is ready for one."""
+        while True:
+            with self._cond:
+                while self._taken and not self._stop:
+                    self._cond.wait(timeout=1.0)
+                item = self._frame
+                if self._taken or item is None:  # stopped and nothing new
+                    return
+                self._taken = True
+            yield item
+
+    def close(self) -> None:
+        """Stop the reader and release the camera."""
+        self._stop = True
+        self._thread.join(timeout=2.0)
+        self._cap.release()
+
+
+# --------------------------------------------------------------------------------------------
+# The module process
+
+
+@dataclass
+class VisionOptions:
+    """Everything the run loop needs (the CLI's parsed flags)."""
+
+    head: bool = True
+    gestures: bool = True
+    calibrate_s: float = 3.0
+    audience: tuple[float, float] | None = None
+    fps: float = 10.0  #: analysed frames per second at most; 0 = every frame
+    facing_window_s: float = 5.0
+    tolerance: tuple[float, float] = (20.0, 15.0)
+    gesture_window_s: float = 30.0
+    duration_s: float | None = None
+    yaw_gain: float = YAW_GAIN
+    pitch_gain: float = PITCH_GAIN
+
+
+@dataclass
+class RunSummary:
+    """What one run did."""
+
+    analysed: int = 0
+    faces: int = 0
+    samples: dict[str, int] = field(default_factory=lambda: dict.fromkeys(METRICS, 0))
+    bursts: list[float] = field(default_factory=list)
+    head: bool = False
+    source: SourceStats = field(default_factory=SourceStats)
+
+
+class _Streams:
+    def __init__(self, streams_dir: Path, *, fresh: bool) -> None:
+        streams_dir.mkdir(parents=True, exist_ok=True)
+        self.writers: dict[str, StreamWriter] = {}
+        for m in METRICS:
+            p = streams_dir / f"{m}.txt"
+            if fresh and p.exists():
+                p.unlink()
+            self.writers[m] = StreamWriter(p).open()
+
+    def write(self, metric: str, t: float, value: float, summary: RunSummary) -> None:
+        self.writers[metric].write(round(t, 4), round(value, 3))
+        summary.samples[metric] += 1
+
+    def close(self) -> None:
+        for w in self.writers.values():
+            w.close()
+
+
+def run(
+    source: FileSource | CameraSource,
+    out: Path,
+    opts: VisionOptions,
+    *,
+    fresh: bool = True,
+    stop: threading.Event | None = None,
+) -> RunSummary:
+    """Analyse ``source`` and write the streams under ``out/streams``.
+
+    Args:
+        source: the frames.
+        out: the session folder.
+        opts: what to measure and how.
+        fresh: replace this module's stream files (file input) rather than append (live).
+        stop: set it to end the run cleanly (signals).
+
+    Raises:
+        VisionUnavailable: ``opts.head`` and ``opts.gestures`` are both off, or only head
+            pose is asked for and mediapipe is missing.
+    """
+    summary = RunSummary(source=source.stats)
+    estimator: HeadPoseEstimator | None = None
+    if opts.head:
+        try:
+            estimator = HeadPoseEstimator(yaw_gain=opts.yaw_gain, pitch_gain=opts.pitch_gain)
+        except VisionUnavailable:
+            if not opts.gestures:
+                raise
+            log.error("%s; head pose is off, the gesture rate still runs", install_hint())
+    summary.head = estimator is not None
+    if estimator is None and not opts.gestures:
+        raise VisionUnavailable("nothing to measure: head pose and gestures are both off")
+    gaze = GazeTracker(
+        calibrate_s=opts.calibrate_s,
+        audience=opts.audience,
+        facing_window_s=opts.facing_window_s,
+        tolerance=opts.tolerance,
+    )
+    gestures = GestureDetector(window_s=opts.gesture_window_s)
+    streams = _Streams(out / "streams", fresh=fresh)
+    step = 1.0 / opts.fps if opts.fps > 0 else 0.0
+    next_t = -math.inf
+    next_report = 1.0
+    warn_at = 10.0
+    warned_dropped = 0
+    last_t = 0.0
+    try:
+        for t, frame in source.frames():
+            if stop is not None and stop.is_set():
+                break
+            if opts.duration_s is not None and t > opts.duration_s:
+                break
+            if t < next_t - 1e-9:
+                continue  # sampling to --fps, by choice
+            next_t = t + step if next_t == -math.inf else max(next_t + step, t)
+            last_t = t
+            summary.analysed += 1
+            pose = estimator.estimate(frame) if estimator is not None else None
+            if pose is not None:
+                summary.faces += 1
+            if estimator is not None:
+                for tt, yaw, pitch in gaze.update(t, pose):
+                    streams.write(HEAD_YAW, tt, yaw, summary)
+                    streams.write(HEAD_GAZE, tt, pitch, summary)
+            if opts.gestures:
+                gestures.update(t, frame, exclude=pose.box if pose is not None else None)
+            while t >= next_report:
+                if estimator is not None:
+                    f = gaze.facing(next_report)
+                    if f is not None:
+                        streams.write(FACING_AUDIENCE, next_report, f, summary)
+                if opts.gestures:
+                    streams.write(GESTURES, next_report, gestures.rate(next_report), summary)
+                next_report += 1.0
+            if t >= warn_at:
+                dropped = source.stats.not_analysed - warned_dropped
+                if dropped > 0:
+                    log.warning(
+                        "%s: falling behind: %d frames not analysed in the last %.0f s "
+                        "(%.1f analysed/s); lower --fps or close other programs",
+                        source.name,
+                        dropped,
+                        t - (warn_at - 10.0),
+                        summary.analysed / max(t, 1e-9),
+                    )
+                warned_dropped = source.stats.not_analysed
+                warn_at += 10.0
+    finally:
+        streams.close()
+        if estimator is not None:
+            estimator.close()
+    if estimator is not None and not gaze.calibrated:
+        log.warning("%s: too few faces to find the audience direction", source.name)
+    summary.bursts = list(gestures.bursts)
+    if source.stats.not_analysed:
+        log.warning(
+            "%s: %d of %d frames were not analysed (the analysis fell behind real time)",
+            source.name,
+            source.stats.not_analysed,
+            source.stats.frames,
+        )
+    log.info(
+        "%s: %.1f s, %d frames analysed, %d with a face, %d gesture bursts",
+        source.name,
+        last_t,
+        summary.analysed,
+        summary.faces,
+        len(summary.bursts),
+    )
+    return summary
+
+
+def parse_source(spec: str) -> tuple[str, int | Path]:
+    """Parse ``--video``: ``cam``, ``cam:N`` or a file path.
+
+    Example:
+        >>> parse_source("cam:1")
+        ('cam', 1)
+        >>> parse_source("talk.mp4")
+        ('file', PosixPath('talk.mp4'))
+    """
+    if spec == "cam":
+        return "cam", 0
+    if spec.startswith("cam:"):
+        try:
+            return "cam", int(spec[4:])
+        except ValueError as e:
+            raise ValueError(f"--video {spec!r}: expected cam:N with a camera number") from e
+    return "file", Path(spec)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the parser of ``python -m prezence.modules.vision``."""
+    p = argparse.ArgumentParser(
+        prog="python -m prezence.modules.vision",
+        description="Head gaze, facing the audience and gesture rate from a video or camera.",
+    )
+    p.add_argument("--video", required=True, help="a video file, or cam / cam:N for a camera")
+    p.add_argument("--out", required=True, type=Path, help="the session folder")
+    p.add_argument("--t0", type=float, default=None, help="camera: wall time the talk began")
+    p.add_argument("--realtime", action="store_true", help="file: pace it as if live")
+    p.add_argument("--calibrate-s", type=float, default=3.0, help="seconds (default %(default)s)")
+    p.add_argument("--audience-yaw", type=float, default=None, help="degrees, camera frame")
+    p.add_argument("--audience-pitch", type=float, default=None, help="degrees, camera frame")
+    p.add_argument("--fps", type=float, default=10.0, help="analysed fps at most; 0 = all")
+    p.add_argument("--facing-window", type=float, default=5.0, help="seconds")
+    p.add_argument(
+        "--facing-tolerance", type=float, nargs=2, default=(20.0, 15.0), metavar=("YAW", "PITCH")
+    )
+    p.add_argument("--gesture-window", type=float, default=30.0, help="seconds")
+    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--no-head", action="store_true", help="gestures only (no mediapipe needed)")
+    p.add_argument("--no-gestures", action="store_true", help="head pose only")
+    p.add_argument("--no-reexec", action="store_true", help="do not switch to the vision env")
+    p.add_argument("-v", "--verbose", action="store_true")
+    p.add_argument("-q", "--quiet", action="store_true")
+    return p
+
+
+def _maybe_reexec(argv: list[str]) -> None:
+    """Re-run in the vision venv when mediapipe is missing here and that venv exists."""
+    if os.environ.get(_REEXEC_GUARD) or mediapipe_available():
+        return
+    from prezence.modules import vision_env
+
+    py = vision_env.find_python()
+    if py is None:
+        return
+    if Path(sys.prefix).resolve() == py.parent.parent.resolve():
+        return
+    log.info("mediapipe is not here; running in the vision env %s", py)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    env = dict(os.environ, **{_REEXEC_GUARD: "1"})
+    os.execve(str(py), [str(py), "-m", "prezence.modules.vision", *argv], env)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the module; return the exit status (0 done, 2 bad input or arguments)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO,
+        format="vision: %(levelname)s: %(message)s",
+    )
+    if args.no_head and args.no_gestures:
+        print("error: --no-head and --no-gestures leave nothing to measure", file=sys.stderr)
+        return 2
+    if not args.no_head and not args.no_reexec:
+        _maybe_reexec(argv)
+    audience = None
+    if args.audience_yaw is not None or args.audience_pitch is not None:
+        audience = (args.audience_yaw or 0.0, args.audience_pitch or 0.0)
+    try:
+        opts = VisionOptions(
+            head=not args.no_head,
+            gestures=not args.no_gestures,
+            calibrate_s=args.calibrate_s,
+            audience=audience,
+            fps=args.fps,
+            facing_window_s=args.facing_window,
+            tolerance=(args.facing_tolerance[0], args.facing_tolerance[1]),
+            gesture_window_s=args.gesture_window,
+            duration_s=args.duration,
+        )
+        kind, where = parse_source(args.video)
+        source: FileSource | CameraSource
+        if isinstance(where, Path):
+            source = FileSource(where, realtime=args.realtime)
+        else:
+            source = CameraSource(where, t0=args.t0 if args.t0 is not None else time.time())
+    except (VisionInputError, ValueError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    stop = threading.Event()
+
+    def _on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _on_signal)
+    try:
+        summary = run(source, args.out, opts, fresh=kind == "file", stop=stop)
+    except (VisionInputError, VisionUnavailable, ValueError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    finally:
+        source.close()
+    n = source.stats.expected_frames
+    ended_early = n is not None and source.stats.frames < n - max(2, n // 50)
+    whole_file = isinstance(source, FileSource) and opts.duration_s is None and not stop.is_set()
+    if whole_file and ended_early:
+        print(
+            f"error: {source.name}: the video ended after {source.stats.frames} of the "
+            f"{n} frames it announces (truncated?); the streams hold what was read",
+            file=sys.stderr,
+        )
+        return 2
+    if opts.head and not summary.head:
+        print(f"vision: head pose was off: {install_hint()}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
