@@ -1,0 +1,614 @@
+"""The NAOqi backend: a real NAO (or the virtual one in ``sim.virtual_nao``) through ``qi``.
+
+Gestures go to ``ALMotion.angleInterpolation(names, angleLists, timeLists, True)`` with the
+project's own keyframe times (:class:`~prezence.feedback.trajectory.Trajectory`), phrases to
+``ALTextToSpeech.say``; both as ``_async=True`` calls whose futures :meth:`advance` polls.
+
+libqi has no timeouts of its own (a hung host or a frozen robot leaves a call running for
+ever), so every remote call here has a deadline:
+
+- connecting: ``connect_timeout_s``; setting up (services, wake-up): ``call_timeout_s`` per call
+  (``wake_timeout_s`` for ``wakeUp``, which moves the robot);
+- a gesture or phrase: its planned duration plus ``motion_margin_s`` (phrases: twice the
+  planned duration, since the robot's voice rate is not ours); past it the motion fails, the
+  call is cancelled and the robot's task killed;
+- a heartbeat (``getAngles``) every ``heartbeat_s`` must answer within ``call_timeout_s``, or the
+  link counts as lost: this is how a frozen robot or a dead network is noticed.
+
+**A lost robot drops cues.** When the session disconnects (``disconnected`` signal, a
+"Session closed"/"Socket is not connected" error, or a missed heartbeat) the running motions
+finish with ``ok=False``, and :meth:`play`/:meth:`say` raise
+:class:`~prezence.errors.BackendUnavailable` until the robot is back (the coach records a
+dropped cue and goes on; nothing is queued). Meanwhile :meth:`advance` reconnects in the
+background (a worker thread, so ``advance`` never blocks), with exponential backoff from
+``reconnect_initial_s`` to ``reconnect_max_s``, and fetches fresh proxies (old ones stay dead).
+
+What the backend changes on the robot at :meth:`open`: it turns off the autonomous abilities
+that move joints (``BackgroundMovement``, ``BasicAwareness``, ``ListeningMovement``,
+``SpeakingMovement`` through ``ALAutonomousLife``, or pauses ``ALBasicAwareness`` on older
+NAOqi), calls ``ALMotion.wakeUp()`` (stiffness on, standing), and disables breathing and the
+idle posture. Each of these is skipped, with a log line, where the robot lacks it. At
+:meth:`close` the abilities it turned off are turned back on. **Stiffness policy:** the
+backend never sets stiffness to 0 on a standing robot (it would fall); stiffness stays on at
+close unless ``rest_on_close=True``, which calls ``ALMotion.rest()`` (crouch, then motors off).
+
+Time: the ``now`` passed to :meth:`play`/:meth:`say`/:meth:`advance` stamps the motions; the
+deadlines and latencies use the host's monotonic clock, because the robot keeps real time
+whatever the caller's clock does. Drive this backend with a real-time clock.
+"""
+
+from __future__ import annotations
+
+import collections
+import concurrent.futures
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from prezence.backends.base import Backend, Motion, MotionKind
+from prezence.errors import BackendUnavailable, UnknownName
+from prezence.feedback.trajectory import Trajectory
+
+log = logging.getLogger(__name__)
+
+#: The autonomous abilities (NAOqi 2.4+) that move joints and would fight our gestures.
+AUTONOMOUS_ABILITIES = (
+    "BackgroundMovement",
+    "BasicAwareness",
+    "ListeningMovement",
+    "SpeakingMovement",
+)
+#: Eye colour while a cue runs, and at rest (0x00RRGGBB, as ALLeds.fadeRGB takes it).
+CUE_RGB = 0x00FF8C00
+IDLE_RGB = 0x00FFFFFF
+#: Error texts with which libqi reports a dead connection.
+_LOST_MARKERS = (
+    "Session closed",
+    "Socket is not connected",
+    "Session not connected",
+    "disconnected",
+)
+
+
+def _import_qi() -> Any:
+    try:
+        import qi
+    except ImportError as e:
+        raise BackendUnavailable('naoqi needs qi: pip install "prezence[naoqi]"') from e
+    return qi
+
+
+def _looks_lost(error: str) -> bool:
+    return any(m in error for m in _LOST_MARKERS)
+
+
+def _first_line(error: str) -> str:
+    return error.strip().splitlines()[0] if error.strip() else "unknown error"
+
+
+def _percentile(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    k = min(len(ordered) - 1, max(0, round(q / 100.0 * (len(ordered) - 1))))
+    return ordered[k]
+
+
+@dataclass
+class _Link:
+    """One connection to the robot and the proxies fetched on it (proxies die with it)."""
+
+    session: Any
+    motion: Any
+    tts: Any
+    leds: Any | None
+    joints: tuple[str, ...]
+    velocity: dict[str, float]
+    lost: threading.Event
+    reason: list[str]
+    restore: list[tuple[Any, str, tuple[Any, ...]]] = field(default_factory=list)
+
+
+@dataclass
+class _Call:
+    """A gesture or phrase the robot is performing."""
+
+    motion: Motion
+    future: Any
+    sent: float
+    deadline: float
+    joints: tuple[str, ...]
+    done_at: list[float]
+
+
+class NaoqiBackend(Backend):
+    """Drives a NAO over NAOqi (``qi``).
+
+    Args:
+        url: the robot, ``tcp://HOST:9559`` (``HOST`` or ``HOST:PORT`` work too).
+        connect_timeout_s: how long connecting may take before the robot counts as unreachable.
+        call_timeout_s: deadline for short calls (set-up, heartbeat, kills).
+        wake_timeout_s: deadline for ``wakeUp`` (the robot may stand up first).
+        speed_fraction: fraction of each joint's velocity limit (the robot's ``getLimits``) a
+            gesture may demand; faster segments are logged and counted as ``too_fast`` (NAOqi
+            does not document what it does with them), never changed.
+        leds: colour the eyes while a cue runs (needs ALLeds; skipped if the robot lacks it).
+        motion_margin_s: slack added to a motion's planned duration before it fails.
+        heartbeat_s: seconds between liveness checks while connected.
+        reconnect_initial_s: first wait before reconnecting after a loss.
+        reconnect_max_s: the wait doubles after each failed attempt, up to this.
+        rest_on_close: call ``ALMotion.rest()`` at close (crouch and motors off).
+    """
+
+    name = "naoqi"
+
+    def __init__(
+        self,
+        *,
+        url: str,
+        connect_timeout_s: float = 5.0,
+        call_timeout_s: float = 2.0,
+        wake_timeout_s: float = 15.0,
+        speed_fraction: float = 1.0,
+        leds: bool = False,
+        motion_margin_s: float = 1.0,
+        heartbeat_s: float = 1.0,
+        reconnect_initial_s: float = 0.5,
+        reconnect_max_s: float = 10.0,
+        rest_on_close: bool = False,
+    ) -> None:
+        super().__init__()
+        if not isinstance(url, str) or not url.strip():
+            raise ValueError(f"url must be a NAOqi address like tcp://HOST:9559, got {url!r}")
+        for key, value in (
+            ("connect_timeout_s", connect_timeout_s),
+            ("call_timeout_s", call_timeout_s),
+            ("wake_timeout_s", wake_timeout_s),
+            ("heartbeat_s", heartbeat_s),
+            ("reconnect_initial_s", reconnect_initial_s),
+        ):
+            if not value > 0:
+                raise ValueError(f"{key} must be > 0, got {value!r}")
+        if not motion_margin_s >= 0:
+            raise ValueError(f"motion_margin_s must be >= 0, got {motion_margin_s!r}")
+        if not 0 < speed_fraction <= 1:
+            raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
+        if not reconnect_max_s >= reconnect_initial_s:
+            raise ValueError("reconnect_max_s must be >= reconnect_initial_s")
+        self.url = url.strip()
+        self.connect_timeout_s = float(connect_timeout_s)
+        self.call_timeout_s = float(call_timeout_s)
+        self.wake_timeout_s = float(wake_timeout_s)
+        self.speed_fraction = float(speed_fraction)
+        self.leds = leds
+        self.motion_margin_s = float(motion_margin_s)
+        self.heartbeat_s = float(heartbeat_s)
+        self.reconnect_initial_s = float(reconnect_initial_s)
+        self.reconnect_max_s = float(reconnect_max_s)
+        self.rest_on_close = rest_on_close
+        self._qi: Any = None
+        self._link: _Link | None = None
+        self._calls: list[_Call] = []
+        self._aside: list[Any] = []  # fire-and-forget futures, kept alive until they finish
+        self._lost_reason = ""
+        self._backoff = self.reconnect_initial_s
+        self._next_attempt = 0.0
+        self._attempt: concurrent.futures.Future[_Link] | None = None
+        self._executor: concurrent.futures.ThreadPoolExecutor | None = None
+        self._ping: tuple[Any, float, list[float]] | None = None
+        self._next_ping = 0.0
+        self._eyes_on = False
+        self._rtt_ms: collections.deque[float] = collections.deque(maxlen=2000)
+        self._counts = {
+            "connects": 0,
+            "disconnects": 0,
+            "dropped": 0,
+            "failed": 0,
+            "timeouts": 0,
+            "too_fast": 0,
+        }
+
+    # -- state ---------------------------------------------------------------------------------
+    @property
+    def connected(self) -> bool:
+        """True while a live session with fresh proxies is in use."""
+        return self._link is not None and not self._link.lost.is_set()
+
+    def stats(self) -> dict[str, Any]:
+        """Connection counts, dropped/failed/timed-out motions and heartbeat round trips (ms)."""
+        rtt = list(self._rtt_ms)
+        return {
+            "url": self.url,
+            "connected": self.connected,
+            **self._counts,
+            "call_rtt_n": len(rtt),
+            "call_rtt_ms_p50": round(_percentile(rtt, 50), 3) if rtt else None,
+            "call_rtt_ms_p99": round(_percentile(rtt, 99), 3) if rtt else None,
+        }
+
+    # -- connecting ------------------------------------------------------------------------------
+    def _open(self) -> None:
+        self._qi = _import_qi()
+        self._install(self._connect())
+
+    def _install(self, link: _Link) -> None:
+        self._link = link
+        self._counts["connects"] += 1
+        self._backoff = self.reconnect_initial_s
+        self._next_ping = time.monotonic() + self.heartbeat_s
+        self._eyes_on = False
+        log.info("connected to NAOqi at %s (%d joints)", self.url, len(link.joints))
+
+    def _wait(self, fut: Any, what: str, timeout_s: float) -> Any:
+        """The future's value, or BackendUnavailable when it fails or misses its deadline."""
+        qi = self._qi
+        state = fut.wait(int(timeout_s * 1000))
+        if state == qi.FutureState.FinishedWithValue:
+            return fut.value()
+        if state == qi.FutureState.FinishedWithError:
+            raise BackendUnavailable(f"{what} failed on {self.url}: {_first_line(fut.error())}")
+        fut.cancel()
+        raise BackendUnavailable(f"{what}: no answer from {self.url} within {timeout_s:g} s")
+
+    def _connect(self) -> _Link:
+        """Connect, fetch proxies, prepare the robot; blocking but bounded by the deadlines."""
+        qi = self._qi
+        session = qi.Session()
+        fut = session.connect(self.url, _async=True)
+        state = fut.wait(int(self.connect_timeout_s * 1000))
+        if state != qi.FutureState.FinishedWithValue:
+            why = (
+                _first_line(fut.error())
+                if state == qi.FutureState.FinishedWithError
+                else f"no answer within {self.connect_timeout_s:g} s"
+            )
+            session.close(_async=True)  # also abandons a connect that hangs
+            raise BackendUnavailable(
+                f"no NAOqi robot at {self.url}: {why} (is the robot on and on this network? "
+                "press its chest button once to hear its IP address)"
+            )
+        lost = threading.Event()
+        reason: list[str] = []
+
+        def on_disconnected(why: str) -> None:
+            reason.append(str(why))
+            lost.set()
+
+        session.disconnected.connect(on_disconnected)
+        try:
+            link = self._set_up(session, lost, reason)
+        except BackendUnavailable:
+            session.close(_async=True)
+            raise
+        if self._closed:  # closed while this ran in the reconnect thread
+            session.close(_async=True)
+            raise BackendUnavailable("backend closed")
+        return link
+
+    def _service(self, session: Any, name: str, *, required: bool) -> Any | None:
+        try:
+            return self._wait(session.service(name, _async=True), name, self.call_timeout_s)
+        except BackendUnavailable as e:
+            if required:
+                raise BackendUnavailable(f"the robot at {self.url} has no {name}: {e}") from e
+            log.info("%s: not available (%s); skipped", name, e)
+            return None
+
+    def _optional(self, proxy: Any | None, method: str, *args: Any) -> tuple[bool, Any]:
+        """Call ``proxy.method(*args)`` if the robot has it; (done, value)."""
+        if proxy is None or not hasattr(proxy, method):
+            log.info("robot has no %s: skipped", method)
+            return False, None
+        try:
+            fut = getattr(proxy, method)(*args, _async=True)
+            return True, self._wait(fut, method, self.call_timeout_s)
+        except (BackendUnavailable, RuntimeError) as e:
+            log.info("%s%r: %s; skipped", method, args, e)
+            return False, None
+
+    def _set_up(self, session: Any, lost: threading.Event, reason: list[str]) -> _Link:
+        motion: Any = self._service(session, "ALMotion", required=True)
+        tts: Any = self._service(session, "ALTextToSpeech", required=True)
+        leds = self._service(session, "ALLeds", required=False) if self.leds else None
+        restore: list[tuple[Any, str, tuple[Any, ...]]] = []
+        life = self._service(session, "ALAutonomousLife", required=False)
+        if life is not None and hasattr(life, "setAutonomousAbilityEnabled"):
+            for ability in AUTONOMOUS_ABILITIES:
+                _, was = self._optional(life, "isAutonomousAbilityEnabled", ability)
+                done, _ = self._optional(life, "setAutonomousAbilityEnabled", ability, False)
+                if done and was:
+                    restore.append((life, "setAutonomousAbilityEnabled", (ability, True)))
+        else:
+            awareness = self._service(session, "ALBasicAwareness", required=False)
+            done, _ = self._optional(awareness, "pauseAwareness")
+            if done:
+                restore.append((awareness, "resumeAwareness", ()))
+        self._wait(motion.wakeUp(_async=True), "ALMotion.wakeUp", self.wake_timeout_s)
+        for setter, getter in (
+            ("setBreathEnabled", "getBreathEnabled"),
+            ("setIdlePostureEnabled", "getIdlePostureEnabled"),
+        ):
+            _, was = self._optional(motion, getter, "Body")
+            done, _ = self._optional(motion, setter, "Body", False)
+            if done and was:
+                restore.append((motion, setter, ("Body", True)))
+        names = self._wait(
+            motion.getBodyNames("Body", _async=True), "ALMotion.getBodyNames", self.call_timeout_s
+        )
+        limits = self._wait(
+            motion.getLimits("Body", _async=True), "ALMotion.getLimits", self.call_timeout_s
+        )
+        joints = tuple(str(n) for n in names)
+        self._check_body(joints)
+        velocity = {n: float(lim[2]) for n, lim in zip(joints, limits, strict=False)}
+        return _Link(session, motion, tts, leds, joints, velocity, lost, reason, restore)
+
+    def _check_body(self, joints: tuple[str, ...]) -> None:
+        """The robot must have every head and arm joint of the project's NAO model."""
+        from prezence.feedback.limits import load_limits
+
+        chains = load_limits().chains
+        needed = [n for c in ("Head", "LArm", "RArm") for n in chains[c]]
+        missing = [n for n in needed if n not in joints]
+        if missing:
+            raise BackendUnavailable(
+                f"the robot at {self.url} lacks joints {', '.join(missing)}: is it a NAO?"
+            )
+
+    # -- actions -------------------------------------------------------------------------------
+    def _usable(self, what: str) -> _Link:
+        link = self._link
+        if link is None or link.lost.is_set():
+            self._counts["dropped"] += 1
+            why = self._lost_reason or "disconnected"
+            raise BackendUnavailable(f"{what} dropped: robot at {self.url} is lost ({why})")
+        return link
+
+    def _start_gesture(self, traj: Trajectory, motion: Motion) -> None:
+        link = self._usable(f"gesture {traj.name!r}")
+        for j in traj.joints:
+            if j not in link.joints:
+                raise UnknownName("joint", j, link.joints)
+        self._check_speed(traj, link)
+        names = list(traj.joints)
+        angles = [[float(p[k]) for p in traj.positions] for k in range(len(names))]
+        times = [[float(t) for t in traj.times] for _ in names]
+        self._send(
+            motion,
+            link,
+            lambda: link.motion.angleInterpolation(names, angles, times, True, _async=True),
+            joints=traj.joints,
+            budget_s=traj.duration + self.motion_margin_s,
+        )
+
+    def _start_speech(self, text: str, motion: Motion) -> None:
+        link = self._usable(f"phrase {text!r}")
+        self._send(
+            motion,
+            link,
+            lambda: link.tts.say(text, _async=True),
+            joints=(),
+            budget_s=2.0 * motion.planned_s + self.motion_margin_s,
+        )
+
+    def _send(
+        self,
+        motion: Motion,
+        link: _Link,
+        call: Callable[[], Any],
+        *,
+        joints: tuple[str, ...],
+        budget_s: float,
+    ) -> None:
+        sent = time.monotonic()
+        try:
+            fut = call()
+        except RuntimeError as e:
+            self._lose(str(e), motion.started_at)
+            self._counts["dropped"] += 1
+            raise BackendUnavailable(f"robot at {self.url} is lost: {_first_line(str(e))}") from e
+        done_at: list[float] = []
+        fut.addCallback(lambda _f: done_at.append(time.monotonic()))
+        self._calls.append(_Call(motion, fut, sent, sent + budget_s, joints, done_at))
+        motion.info["sent_mono"] = sent
+        if link.leds is not None and not self._eyes_on:
+            self._eyes_on = True
+            self._aside.append(link.leds.fadeRGB("FaceLeds", CUE_RGB, 0.1, _async=True))
+
+    def _check_speed(self, traj: Trajectory, link: _Link) -> None:
+        """Count segments whose mean speed already exceeds speed_fraction × the robot's limit."""
+        prev_t, prev = 0.0, traj.start
+        for t, pos in zip(traj.times, traj.positions, strict=True):
+            for k, j in enumerate(traj.joints):
+                limit = self.speed_fraction * link.velocity.get(j, float("inf"))
+                speed = abs(pos[k] - prev[k]) / (t - prev_t)
+                if speed > limit:
+                    self._counts["too_fast"] += 1
+                    log.warning(
+                        "gesture %r: %s needs %.2f rad/s before %.2f s, over %.2f rad/s "
+                        "(%.0f%% of the robot's limit); NAOqi may slow or clip it",
+                        traj.name,
+                        j,
+                        speed,
+                        t,
+                        limit,
+                        100 * self.speed_fraction,
+                    )
+                    return
+            prev_t, prev = t, pos
+
+    # -- polling -------------------------------------------------------------------------------
+    def _advance(self, now: float) -> None:
+        mono = time.monotonic()
+        link = self._link
+        if link is not None and link.lost.is_set():
+            self._lose(link.reason[0] if link.reason else "disconnected", now)
+        for call in list(self._calls):
+            self._poll_call(call, now, mono)
+        self._heartbeat(mono, now)
+        if self._link is None and not self._closed:
+            self._reconnect(mono)
+        self._aside = [f for f in self._aside if not f.isFinished()]
+        link = self._link
+        if link is not None and link.leds is not None and self._eyes_on and not self._calls:
+            self._eyes_on = False
+            self._aside.append(link.leds.fadeRGB("FaceLeds", IDLE_RGB, 0.3, _async=True))
+
+    def _poll_call(self, call: _Call, now: float, mono: float) -> None:
+        fut, m = call.future, call.motion
+        if fut.isFinished():
+            self._calls.remove(call)
+            measured = (call.done_at[0] if call.done_at else mono) - call.sent
+            end = min(now, m.started_at + measured)
+            if fut.isCanceled():
+                self._fail(m, end, "cancelled")
+            elif fut.hasError():
+                error = _first_line(fut.error())
+                self._fail(m, end, error)
+                if _looks_lost(error):
+                    self._lose(error, now)
+            else:
+                m.finish(end, ok=True, measured_s=measured, lag_s=measured - m.planned_s)
+        elif mono > call.deadline:
+            self._calls.remove(call)
+            fut.cancel()
+            self._counts["timeouts"] += 1
+            self._fail(m, now, f"no end within {call.deadline - call.sent:.1f} s")
+            link = self._link
+            if link is not None:  # stop the robot's task too (cancel may not reach it)
+                if m.kind is MotionKind.GESTURE:
+                    kill = link.motion.killTasksUsingResources(list(call.joints), _async=True)
+                else:
+                    kill = link.tts.stopAll(_async=True)
+                self._aside.append(kill)
+
+    def _fail(self, m: Motion, at: float, error: str) -> None:
+        self._counts["failed"] += 1
+        log.warning("%s %r failed: %s", m.kind.value, m.name, error)
+        m.finish(max(at, m.started_at), ok=False, error=error)
+
+    def _heartbeat(self, mono: float, now: float) -> None:
+        link = self._link
+        if link is None:
+            return
+        if self._ping is None:
+            if mono >= self._next_ping:
+                try:
+                    fut = link.motion.getAngles("HeadYaw", True, _async=True)
+                except RuntimeError as e:
+                    self._lose(str(e), now)
+                    return
+                done_at: list[float] = []
+                fut.addCallback(lambda _f: done_at.append(time.monotonic()))
+                self._ping = (fut, mono, done_at)
+            return
+        fut, sent, ping_done = self._ping
+        if fut.isFinished():
+            self._ping = None
+            self._next_ping = mono + self.heartbeat_s
+            if fut.hasError():
+                self._lose(_first_line(fut.error()), now)
+            else:
+                self._rtt_ms.append(1000.0 * ((ping_done or [mono])[0] - sent))
+        elif mono - sent > self.call_timeout_s:
+            self._ping = None
+            fut.cancel()
+            self._lose(f"no heartbeat answer within {self.call_timeout_s:g} s", now)
+
+    def _lose(self, reason: str, now: float) -> None:
+        """The link is dead: fail what runs, drop the proxies, schedule a reconnect."""
+        link = self._link
+        if link is None:
+            return
+        self._link = None
+        self._ping = None
+        self._lost_reason = _first_line(reason)
+        self._counts["disconnects"] += 1
+        log.warning("lost the robot at %s: %s", self.url, self._lost_reason)
+        for call in self._calls:
+            call.future.cancel()
+            self._fail(call.motion, now, f"robot lost: {self._lost_reason}")
+        self._calls.clear()
+        self._aside.append(link.session.close(_async=True))
+        self._backoff = self.reconnect_initial_s
+        self._next_attempt = time.monotonic() + self._backoff
+
+    def _reconnect(self, mono: float) -> None:
+        if self._attempt is None:
+            if mono >= self._next_attempt:
+                if self._executor is None:
+                    self._executor = concurrent.futures.ThreadPoolExecutor(
+                        max_workers=1, thread_name_prefix="naoqi-reconnect"
+                    )
+                self._attempt = self._executor.submit(self._connect)
+            return
+        if not self._attempt.done():
+            return
+        attempt, self._attempt = self._attempt, None
+        try:
+            link = attempt.result()
+        except BackendUnavailable as e:
+            self._backoff = min(2.0 * self._backoff, self.reconnect_max_s)
+            self._next_attempt = time.monotonic() + self._backoff
+            log.info("reconnect failed (%s); next try in %.1f s", e, self._backoff)
+            return
+        self._lost_reason = ""
+        self._install(link)
+
+    # -- helpers for callers that may block ------------------------------------------------------
+    def wait_idle(self, timeout_s: float, clock: Callable[[], float]) -> bool:
+        """Block until the running motions end (or ``timeout_s``); True when not busy.
+
+        For scripts, tests and the end-of-talk summary: it waits on the calls' futures, then
+        calls :meth:`advance` with ``clock()``.
+        """
+        end = time.monotonic() + timeout_s
+        for call in list(self._calls):
+            left = end - time.monotonic()
+            if left > 0:
+                call.future.wait(max(1, int(min(left, call.deadline - time.monotonic()) * 1000)))
+        self.advance(clock())
+        return not self.busy
+
+    def wait_connected(self, timeout_s: float, clock: Callable[[], float]) -> bool:
+        """Keep advancing (reconnecting) until connected or ``timeout_s``; True when connected."""
+        end = time.monotonic() + timeout_s
+        pause = threading.Event()
+        while True:
+            self.advance(clock())
+            if self.connected:
+                return True
+            left = end - time.monotonic()
+            if left <= 0:
+                return False
+            if self._attempt is not None:
+                concurrent.futures.wait([self._attempt], timeout=left)
+            else:
+                pause.wait(min(left, max(0.0, self._next_attempt - time.monotonic())))
+
+    # -- closing -------------------------------------------------------------------------------
+    def _close(self) -> None:
+        for call in self._calls:
+            call.future.cancel()
+            self._fail(call.motion, call.motion.started_at, "backend closed")
+        self._calls.clear()
+        if self._attempt is not None:
+            self._attempt.cancel()
+        if self._executor is not None:
+            self._executor.shutdown(wait=False, cancel_futures=True)
+        link, self._link = self._link, None
+        if link is None or link.lost.is_set():
+            return
+        try:
+            if link.leds is not None:
+                self._optional(link.leds, "fadeRGB", "FaceLeds", IDLE_RGB, 0.1)
+            for proxy, method, args in link.restore:
+                self._optional(proxy, method, *args)
+            if self.rest_on_close:
+                self._wait(link.motion.rest(_async=True), "ALMotion.rest", self.wake_timeout_s)
+        except BackendUnavailable as e:
+            log.warning("closing: %s", e)
+        finally:
+            close = link.session.close(_async=True)
+            close.wait(int(self.call_timeout_s * 1000))
