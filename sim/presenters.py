@@ -23,9 +23,9 @@ The value of a metric at time ``t`` is built in three layers:
 
 The noise-free value of layers 1–2 is :meth:`SyntheticPresenter.true_value`. Ground truth
 (:meth:`SyntheticPresenter.truth`) is judged from it by the config's rule on a fixed grid of
-:data:`TRUTH_STEP_S`, computed as the clock advances, so it reflects the reactions that really
-happened in the closed loop. A reaction never rewrites the past: it starts no earlier than the
-presenter's current time.
+:data:`TRUTH_STEP_S`, incrementally up to the presenter's current time, so it reflects the
+reactions that really happened in the closed loop. A reaction never rewrites the past: it acts
+only after the presenter's current time when it was scheduled.
 
 Randomness: every metric has its own streams derived from ``(seed, crc32(metric name))``, and the
 reactions have one more, so adding a metric changes no other metric's samples. Noise, dropouts
@@ -76,8 +76,9 @@ _GRID_PER_S = 10  # 1 / TRUTH_STEP_S, as an integer so that grid times are exact
 
 #: For a two-sided band the comfortable value lies this fraction of the band's width inside it.
 COMFORT_BAND_FRACTION = 0.25
-#: For a one-sided rule it lies this many deviation scales inside the bound (0.5 × 6 dB = 3 dB).
-COMFORT_SCALES = 0.5
+#: For a one-sided rule it lies this many deviation scales inside the bound (66 dB for >= 60 dB
+#: with a 6 dB scale; -5 deg for >= -15 deg with a 10 deg scale).
+COMFORT_SCALES = 1.0
 
 # The forms of a garbage line; the runner writes them where a sample would have gone.
 _GARBAGE_FORMS = ("{t:.3f}", "{t:.3f} ???", "garbage")
@@ -101,15 +102,16 @@ def comfortable_values(rule: Rule) -> tuple[float | None, float | None]:
     Returns ``(raise_to, lower_to)``: the value aimed at after a "raise" command (the band's
     low side) and after a "lower" command (its high side); None where the rule has no such bound.
     A two-sided band puts them :data:`COMFORT_BAND_FRACTION` of its width inside each bound;
-    a one-sided rule :data:`COMFORT_SCALES` deviation scales inside (10 % of the bound when the
-    rule has no scale). The rule's ``offset`` is undone, as the rule judges ``value + offset``.
+    a one-sided rule :data:`COMFORT_SCALES` deviation scales inside (a scale of 10 % of the bound
+    when the rule has none: 0.88 for a clarity bound of 0.8). The rule's ``offset`` is undone,
+    as the rule judges ``value + offset``.
 
     Example:
         >>> from prezence.config.model import Check
         >>> comfortable_values(Rule("speech_speed", Check.IN_RANGE, low=140, high=180))
         (150.0, 170.0)
         >>> comfortable_values(Rule("speech_volume", Check.MIN, low=60, scale=6))
-        (63.0, None)
+        (66.0, None)
     """
     low, high = rule.low, rule.high
     raise_to: float | None = None
@@ -118,10 +120,10 @@ def comfortable_values(rule: Rule) -> tuple[float | None, float | None]:
         inset = COMFORT_BAND_FRACTION * (high - low)
         raise_to, lower_to = low + inset, high - inset
     elif low is not None:
-        ref = rule.scale if rule.scale is not None else 0.2 * abs(low)
+        ref = rule.scale if rule.scale is not None else 0.1 * abs(low)
         raise_to = low + COMFORT_SCALES * ref
     elif high is not None:
-        ref = rule.scale if rule.scale is not None else 0.2 * abs(high)
+        ref = rule.scale if rule.scale is not None else 0.1 * abs(high)
         lower_to = high - COMFORT_SCALES * ref
     return (
         None if raise_to is None else float(raise_to - rule.offset),
@@ -142,7 +144,8 @@ class _Pull:
         fade = self.end - self.hold_end
         tail = np.clip((self.end - t) / fade, 0.0, 1.0) if fade > 0 else np.zeros_like(t)
         w = np.where(t <= self.hold_end, 1.0, tail)
-        return np.where(t < self.start, 0.0, w) * self.size
+        # Strictly after the start: a reaction starting "now" leaves the value at now as it was.
+        return np.where(t <= self.start, 0.0, w) * self.size
 
 
 class _Script:
@@ -332,7 +335,6 @@ class SyntheticPresenter:
                     self._garbage.append(GarbageLine(metric, t, _GARBAGE_FORMS[form].format(t=t)))
                     continue
                 out.append(Sample(metric, t, v))
-        self._judge_truth(now)
         self._now = now
         out.sort(key=lambda s: s.t)  # stable: within one instant, metrics keep scenario order
         return out
@@ -478,11 +480,17 @@ class SyntheticPresenter:
     def truth(self) -> list[dict[str, Any]]:
         """When each metric's noise-free value was really out of its rule's range, so far.
 
+        Judged incrementally, from where the last call stopped up to the current time, with
+        the reactions as they happened: a reaction only changes values after the moment it was
+        scheduled, so judging late gives exactly what judging at every :meth:`advance` would.
+
         Returns:
             Intervals ``{"metric", "start", "end", "side", "peak_deviation"}`` sorted by start;
             ``side`` is ``"below"`` or ``"above"``; ``end`` is when it came back in range (for one
             still open: the last grid time judged). Judged every :data:`TRUTH_STEP_S` seconds.
         """
+        if math.isfinite(self._now):
+            self._judge_truth(self._now)
         out = list(self._intervals)
         now = (self._truth_next - 1) / _GRID_PER_S
         for metric, st in self._truth.items():
