@@ -1,15 +1,103 @@
-"""The PyBullet NAO (CONTRACT STUB: the NAO-model work fills this in; keep these signatures).
+"""The PyBullet NAO: the project's URDF with its joint limits, stepped by the caller.
 
 Used by ``sim.backend.SimBackend`` (gestures in headless talks) and by ``sim.virtual_nao``
 (the NAOqi look-alike server). Stepping is driven by the caller's clock: nothing free-runs.
+
+How it is simulated, and why:
+
+* **Fixed base, standing.** The torso is welded to the world at standing height (legs straight,
+  soles on the floor). A coaching NAO stands still and only moves its head and arms, so a
+  floating base would add contacts and balance control for nothing.
+* **Motors.** Every joint is under ``POSITION_CONTROL`` from ``open()`` on; this replaces
+  PyBullet's default velocity motors (which hold 0 rad/s with a large force). Every command
+  passes ``maxVelocity = fraction × URDF velocity`` (PyBullet ignores the URDF's ``velocity``
+  and treats ``maxVelocity=0`` as *no cap*, so a fraction of 0 is refused) and
+  ``force = URDF effort``.
+* **Trajectories** (:meth:`NaoSim.follow`) are tracked by sampling ``Trajectory.sample`` and
+  ``Trajectory.velocity`` at the end of each physics step (position target plus velocity feed-
+  forward), still under the velocity cap.
+* **Coupled joints.** A HipYawPitch target goes to both hip joints (PyBullet ignores
+  ``<mimic>``); HeadPitch targets are clipped to the HeadYaw-dependent anti-collision range.
+* **No self-collision** by default: the shapes are visual stand-ins and neighbouring links
+  overlap in deep poses, where contacts would fight the joint limits. ``self_collision=True``
+  loads with ``URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS``.
+* **Idle skipping.** When no trajectory runs and every joint has come to rest at its target,
+  :meth:`step_to` jumps the clock without stepping: a fixed-base robot holding still does
+  nothing, so skipped steps would only burn CPU. A 10-minute talk then costs only the seconds
+  the robot actually moves.
+* **Recording.** Each step reads every joint's position and velocity: per joint the peak speed
+  as a share of the URDF limit, and the count of samples beyond a position limit
+  (``POSITION_TOL`` rad) or a velocity limit (``VELOCITY_TOL`` × limit).
 """
 
 from __future__ import annotations
 
+import logging
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+import pybullet as p
+
+from prezence.feedback.limits import JointLimits, load_limits, require_finite
 from prezence.feedback.trajectory import Trajectory
+
+log = logging.getLogger(__name__)
+
+#: Torso height above the floor with straight legs: HipOffsetZ + thigh + tibia + FootHeight.
+STANDING_HEIGHT_M = 0.085 + 0.100 + 0.1029 + 0.04519
+#: Share of the position error the motor removes per step (PyBullet's default is 0.1, which lags
+#: by about ten steps; with the trajectory's velocity as feed-forward a stiffer gain is stable).
+POSITION_GAIN = 0.5
+#: Slack before a sample counts as a position-limit violation (rad; hands: fraction).
+POSITION_TOL = 0.005
+#: Slack before a sample counts as a velocity-limit violation (share of the URDF limit).
+VELOCITY_TOL = 0.02
+#: A trajectory has arrived when every joint is this close to its final value (rad) …
+ARRIVAL_TOL = 0.005
+#: … and slower than this (rad/s).
+REST_SPEED = 0.05
+#: A finished trajectory that has not arrived this long after its planned end is given up.
+SETTLE_TIMEOUT_S = 1.0
+
+
+@dataclass
+class Tracking:
+    """How the robot followed one trajectory (filled in step by step).
+
+    Attributes:
+        traj: the trajectory.
+        start: sim time it started.
+        peak_speed: per joint of the trajectory, highest measured speed (rad/s).
+        violations: samples beyond a position or velocity limit during it.
+        arrived_at: first sim time from which every joint stayed within ``ARRIVAL_TOL`` of the
+            final pose (None until the motion has settled).
+        finished_at: sim time the motion was declared over (arrived and at rest, or timed out).
+        ok: False if it timed out before settling.
+    """
+
+    traj: Trajectory
+    start: float
+    indices: tuple[int, ...]
+    final: np.ndarray
+    peak_speed: np.ndarray
+    violations: int = 0
+    arrived_at: float | None = None
+    finished_at: float | None = None
+    ok: bool = True
+    _inside_since: float | None = field(default=None, repr=False)
+
+    @property
+    def done(self) -> bool:
+        return self.finished_at is not None
+
+    @property
+    def measured_s(self) -> float | None:
+        """Start to arrival, in seconds (None while running)."""
+        end = self.arrived_at if self.arrived_at is not None else self.finished_at
+        return None if end is None else end - self.start
 
 
 class NaoSim:
@@ -19,48 +107,374 @@ class NaoSim:
         urdf: path of the URDF; None uses the project's ``assets/nao_urdf/nao.urdf``.
         gui: open a PyBullet window instead of DIRECT (headless).
         timestep: physics step in seconds.
+        self_collision: load with self-collision (parents excluded); off by default.
+        skip_idle: jump the clock without stepping while the robot is at rest.
     """
 
-    def __init__(self, *, urdf: Path | None = None, gui: bool = False, timestep: float = 1 / 240) -> None:
-        raise NotImplementedError
+    def __init__(
+        self,
+        *,
+        urdf: Path | None = None,
+        gui: bool = False,
+        timestep: float = 1 / 240,
+        self_collision: bool = False,
+        skip_idle: bool = True,
+        solver_iterations: int = 50,
+        position_gain: float = POSITION_GAIN,
+    ) -> None:
+        if not timestep > 0:
+            raise ValueError(f"timestep must be > 0, got {timestep!r}")
+        self.urdf = Path(urdf) if urdf is not None else None
+        self.gui = gui
+        self.timestep = float(timestep)
+        self.self_collision = self_collision
+        self.skip_idle = skip_idle
+        self.solver_iterations = int(solver_iterations)
+        self.position_gain = float(position_gain)
+        self._cid: int | None = None
+        self._robot = -1
+        self._t = 0.0
+        self._steps = 0
+        self._names: tuple[str, ...] = ()
+        self._index: dict[str, int] = {}
+        self._limits: JointLimits | None = None
+        self._targets: dict[str, float] = {}
+        self._track: Tracking | None = None
+        self._follow_fraction = 1.0
+        self._track_cols = np.zeros(0, dtype=int)
+        self._all_idx: list[int] = []
+        self._lo = self._hi = self._vcap = np.zeros(0)
+        self._peak = np.zeros(0)
+        self._violations = 0
+        self._pos_violations = 0
+        self._vel_violations = 0
 
+    # -- lifecycle ----------------------------------------------------------------------------
     def open(self) -> None:
         """Connect to PyBullet and load the robot standing (fixed base)."""
-        raise NotImplementedError
+        if self._cid is not None:
+            return
+        from prezence.feedback.gestures import load_library
+        from prezence.resources import urdf_path
+
+        path = self.urdf if self.urdf is not None else urdf_path()
+        self._limits = load_limits(path)
+        cid = p.connect(p.GUI if self.gui else p.DIRECT)
+        if cid < 0:
+            raise RuntimeError("cannot connect to PyBullet")
+        self._cid = cid
+        p.setTimeStep(self.timestep, physicsClientId=cid)
+        p.setGravity(0, 0, -9.81, physicsClientId=cid)
+        p.setPhysicsEngineParameter(numSolverIterations=self.solver_iterations, physicsClientId=cid)
+        flags = p.URDF_USE_INERTIA_FROM_FILE
+        if self.self_collision:
+            flags |= p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS
+        self._robot = p.loadURDF(
+            str(path),
+            [0.0, 0.0, STANDING_HEIGHT_M],
+            useFixedBase=True,
+            flags=flags,
+            physicsClientId=cid,
+        )
+        index: dict[str, int] = {}
+        for i in range(p.getNumJoints(self._robot, physicsClientId=cid)):
+            info = p.getJointInfo(self._robot, i, physicsClientId=cid)
+            if info[2] == p.JOINT_REVOLUTE:
+                index[info[1].decode()] = i
+        self._names = tuple(n for n in self._limits.names if n in index)
+        self._index = index
+        self._peak = np.zeros(len(self._names))
+        lim = self._limits
+        self._all_idx = [index[n] for n in self._names]
+        self._lo = np.array([lim.lower[n] for n in self._names]) - POSITION_TOL
+        self._hi = np.array([lim.upper[n] for n in self._names]) + POSITION_TOL
+        self._vcap = np.array([lim.velocity[n] for n in self._names]) * (1.0 + VELOCITY_TOL)
+        neutral = dict(load_library(self._limits).neutral)
+        for name in self._names:
+            p.resetJointState(
+                self._robot, index[name], neutral.get(name, 0.0), 0.0, physicsClientId=cid
+            )
+        self._targets = {}
+        self._command(neutral, 1.0)
+        self._t = 0.0
+        self._steps = 0
 
     def close(self) -> None:
         """Disconnect; safe to call twice."""
-        raise NotImplementedError
+        if self._cid is not None:
+            p.disconnect(physicsClientId=self._cid)
+            self._cid = None
 
+    def __enter__(self) -> NaoSim:
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- state --------------------------------------------------------------------------------
     @property
     def time(self) -> float:
         """Simulated seconds since open()."""
-        raise NotImplementedError
+        return self._t
+
+    @property
+    def steps(self) -> int:
+        """Physics steps taken since open() (idle jumps take none)."""
+        return self._steps
 
     @property
     def joint_names(self) -> tuple[str, ...]:
-        raise NotImplementedError
+        return self._names
 
+    @property
+    def client(self) -> int:
+        """The PyBullet physics client id (for rendering)."""
+        return self._require()
+
+    @property
+    def robot(self) -> int:
+        """The robot's PyBullet body id."""
+        self._require()
+        return self._robot
+
+    @property
+    def limits(self) -> JointLimits:
+        if self._limits is None:
+            raise RuntimeError("NaoSim is not open")
+        return self._limits
+
+    @property
+    def tracking(self) -> Tracking | None:
+        """The record of the last trajectory given to follow()."""
+        return self._track
+
+    def _require(self) -> int:
+        if self._cid is None:
+            raise RuntimeError("NaoSim is not open")
+        return self._cid
+
+    def positions(self, names: Sequence[str] | None = None) -> list[float]:
+        """Measured joint positions (all joints in joint_names order when names is None)."""
+        return [s[0] for s in self._states(names)]
+
+    def velocities(self, names: Sequence[str] | None = None) -> list[float]:
+        """Measured joint velocities (rad/s)."""
+        return [s[1] for s in self._states(names)]
+
+    def _states(self, names: Sequence[str] | None) -> list[tuple[float, float]]:
+        cid = self._require()
+        idx = [self._joint_index(n) for n in (names if names is not None else self._names)]
+        return [(s[0], s[1]) for s in p.getJointStates(self._robot, idx, physicsClientId=cid)]
+
+    def _joint_index(self, name: str) -> int:
+        if name not in self._index:
+            self.limits.require_known([name])
+            raise ValueError(f"{name} is not a movable joint of this robot")
+        return self._index[name]
+
+    def peak_velocity_ratio(self) -> dict[str, float]:
+        """Per joint, the highest measured speed since open() / its URDF velocity limit."""
+        lim = self.limits
+        return {n: float(v) / lim.velocity[n] for n, v in zip(self._names, self._peak, strict=True)}
+
+    def stats(self) -> dict[str, float | int]:
+        """Whole-run figures: steps, violations (position, velocity) and the peak speed ratio."""
+        ratios = self.peak_velocity_ratio()
+        return {
+            "sim_time_s": self._t,
+            "steps": self._steps,
+            "violations": self._violations,
+            "position_violations": self._pos_violations,
+            "velocity_violations": self._vel_violations,
+            "peak_velocity_ratio": max(ratios.values()) if ratios else 0.0,
+        }
+
+    # -- commands -----------------------------------------------------------------------------
     def set_targets(
-        self, names: Sequence[str], positions: Sequence[float], speed_fraction: float | Sequence[float]
+        self,
+        names: Sequence[str],
+        positions: Sequence[float],
+        speed_fraction: float | Sequence[float],
     ) -> None:
         """Velocity-capped position control (NAOqi setAngles semantics): each joint moves to its
         target no faster than fraction × its URDF velocity limit. Targets outside the position
         limits are clipped; NaN raises ValueError naming the joint."""
-        raise NotImplementedError
+        self._require()
+        names = list(names)
+        values = [float(v) for v in positions]
+        if len(names) != len(values):
+            raise ValueError(f"{len(names)} joint names for {len(values)} positions")
+        fractions = (
+            [float(speed_fraction)] * len(names)
+            if isinstance(speed_fraction, int | float)
+            else [float(f) for f in speed_fraction]
+        )
+        if len(fractions) != len(names):
+            raise ValueError(f"{len(names)} joint names for {len(fractions)} speed fractions")
+        targets = dict(zip(names, values, strict=True))
+        require_finite(targets)
+        self.limits.require_known(targets)
+        for n, f in zip(names, fractions, strict=True):
+            # maxVelocity=0 would mean "no cap" to PyBullet: refuse it instead.
+            if not 0.0 < f <= 1.0:
+                raise ValueError(f"{n}: speed fraction must be in (0, 1], got {f!r}")
+        frac = dict(zip(names, fractions, strict=True))
+        clipped = self.limits.clip(
+            targets, pose=dict(zip(self._names, self.positions(), strict=True))
+        )
+        for hip in ("LHipYawPitch", "RHipYawPitch"):
+            if hip in clipped and hip not in frac:
+                frac[hip] = frac.get("LHipYawPitch", frac.get("RHipYawPitch", 1.0))
+        if self._track is not None and not self._track.done:
+            moved = set(clipped) & set(self._track.traj.joints)
+            if moved:
+                self._finish_track(ok=False)
+        for name, value in clipped.items():
+            self._command({name: value}, frac[name])
 
-    def follow(self, traj: Trajectory, *, start: float | None = None) -> None:
-        """Track ``traj`` from sim time ``start`` (default: now), replacing targets of its joints."""
-        raise NotImplementedError
+    def _command(
+        self,
+        targets: dict[str, float],
+        fraction: float,
+        velocities: dict[str, float] | None = None,
+    ) -> None:
+        cid = self._require()
+        lim = self.limits
+        for name, q in targets.items():
+            self._targets[name] = q
+            p.setJointMotorControl2(
+                self._robot,
+                self._index[name],
+                p.POSITION_CONTROL,
+                targetPosition=q,
+                targetVelocity=(velocities or {}).get(name, 0.0),
+                maxVelocity=fraction * lim.velocity[name],
+                positionGain=self.position_gain,
+                velocityGain=1.0,
+                force=lim.effort[name],
+                physicsClientId=cid,
+            )
+
+    def follow(
+        self, traj: Trajectory, *, start: float | None = None, speed_fraction: float = 1.0
+    ) -> None:
+        """Track ``traj`` from sim time ``start`` (default: now), replacing targets of its joints.
+
+        Args:
+            traj: the trajectory (its joints must be URDF joints).
+            start: sim time of its t = 0 (default: now).
+            speed_fraction: the velocity cap passed with every command, as a fraction of the URDF
+                limit; the backend passes the fraction the trajectory was planned at.
+        """
+        self._require()
+        if not 0.0 < speed_fraction <= 1.0:
+            raise ValueError(f"speed fraction must be in (0, 1], got {speed_fraction!r}")
+        self.limits.require_known(traj.joints)
+        if self._track is not None and not self._track.done:
+            self._finish_track(ok=False)
+        t0 = self._t if start is None else float(start)
+        self._track = Tracking(
+            traj=traj,
+            start=t0,
+            indices=tuple(self._index[j] for j in traj.joints),
+            final=np.asarray(traj.sample(traj.duration), dtype=float),
+            peak_speed=np.zeros(len(traj.joints)),
+        )
+        self._follow_fraction = float(speed_fraction)
+        self._track_cols = np.array([self._names.index(j) for j in traj.joints], dtype=int)
 
     def following(self) -> bool:
         """True while a trajectory given to follow() has not reached its end."""
-        raise NotImplementedError
+        return self._track is not None and not self._track.done
 
+    # -- stepping -----------------------------------------------------------------------------
     def step_to(self, t: float) -> None:
         """Advance the physics to sim time ``t`` (recording joint states)."""
-        raise NotImplementedError
+        cid = self._require()
+        if not math.isfinite(t):
+            raise ValueError(f"step_to needs a finite time, got {t!r}")
+        dt = self.timestep
+        eps = 1e-9
+        while self._t + dt <= t + eps:
+            if self.skip_idle and not self.following() and self._at_rest():
+                self._t = t
+                return
+            self._apply_track(self._t + dt)
+            p.stepSimulation(physicsClientId=cid)
+            self._steps += 1
+            self._t += dt
+            self._record()
 
-    def positions(self, names: Sequence[str] | None = None) -> list[float]:
-        """Measured joint positions (all joints in joint_names order when names is None)."""
-        raise NotImplementedError
+    def _apply_track(self, t_next: float) -> None:
+        tr = self._track
+        if tr is None or tr.done:
+            return
+        tau = t_next - tr.start
+        if tau < 0.0:
+            return
+        q = tr.traj.sample(tau)
+        v = tr.traj.velocity(tau)
+        names = tr.traj.joints
+        self._command(
+            dict(zip(names, (float(x) for x in q), strict=True)),
+            self._follow_fraction,
+            dict(zip(names, (float(x) for x in v), strict=True)),
+        )
+
+    def _record(self) -> None:
+        cid = self._require()
+        states = p.getJointStates(self._robot, self._all_idx, physicsClientId=cid)
+        q = np.fromiter((s[0] for s in states), float, len(states))
+        v = np.abs(np.fromiter((s[1] for s in states), float, len(states)))
+        np.maximum(self._peak, v, out=self._peak)
+        pos_bad = (q < self._lo) | (q > self._hi)
+        vel_bad = v > self._vcap
+        if pos_bad.any() or vel_bad.any():
+            n_pos, n_vel = int(np.count_nonzero(pos_bad)), int(np.count_nonzero(vel_bad))
+            self._pos_violations += n_pos
+            self._vel_violations += n_vel
+            self._violations += n_pos + n_vel
+        tr = self._track
+        if tr is None or tr.done:
+            return
+        col = self._track_cols
+        tr.peak_speed = np.maximum(tr.peak_speed, v[col])
+        tr.violations += int(np.count_nonzero(pos_bad[col]) + np.count_nonzero(vel_bad[col]))
+        inside = bool(np.all(np.abs(q[col] - tr.final) <= ARRIVAL_TOL))
+        if not inside:
+            tr._inside_since = None
+        elif tr._inside_since is None:
+            tr._inside_since = self._t
+        end = tr.start + tr.traj.duration
+        if self._t >= end - 1e-9:
+            if inside and bool(np.all(v[col] <= REST_SPEED)):
+                tr.arrived_at = tr._inside_since
+                self._finish_track(ok=True)
+            elif self._t >= end + SETTLE_TIMEOUT_S:
+                log.warning(
+                    "%s: not settled %.1f s after its planned end", tr.traj.name, SETTLE_TIMEOUT_S
+                )
+                self._finish_track(ok=False)
+
+    def _finish_track(self, *, ok: bool) -> None:
+        tr = self._track
+        if tr is None or tr.done:
+            return
+        tr.finished_at = self._t
+        tr.ok = ok
+        # hold the final pose with a plain capped position target
+        self._command(
+            dict(zip(tr.traj.joints, (float(x) for x in tr.final), strict=True)),
+            self._follow_fraction,
+        )
+
+    def _at_rest(self) -> bool:
+        states = self._states(None)
+        for name, (q, v) in zip(self._names, states, strict=True):
+            if abs(v) > 1e-3:
+                return False
+            target = self._targets.get(name)
+            if target is not None and abs(q - target) > ARRIVAL_TOL:
+                return False
+        return True

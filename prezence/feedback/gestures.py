@@ -1,0 +1,432 @@
+"""The gesture library (data in ``data/gestures.toml``) and its timing against the joint limits.
+
+A gesture is a list of keyframes in degrees (hands: opening fraction 0..1) that starts from and
+returns to a neutral standing pose. Its timing is computed, never written down: each segment
+between keyframes takes the time its slowest joint needs at ``speed_fraction × URDF velocity``
+under the profile of :mod:`prezence.feedback.trajectory` (a trapezoidal velocity profile with
+short blends and an acceleration bound of ``v / ACCEL_TIME_S``), plus the holds the data asks
+for. :func:`time_optimal_minimum` is the fastest any rest-to-rest motion through the same
+keyframes could be under the same speed and acceleration bounds (bang-coast-bang per segment,
+same holds); the planned duration stays within 5.4 % of it by construction.
+
+TOML form (see the file's header for all keys)::
+
+    [gestures.slow_down]
+    description = "Both palms pat the air downwards twice: slow down."
+    mirror = true        # left-arm values are mirrored onto the right arm unless given
+    [[gestures.slow_down.keyframes]]
+    pose = { LShoulderPitch = 35, LWristYaw = 70, LHand = 1.0 }
+    hold = 0.2
+    [[gestures.slow_down.keyframes]]
+    repeat = 2           # or the name of a parameter, e.g. "minutes"
+    sequence = [ { pose = { LShoulderPitch = 60 } }, { pose = { LShoulderPitch = 35 } } ]
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from importlib import resources
+from types import MappingProxyType
+from typing import Any
+
+from prezence.errors import ConfigError, LimitViolation, UnknownName
+from prezence.feedback.limits import HANDS, HIP_YAW_PITCH, JointLimits, require_finite
+from prezence.feedback.trajectory import Trajectory, min_segment_duration, segment_duration
+
+log = logging.getLogger(__name__)
+
+GESTURES_FILE = "gestures.toml"
+#: NAOqi-like default ``fractionMaxSpeed`` for feedback gestures.
+DEFAULT_SPEED_FRACTION = 0.6
+#: Mirror rule left → right arm: pitch and hand keep their value, roll and yaw change sign.
+_MIRROR_SIGN = {
+    "ShoulderPitch": 1.0,
+    "ShoulderRoll": -1.0,
+    "ElbowYaw": -1.0,
+    "ElbowRoll": -1.0,
+    "WristYaw": -1.0,
+    "Hand": 1.0,
+}
+
+
+@dataclass(frozen=True)
+class Keyframe:
+    """A (partial) pose to reach, in radians (hands: fraction), then hold for ``hold`` seconds.
+
+    ``where`` is its place in the data file, e.g. ``keyframes[1].sequence[0]``.
+    """
+
+    pose: Mapping[str, float]
+    hold: float
+    where: str
+
+
+@dataclass(frozen=True)
+class Step:
+    """A keyframe, or a sequence of keyframes repeated ``repeat`` times (an int or a param)."""
+
+    keyframes: tuple[Keyframe, ...]
+    repeat: int | str = 1
+
+
+@dataclass(frozen=True)
+class Param:
+    """A gesture parameter: an integer clamped to [low, high]."""
+
+    name: str
+    default: int
+    low: int
+    high: int
+
+
+@dataclass(frozen=True)
+class Gesture:
+    """One gesture of the library."""
+
+    name: str
+    description: str
+    steps: tuple[Step, ...]
+    params: Mapping[str, Param] = field(default_factory=dict)
+
+    def resolve_params(self, params: Mapping[str, Any] | None) -> dict[str, int]:
+        """Parameter values with defaults filled in and clamped to their ranges.
+
+        Keys the gesture does not declare are ignored (a cue's parameters also feed its phrase).
+
+        Raises:
+            TypeError: a value that is not a whole number.
+        """
+        given = dict(params or {})
+        out: dict[str, int] = {}
+        for name, p in self.params.items():
+            v = given.get(name, p.default)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not float(v).is_integer():
+                raise TypeError(
+                    f"gesture '{self.name}': parameter {name} must be a whole number, got {v!r}"
+                )
+            out[name] = min(max(int(v), p.low), p.high)
+        return out
+
+    def keyframes(self, params: Mapping[str, Any] | None = None) -> list[Keyframe]:
+        """The keyframes in order, repeats expanded (without the final return to neutral)."""
+        values = self.resolve_params(params)
+        out: list[Keyframe] = []
+        for step in self.steps:
+            n = values[step.repeat] if isinstance(step.repeat, str) else step.repeat
+            for _ in range(n):
+                out.extend(step.keyframes)
+        return out
+
+
+@dataclass(frozen=True)
+class GestureLibrary:
+    """The neutral pose (radians) and every gesture by name."""
+
+    neutral: Mapping[str, float]
+    gestures: Mapping[str, Gesture]
+
+    def __getitem__(self, name: str) -> Gesture:
+        try:
+            return self.gestures[name]
+        except KeyError:
+            raise UnknownName("gesture", name, self.gestures) from None
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.gestures)
+
+
+# ---------------------------------------------------------------------------------------------
+# Parsing
+def _to_rad(joint: str, value: Any, path: str, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(f"expected a number, got {value!r}", path=path, key=key)
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{path}: {key}: {joint} target is {v!r}; joint targets must be finite")
+    return v if joint in HANDS else math.radians(v)
+
+
+def _mirror(pose: dict[str, float]) -> dict[str, float]:
+    out = dict(pose)
+    for name, v in pose.items():
+        if name.startswith("L") and name[1:] in _MIRROR_SIGN:
+            out.setdefault("R" + name[1:], v * _MIRROR_SIGN[name[1:]])
+    return out
+
+
+def _parse_pose(
+    raw: Any, *, known: set[str], mirror: bool, path: str, key: str
+) -> dict[str, float]:
+    if not isinstance(raw, Mapping):
+        raise ConfigError("expected a table of joint = value", path=path, key=key)
+    pose: dict[str, float] = {}
+    for joint, value in raw.items():
+        if joint not in known:
+            raise ConfigError(
+                str(UnknownName("joint", joint, known)), path=path, key=f"{key}.{joint}"
+            )
+        pose[joint] = _to_rad(joint, value, path, f"{key}.{joint}")
+    return _mirror(pose) if mirror else pose
+
+
+def _parse_keyframe(
+    raw: Mapping[str, Any], *, known: set[str], mirror: bool, path: str, key: str
+) -> Keyframe:
+    hold = raw.get("hold", 0.0)
+    if isinstance(hold, bool) or not isinstance(hold, int | float) or not hold >= 0:
+        raise ConfigError(f"hold must be seconds >= 0, got {hold!r}", path=path, key=f"{key}.hold")
+    unknown = set(raw) - {"pose", "hold", "mirror"}
+    if unknown:
+        raise ConfigError(f"unknown keys {sorted(unknown)}", path=path, key=key)
+    m = bool(raw.get("mirror", mirror))
+    pose = _parse_pose(raw.get("pose", {}), known=known, mirror=m, path=path, key=f"{key}.pose")
+    where = "keyframes" + key.split(".keyframes", 1)[1]
+    return Keyframe(MappingProxyType(pose), float(hold), where)
+
+
+def _parse_gesture(name: str, raw: Mapping[str, Any], *, known: set[str], path: str) -> Gesture:
+    base = f"gestures.{name}"
+    mirror = bool(raw.get("mirror", False))
+    params: dict[str, Param] = {}
+    for pname, spec in dict(raw.get("params", {})).items():
+        try:
+            params[pname] = Param(pname, int(spec["default"]), int(spec["min"]), int(spec["max"]))
+        except (KeyError, TypeError, ValueError) as e:
+            raise ConfigError(
+                "a parameter needs integer default, min and max",
+                path=path,
+                key=f"{base}.params.{pname}",
+            ) from e
+    steps: list[Step] = []
+    raw_steps = raw.get("keyframes")
+    if not isinstance(raw_steps, list) or not raw_steps:
+        raise ConfigError("a gesture needs a non-empty keyframes list", path=path, key=base)
+    for i, entry in enumerate(raw_steps):
+        key = f"{base}.keyframes[{i}]"
+        if "sequence" in entry:
+            repeat = entry.get("repeat", 1)
+            if isinstance(repeat, str):
+                if repeat not in params:
+                    raise ConfigError(
+                        f"repeat names unknown parameter {repeat!r}", path=path, key=f"{key}.repeat"
+                    )
+            elif isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
+                raise ConfigError(
+                    "repeat must be an integer >= 1 or a parameter name", path=path, key=key
+                )
+            m = bool(entry.get("mirror", mirror))
+            frames = tuple(
+                _parse_keyframe(sub, known=known, mirror=m, path=path, key=f"{key}.sequence[{j}]")
+                for j, sub in enumerate(entry["sequence"])
+            )
+            steps.append(Step(frames, repeat))
+        else:
+            steps.append(
+                Step((_parse_keyframe(entry, known=known, mirror=mirror, path=path, key=key),))
+            )
+    return Gesture(name, str(raw.get("description", "")), tuple(steps), MappingProxyType(params))
+
+
+def parse_library(text: str, *, limits: JointLimits, path: str = GESTURES_FILE) -> GestureLibrary:
+    """Parse a gesture library from TOML text (joint names checked against ``limits``).
+
+    Raises:
+        ConfigError: TOML syntax (with line and column) or a bad key (with its key path).
+    """
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(
+            str(e), path=path, line=getattr(e, "lineno", None), col=getattr(e, "colno", None)
+        ) from e
+    if doc.get("format") != 1:
+        raise ConfigError(f"expected format = 1, found {doc.get('format')!r}", path=path)
+    known = set(limits.names)
+    neutral = _parse_pose(
+        doc.get("neutral", {}), known=known, mirror=True, path=path, key="neutral"
+    )
+    neutral = limits.couple(neutral)
+    missing = [n for n in limits.names if n not in neutral]
+    if missing:
+        raise ConfigError(f"the neutral pose lacks {', '.join(missing)}", path=path, key="neutral")
+    limits.check(neutral, where=f"{path}: neutral")
+    gestures = {
+        name: _parse_gesture(name, raw, known=known, path=path)
+        for name, raw in dict(doc.get("gestures", {})).items()
+    }
+    return GestureLibrary(MappingProxyType(neutral), MappingProxyType(gestures))
+
+
+@functools.cache
+def _builtin(source: str) -> GestureLibrary:
+    from prezence.feedback.limits import load_limits
+
+    text = resources.files("prezence.feedback").joinpath("data", GESTURES_FILE).read_text()
+    return parse_library(text, limits=load_limits(source or None))
+
+
+def load_library(limits: JointLimits | None = None) -> GestureLibrary:
+    """The built-in gesture library (parsed once per URDF)."""
+    return _builtin(str(limits.source) if limits is not None else "")
+
+
+# ---------------------------------------------------------------------------------------------
+# Timing
+def _check_fraction(speed_fraction: float) -> float:
+    f = float(speed_fraction)
+    if not 0.0 < f <= 1.0:
+        raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
+    return f
+
+
+def _ordered_joints(limits: JointLimits, used: set[str]) -> tuple[str, ...]:
+    if used & set(HIP_YAW_PITCH):
+        used = used | set(HIP_YAW_PITCH)
+    return tuple(n for n in limits.names if n in used)
+
+
+def build_trajectory(
+    name: str,
+    *,
+    params: Mapping[str, Any] | None = None,
+    speed_fraction: float,
+    limits: JointLimits,
+    start_pose: Mapping[str, float] | None = None,
+    library: GestureLibrary | None = None,
+) -> Trajectory:
+    """Plan gesture ``name``: from ``start_pose`` through its keyframes back to neutral.
+
+    Args:
+        name: a gesture of the library (``slow_down``, ``time_left``…).
+        params: gesture parameters, e.g. ``{"minutes": 3}`` for ``time_left`` (undeclared keys
+            are ignored).
+        speed_fraction: fraction of each joint's URDF velocity limit, in (0, 1].
+        limits: joint limits (from :func:`prezence.feedback.limits.load_limits`).
+        start_pose: where the robot is now (radians / hand fraction; missing joints: neutral).
+        library: a gesture library; default the built-in one.
+
+    Returns:
+        The trajectory; ``duration`` is known before it is played.
+
+    Raises:
+        UnknownName: no such gesture.
+        LimitViolation: a keyframe (or the start pose) is outside a position limit; the message
+            names the gesture, the keyframe (``keyframes[i]``) and the joint.
+        ValueError: ``speed_fraction`` outside (0, 1], or a NaN in ``start_pose`` (naming the
+            joint).
+    """
+    f = _check_fraction(speed_fraction)
+    lib = library if library is not None else load_library(limits)
+    gesture = lib[name]
+    frames = gesture.keyframes(params)
+    joints = _ordered_joints(limits, {j for kf in frames for j in kf.pose})
+    if not joints:
+        raise ConfigError(
+            f"gesture '{name}' moves no joint", path=GESTURES_FILE, key=f"gestures.{name}"
+        )
+
+    current = dict(lib.neutral)
+    if start_pose:
+        sp = {k: float(v) for k, v in start_pose.items()}
+        require_finite(sp, where=f"gesture '{name}' start pose")
+        sp = limits.couple(sp)
+        limits.check(sp, pose=current, where=f"gesture '{name}' start pose")
+        current.update(sp)
+    start = tuple(current[j] for j in joints)
+
+    speeds = [f * limits.velocity[j] for j in joints]
+    times: list[float] = []
+    positions: list[tuple[float, ...]] = []
+    t = 0.0
+    prev = start
+    targets = [(kf.pose, kf.hold, kf.where) for kf in frames]
+    targets.append((lib.neutral, 0.0, "return to neutral"))
+    for pose, hold, where in targets:
+        goal = limits.couple(dict(pose))
+        current.update(goal)
+        limits.check(current, where=f"gesture '{name}' {where}", pose=current)
+        q = tuple(current[j] for j in joints)
+        u = max(abs(b - a) / v for a, b, v in zip(prev, q, speeds, strict=True))
+        dur = segment_duration(u)
+        if dur > 0.0:
+            t += dur
+            times.append(t)
+            positions.append(q)
+        if hold > 0.0:
+            t += hold
+            times.append(t)
+            positions.append(q)
+        prev = q
+    if not times:
+        raise ConfigError(
+            f"gesture '{name}' never moves from its start pose",
+            path=GESTURES_FILE,
+            key=f"gestures.{name}",
+        )
+    return Trajectory(
+        name=name, joints=joints, times=tuple(times), positions=tuple(positions), start=start
+    )
+
+
+def segment_ratios(traj: Trajectory, *, speed_fraction: float, limits: JointLimits) -> list[float]:
+    """Per segment, ``u = max_j |Δq_j| / (fraction × v_j)`` (0 for a hold)."""
+    f = _check_fraction(speed_fraction)
+    speeds = [f * limits.velocity[j] for j in traj.joints]
+    knots = [traj.start, *traj.positions]
+    return [
+        max(abs(b - a) / v for a, b, v in zip(p, q, speeds, strict=True))
+        for p, q in zip(knots, knots[1:], strict=False)
+    ]
+
+
+def time_optimal_minimum(traj: Trajectory, *, speed_fraction: float, limits: JointLimits) -> float:
+    """The shortest time any motion through the same keyframes could take.
+
+    Rest to rest at every keyframe (as planned), each segment bang-coast-bang for its slowest
+    joint with speed ``fraction × URDF velocity`` and acceleration ``speed / ACCEL_TIME_S``, plus
+    the same holds (a hold is part of what the gesture says).
+    """
+    total = 0.0
+    prev_t = 0.0
+    for t, u in zip(
+        traj.times, segment_ratios(traj, speed_fraction=speed_fraction, limits=limits), strict=True
+    ):
+        total += min_segment_duration(u) if u > 0.0 else t - prev_t
+        prev_t = t
+    return total
+
+
+def check_keyframes(
+    name: str, *, limits: JointLimits, library: GestureLibrary | None = None
+) -> None:
+    """Raise :class:`LimitViolation` if any keyframe of ``name`` (all parameter values) is out
+    of limits."""
+    lib = library if library is not None else load_library(limits)
+    g = lib[name]
+    values = (
+        [None]
+        if not g.params
+        else [{p.name: v} for p in g.params.values() for v in (p.low, p.high)]
+    )
+    for params in values:
+        build_trajectory(name, params=params, speed_fraction=1.0, limits=limits, library=lib)
+
+
+__all__ = [
+    "DEFAULT_SPEED_FRACTION",
+    "Gesture",
+    "GestureLibrary",
+    "Keyframe",
+    "LimitViolation",
+    "build_trajectory",
+    "load_library",
+    "parse_library",
+    "segment_ratios",
+    "time_optimal_minimum",
+]

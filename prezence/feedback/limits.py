@@ -1,0 +1,352 @@
+"""NAO joint limits, read once from the URDF (the single source of truth), plus the rules a URDF
+cannot express.
+
+Position, velocity and effort limits come from ``<limit>`` in the URDF (read with yourdfpy); no
+limit value is written in code. Three real-robot rules are handled here (``nao_facts.md`` §7):
+
+* **One hip motor.** ``LHipYawPitch`` and ``RHipYawPitch`` are one motor. :meth:`JointLimits.couple`
+  gives a target for one to both (``LHipYawPitch`` wins a conflict, as on NAO);
+  :meth:`JointLimits.check` rejects two different values.
+* **Head anti-collision.** The ``HeadPitch`` range depends on ``HeadYaw`` (the shell hits the
+  shoulders). :data:`HEAD_PITCH_TABLE` is Aldebaran's table (H25 joints page, identical for
+  V3.2…V5); between its points we interpolate linearly, which is our choice, not documented
+  behaviour. The result is intersected with the URDF range.
+* **Hands.** ``LHand``/``RHand`` are an opening fraction, 0 closed … 1 open (the URDF's 0..1
+  "revolute" limits encode exactly that), never radians: messages show them as fractions.
+
+Example:
+    >>> lim = load_limits()
+    >>> lim.expand("Head")
+    ('HeadYaw', 'HeadPitch')
+    >>> lim.couple({"LHipYawPitch": -0.2})["RHipYawPitch"]
+    -0.2
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+
+from prezence.errors import ConfigError, LimitViolation, UnknownName
+
+log = logging.getLogger(__name__)
+
+#: NAOqi chain names and their joints, in ``getBodyNames`` order (naoqi_api.md §1).
+CHAINS: Mapping[str, tuple[str, ...]] = MappingProxyType(
+    {
+        "Head": ("HeadYaw", "HeadPitch"),
+        "LArm": (
+            "LShoulderPitch",
+            "LShoulderRoll",
+            "LElbowYaw",
+            "LElbowRoll",
+            "LWristYaw",
+            "LHand",
+        ),
+        "LLeg": (
+            "LHipYawPitch",
+            "LHipRoll",
+            "LHipPitch",
+            "LKneePitch",
+            "LAnklePitch",
+            "LAnkleRoll",
+        ),
+        "RLeg": (
+            "RHipYawPitch",
+            "RHipRoll",
+            "RHipPitch",
+            "RKneePitch",
+            "RAnklePitch",
+            "RAnkleRoll",
+        ),
+        "RArm": (
+            "RShoulderPitch",
+            "RShoulderRoll",
+            "RElbowYaw",
+            "RElbowRoll",
+            "RWristYaw",
+            "RHand",
+        ),
+    }
+)
+#: ``Body`` is Head + LArm + LLeg + RLeg + RArm (26 names), as NAOqi orders it.
+BODY_ORDER = ("Head", "LArm", "LLeg", "RLeg", "RArm")
+HANDS = frozenset({"LHand", "RHand"})
+HIP_YAW_PITCH = ("LHipYawPitch", "RHipYawPitch")
+
+#: Head anti-collision (|HeadYaw| rad → HeadPitch min, max rad), symmetric in yaw. Aldebaran
+#: "H25 – Joints" head table, as transcribed in nao_facts.md §7.2.
+HEAD_PITCH_TABLE: tuple[tuple[float, float, float], ...] = (
+    (0.0, -0.671951, 0.515047),
+    (0.486074, -0.671951, 0.422021),
+    (0.756077, -0.548033, 0.370010),
+    (0.903033, -0.479965, 0.330041),
+    (1.089958, -0.430049, 0.300022),
+    (1.526988, -0.330041, 0.200015),
+    (2.086017, -0.449073, 0.330041),
+)
+
+
+@dataclass(frozen=True)
+class JointLimit:
+    """One joint's URDF limits (radians, rad/s, N·m; hands: opening fraction and fraction/s)."""
+
+    name: str
+    lower: float
+    upper: float
+    velocity: float
+    effort: float
+
+
+def fmt_value(name: str, value: float) -> str:
+    """A joint value for people: degrees for angles, the fraction for hands.
+
+    Example:
+        >>> fmt_value("HeadYaw", math.pi / 2), fmt_value("LHand", 0.5)
+        ('90.0°', '0.50 (opening)')
+    """
+    if name in HANDS:
+        return f"{value:.2f} (opening)"
+    return f"{math.degrees(value):.1f}°"
+
+
+def require_finite(targets: Mapping[str, float], *, where: str = "") -> None:
+    """Raise ``ValueError`` naming the first joint whose target is NaN or infinite."""
+    for name, v in targets.items():
+        if not math.isfinite(float(v)):
+            prefix = f"{where}: " if where else ""
+            raise ValueError(f"{prefix}{name} target is {v!r}; joint targets must be finite")
+
+
+class JointLimits:
+    """The limits of every actuated joint, with NAOqi chain names and the coupled-joint rules.
+
+    Build it with :func:`load_limits` (cached) rather than directly.
+
+    Attributes:
+        source: the URDF the limits were read from.
+        lower, upper, velocity, effort: read-only maps joint name → value.
+    """
+
+    def __init__(self, joints: Iterable[JointLimit], *, source: Path) -> None:
+        by_name = {j.name: j for j in joints}
+        body = [n for chain in BODY_ORDER for n in CHAINS[chain]]
+        missing = [n for n in body if n not in by_name]
+        if missing:
+            raise ConfigError(f"URDF lacks NAO joints: {', '.join(missing)}", path=source)
+        # Body order first (NAOqi's), then anything else the URDF adds.
+        order = body + sorted(n for n in by_name if n not in set(body))
+        self._joints: Mapping[str, JointLimit] = MappingProxyType({n: by_name[n] for n in order})
+        self.source = source
+        self.lower: Mapping[str, float] = MappingProxyType(
+            {n: j.lower for n, j in self._joints.items()}
+        )
+        self.upper: Mapping[str, float] = MappingProxyType(
+            {n: j.upper for n, j in self._joints.items()}
+        )
+        self.velocity: Mapping[str, float] = MappingProxyType(
+            {n: j.velocity for n, j in self._joints.items()}
+        )
+        self.effort: Mapping[str, float] = MappingProxyType(
+            {n: j.effort for n, j in self._joints.items()}
+        )
+
+    # -- lookup ------------------------------------------------------------------------------
+    @property
+    def names(self) -> tuple[str, ...]:
+        """All joint names, in NAOqi ``Body`` order."""
+        return tuple(self._joints)
+
+    @property
+    def chains(self) -> Mapping[str, tuple[str, ...]]:
+        """Chain name → joint names (``Head``, ``LArm``, ``RArm``, ``LLeg``, ``RLeg``, ``Body``)."""
+        out = dict(CHAINS)
+        out["Body"] = tuple(n for c in BODY_ORDER for n in CHAINS[c])
+        return MappingProxyType(out)
+
+    def __getitem__(self, name: str) -> JointLimit:
+        try:
+            return self._joints[name]
+        except KeyError:
+            raise UnknownName("joint", name, self._joints) from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._joints
+
+    def require_known(self, names: Iterable[str]) -> None:
+        """Raise :class:`~prezence.errors.UnknownName` for the first name that is no joint."""
+        for name in names:
+            if name not in self._joints:
+                raise UnknownName("joint", name, self._joints)
+
+    def expand(self, name: str) -> tuple[str, ...]:
+        """A joint, chain or ``Body`` name → the joint names it stands for.
+
+        Raises:
+            UnknownName: neither a joint nor a chain (with a did-you-mean).
+        """
+        if name in self._joints:
+            return (name,)
+        chains = self.chains
+        if name in chains:
+            return chains[name]
+        raise UnknownName("joint or chain", name, [*self._joints, *chains])
+
+    # -- coupled rules -----------------------------------------------------------------------
+    def head_pitch_range(self, yaw: float) -> tuple[float, float]:
+        """HeadPitch (min, max) allowed at this HeadYaw: the anti-collision table ∩ the URDF."""
+        table = np.asarray(HEAD_PITCH_TABLE)
+        a = abs(float(yaw))
+        lo = float(np.interp(a, table[:, 0], table[:, 1]))
+        hi = float(np.interp(a, table[:, 0], table[:, 2]))
+        urdf = self["HeadPitch"]
+        return max(lo, urdf.lower), min(hi, urdf.upper)
+
+    def range(self, name: str, pose: Mapping[str, float] | None = None) -> tuple[float, float]:
+        """The allowed (min, max) of ``name``; HeadPitch uses ``pose['HeadYaw']`` when given."""
+        j = self[name]
+        if name == "HeadPitch" and pose is not None and "HeadYaw" in pose:
+            return self.head_pitch_range(pose["HeadYaw"])
+        return j.lower, j.upper
+
+    def couple(self, targets: Mapping[str, float]) -> dict[str, float]:
+        """Targets with the one-motor hip rule applied: a HipYawPitch target goes to both sides
+        (LHipYawPitch wins when both are given and differ, as on NAO)."""
+        out = dict(targets)
+        left, right = HIP_YAW_PITCH
+        if left in out:
+            out[right] = out[left]
+        elif right in out:
+            out[left] = out[right]
+        return out
+
+    # -- clip and check ----------------------------------------------------------------------
+    def clip(
+        self, targets: Mapping[str, float], *, pose: Mapping[str, float] | None = None
+    ) -> dict[str, float]:
+        """Targets moved inside every limit (hip coupling and head table applied).
+
+        Args:
+            targets: joint name → value.
+            pose: the robot's other joint values, for HeadYaw when only HeadPitch is targeted.
+
+        Raises:
+            ValueError: a NaN or infinite target (naming the joint).
+            UnknownName: an unknown joint.
+        """
+        require_finite(targets)
+        out = self.couple(targets)
+        self.require_known(out)
+        context = {**(pose or {}), **out}
+        for name in list(out):
+            if name == "HeadPitch":
+                continue
+            lo, hi = self.range(name)
+            out[name] = min(max(float(out[name]), lo), hi)
+        if "HeadPitch" in out:
+            context["HeadYaw"] = out.get("HeadYaw", context.get("HeadYaw", 0.0))
+            lo, hi = self.range("HeadPitch", context)
+            out["HeadPitch"] = min(max(float(out["HeadPitch"]), lo), hi)
+        return out
+
+    def violations(
+        self,
+        targets: Mapping[str, float],
+        *,
+        pose: Mapping[str, float] | None = None,
+        tol: float = 1e-9,
+    ) -> list[str]:
+        """Every broken position rule, one message per joint (empty when all are fine)."""
+        require_finite(targets)
+        problems: list[str] = []
+        context = {**(pose or {}), **targets}
+        left, right = HIP_YAW_PITCH
+        if left in targets and right in targets and abs(targets[left] - targets[right]) > tol:
+            problems.append(
+                f"{right} = {fmt_value(right, targets[right])} differs from {left} = "
+                f"{fmt_value(left, targets[left])}; they are one motor, give one value"
+            )
+        for name, value in targets.items():
+            lo, hi = self.range(name, context)
+            if not lo - tol <= value <= hi + tol:
+                why = " (head anti-collision range at this HeadYaw)" if name == "HeadPitch" else ""
+                problems.append(
+                    f"{name} = {fmt_value(name, value)} is outside "
+                    f"[{fmt_value(name, lo)}, {fmt_value(name, hi)}]{why}"
+                )
+        return problems
+
+    def check(
+        self,
+        targets: Mapping[str, float],
+        *,
+        pose: Mapping[str, float] | None = None,
+        where: str = "",
+        tol: float = 1e-9,
+    ) -> None:
+        """Raise :class:`~prezence.errors.LimitViolation` naming the first joint out of limits.
+
+        Args:
+            targets: joint name → value (radians; hands: opening fraction).
+            pose: the robot's other joint values (for the HeadYaw-dependent HeadPitch range).
+            where: prefix for the message, e.g. ``"gesture 'louder' keyframes[2]"``.
+            tol: slack in the joint's unit.
+
+        Raises:
+            LimitViolation: a value is outside its range, or the two hip joints disagree.
+            ValueError: a NaN or infinite target (naming the joint).
+            UnknownName: an unknown joint name.
+        """
+        self.require_known(targets)
+        problems = self.violations(targets, pose=pose, tol=tol)
+        if problems:
+            prefix = f"{where}: " if where else ""
+            raise LimitViolation(prefix + problems[0])
+
+
+def _read_urdf(path: Path) -> list[JointLimit]:
+    import yourdfpy  # a core dependency; imported here to keep `import prezence` light
+
+    try:
+        urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False)
+    except Exception as e:  # yourdfpy raises assorted lxml/ValueError types on a bad file
+        raise ConfigError(f"cannot read URDF: {e}", path=path) from e
+    out: list[JointLimit] = []
+    for name, joint in urdf.joint_map.items():
+        if joint.type not in ("revolute", "prismatic"):
+            continue
+        lim = joint.limit
+        if lim is None or lim.lower is None or lim.upper is None or lim.velocity is None:
+            raise ConfigError(f"joint {name} has no complete <limit>", path=path)
+        out.append(
+            JointLimit(
+                name=name,
+                lower=float(lim.lower),
+                upper=float(lim.upper),
+                velocity=float(lim.velocity),
+                effort=float(lim.effort or 0.0),
+            )
+        )
+    return out
+
+
+@functools.cache
+def _load(path: str) -> JointLimits:
+    log.debug("reading joint limits from %s", path)
+    return JointLimits(_read_urdf(Path(path)), source=Path(path))
+
+
+def load_limits(urdf: Path | str | None = None) -> JointLimits:
+    """The joint limits of ``urdf`` (default: the project's NAO), read once and cached."""
+    if urdf is None:
+        from prezence.resources import urdf_path
+
+        urdf = urdf_path()
+    return _load(str(Path(urdf).resolve()))

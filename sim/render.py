@@ -1,0 +1,237 @@
+"""Render a gesture as the PyBullet NAO performs it: a labelled contact sheet and a video.
+
+Headless: PyBullet's CPU ``ER_TINY_RENDERER`` (DIRECT mode has no OpenGL). The robot is played
+through :class:`sim.nao.NaoSim` exactly as in a talk (velocity-capped tracking of the planned
+trajectory), so the pictures show what the simulated robot did, not just the plan.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pybullet as p
+
+from prezence.feedback.gestures import DEFAULT_SPEED_FRACTION, build_trajectory, load_library
+from prezence.feedback.limits import load_limits
+from prezence.feedback.trajectory import Trajectory
+from sim.nao import NaoSim
+
+log = logging.getLogger(__name__)
+
+#: Physics step for rendering (fine: pictures are not on the talk's hot path).
+RENDER_TIMESTEP = 1 / 240
+FRAME_SIZE = (320, 320)
+#: Camera: looking at the robot's chest from its front-left (the viewer's front-right), a little
+#: from above, so both arms and the head's tilt are visible.
+CAMERA_TARGET = (0.0, 0.0, 0.32)
+CAMERA_DISTANCE = 0.95
+CAMERA_YAW_DEG = 90.0 + 30.0
+CAMERA_PITCH_DEG = -10.0
+
+
+def _cv2() -> Any:
+    try:
+        import cv2
+    except ModuleNotFoundError as e:  # an optional part of the sim extra
+        from prezence.errors import BackendUnavailable
+
+        raise BackendUnavailable(
+            'rendering needs OpenCV: pip install "prezence[sim]" (opencv-python-headless)'
+        ) from e
+    return cv2
+
+
+def _add_floor(cid: int) -> None:
+    vis = p.createVisualShape(
+        p.GEOM_BOX,
+        halfExtents=[0.6, 0.6, 0.005],
+        rgbaColor=[0.80, 0.82, 0.78, 1],
+        physicsClientId=cid,
+    )
+    p.createMultiBody(
+        baseMass=0, baseVisualShapeIndex=vis, basePosition=[0, 0, -0.005], physicsClientId=cid
+    )
+
+
+def _camera(cid: int, size: tuple[int, int]) -> tuple[list[float], list[float]]:
+    view = p.computeViewMatrixFromYawPitchRoll(
+        list(CAMERA_TARGET),
+        CAMERA_DISTANCE,
+        CAMERA_YAW_DEG,
+        CAMERA_PITCH_DEG,
+        0,
+        2,
+        physicsClientId=cid,
+    )
+    proj = p.computeProjectionMatrixFOV(40, size[0] / size[1], 0.05, 5.0, physicsClientId=cid)
+    return list(view), list(proj)
+
+
+def _grab(cid: int, size: tuple[int, int], camera: tuple[list[float], list[float]]) -> np.ndarray:
+    w, h, rgba, _, _ = p.getCameraImage(
+        size[0],
+        size[1],
+        camera[0],
+        camera[1],
+        renderer=p.ER_TINY_RENDERER,
+        lightDirection=[1.0, 0.6, 2.0],
+        physicsClientId=cid,
+    )
+    return np.reshape(np.asarray(rgba, dtype=np.uint8), (h, w, 4))[:, :, :3].copy()
+
+
+def sheet_times(traj: Trajectory, n: int = 6) -> list[float]:
+    """Times worth showing: the start, then the keyframe poses (mid-hold for held ones), ``n``
+    picked evenly."""
+    moments: list[float] = [0.0]
+    knots = (0.0, *traj.times)
+    pos = (traj.start, *traj.positions)
+    for k in range(1, len(knots)):
+        if pos[k] == pos[k - 1]:  # a hold: show its middle
+            moments[-1] = (knots[k - 1] + knots[k]) / 2.0
+        else:
+            moments.append(knots[k])
+    moments[-1] = traj.duration
+    if len(moments) <= n:
+        return moments
+    pick = np.linspace(0, len(moments) - 1, n).round().astype(int)
+    return [moments[i] for i in sorted(set(pick.tolist()))]
+
+
+def contact_sheet(
+    frames: Sequence[np.ndarray], labels: Sequence[str], title: str, *, cols: int = 3
+) -> np.ndarray:
+    """Frames in a grid with a label under each and a title bar (RGB uint8)."""
+    cv2 = _cv2()
+    h, w = frames[0].shape[:2]
+    rows = math.ceil(len(frames) / cols)
+    label_h, title_h = 24, 34
+    sheet = np.full((title_h + rows * (h + label_h), cols * w, 3), 255, dtype=np.uint8)
+    cv2.putText(sheet, title, (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (20, 20, 20), 1, cv2.LINE_AA)
+    for i, (img, lab) in enumerate(zip(frames, labels, strict=True)):
+        r, c = divmod(i, cols)
+        y, x = title_h + r * (h + label_h), c * w
+        sheet[y : y + h, x : x + w] = img
+        cv2.putText(
+            sheet,
+            lab,
+            (x + 6, y + h + 17),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.45,
+            (40, 40, 40),
+            1,
+            cv2.LINE_AA,
+        )
+    return sheet
+
+
+def render_gesture(
+    name: str,
+    out_png: Path | str,
+    out_video: Path | str | None = None,
+    *,
+    params: Mapping[str, Any] | None = None,
+    fps: int = 25,
+    speed_fraction: float = DEFAULT_SPEED_FRACTION,
+    size: tuple[int, int] = FRAME_SIZE,
+    frames: int = 6,
+) -> dict[str, Any]:
+    """Play gesture ``name`` on the simulated NAO and save pictures of it.
+
+    Args:
+        name: gesture name (``time_left`` takes ``params={"minutes": N}``).
+        out_png: contact sheet of ``frames`` labelled frames.
+        out_video: ``.mp4`` (OpenCV ``mp4v``) or ``.avi`` (MJPG); None for no video.
+        params: gesture parameters.
+        fps: video frame rate (frames are rendered at simulated times k / fps).
+        speed_fraction: fraction of the URDF velocity limits.
+        size: frame width and height in pixels.
+        frames: frames on the contact sheet.
+
+    Returns:
+        Figures of the run: planned and measured duration, frames written.
+    """
+    cv2 = _cv2()
+    limits = load_limits()
+    load_library(limits)[name]  # unknown gesture raises before any work
+    traj = build_trajectory(name, params=params, speed_fraction=speed_fraction, limits=limits)
+    out_png = Path(out_png)
+    sheet_at = sheet_times(traj, frames)
+    video_at = [k / fps for k in range(int(math.ceil((traj.duration + 0.3) * fps)) + 1)]
+    wanted = sorted({*sheet_at, *(video_at if out_video is not None else [])})
+    shots: dict[float, np.ndarray] = {}
+    with NaoSim(timestep=RENDER_TIMESTEP) as sim:
+        cid = sim.client
+        _add_floor(cid)
+        camera = _camera(cid, size)
+        sim.follow(traj, speed_fraction=speed_fraction)
+        for t in wanted:
+            sim.step_to(t)
+            shots[t] = _grab(cid, size, camera)
+        while sim.following():
+            sim.step_to(sim.time + 0.05)
+        track = sim.tracking
+    labels = [f"t = {t:.2f} s" for t in sheet_at]
+    desc = name if not params else f"{name} {dict(params)}"
+    title = f"{desc}: {traj.duration:.2f} s planned at {speed_fraction:.0%} speed"
+    sheet = contact_sheet([shots[t] for t in sheet_at], labels, title)
+    out_png.parent.mkdir(parents=True, exist_ok=True)
+    if not cv2.imwrite(str(out_png), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR)):
+        raise OSError(f"cannot write {out_png}")
+    result: dict[str, Any] = {
+        "gesture": name,
+        "planned_s": traj.duration,
+        "measured_s": track.measured_s if track is not None else None,
+        "png": str(out_png),
+    }
+    if out_video is not None:
+        out_video = Path(out_video)
+        _write_video(out_video, [shots[t] for t in video_at], fps, size)
+        result["video"] = str(out_video)
+        result["video_frames"] = len(video_at)
+    return result
+
+
+def _write_video(path: Path, images: Sequence[np.ndarray], fps: int, size: tuple[int, int]) -> None:
+    cv2 = _cv2()
+    codecs = {".mp4": "mp4v", ".avi": "MJPG"}
+    codec = codecs.get(path.suffix.lower())
+    if codec is None:
+        raise ValueError(f"video must be .mp4 or .avi, not {path.suffix!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*codec), float(fps), size)
+    if not writer.isOpened():
+        raise OSError(f"OpenCV cannot write {path} with codec {codec}")
+    try:
+        for img in images:
+            writer.write(cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+    finally:
+        writer.release()
+
+
+def _main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    parser = argparse.ArgumentParser(description="render gestures to contact sheets")
+    parser.add_argument("names", nargs="*", help="gestures (default: all)")
+    parser.add_argument("--out", default="out/gestures", help="folder")
+    parser.add_argument("--video", action="store_true")
+    parser.add_argument("--minutes", type=int, default=3)
+    args = parser.parse_args(argv)
+    names = args.names or list(load_library(load_limits()).names)
+    for n in names:
+        params = {"minutes": args.minutes} if n == "time_left" else None
+        png = Path(args.out) / f"{n}.png"
+        video = png.with_suffix(".mp4") if args.video else None
+        r = render_gesture(n, png, video, params=params)
+        print(f"{n}: planned {r['planned_s']:.2f} s, measured {r['measured_s']:.2f} s -> {png}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(_main())
