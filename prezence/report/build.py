@@ -1,0 +1,470 @@
+"""Rebuild a talk's post-speech report from its session folder alone.
+
+The report reads only what the talk wrote as it went: the module files (``streams/*.txt``), the
+cue records (``cues.jsonl``), the effective configuration (``config.toml``) and ``session.json``;
+``truth.jsonl`` is used when a synthetic talk finished and left one. It never needs the
+processor's memory, so it works after a crash: a torn last line is ignored, a stream that stops
+early ends the record there, and missing files give empty sections rather than errors.
+
+Figures per metric come from :func:`prezence.summary.build_summary`; this module adds what only
+the report needs: the effect of each cue, the deviation integral that ranks the things to work
+on, and the talk's length when the record ends early.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from prezence.config.model import Config, Rule
+from prezence.errors import ConfigError
+from prezence.samples import Sample
+from prezence.session import SessionDir, read_jsonl
+from prezence.summary import build_summary
+
+log = logging.getLogger(__name__)
+
+REPORT_FORMAT = 1
+
+#: Seconds before and after a cue over which its effect is judged.
+EFFECT_WINDOW_S = 30.0
+#: A cue "helped" when the mean deviation after it is at most this fraction of the one before.
+IMPROVED_RATIO = 0.8
+
+#: Words a person understands, per metric (the config's metric names are module names).
+METRIC_LABELS: Mapping[str, str] = {
+    "speech_speed": "pace",
+    "speech_volume": "volume",
+    "speech_accuracy": "clarity",
+    "cv_headGaze": "eye contact",
+    "cv_gestures": "gestures",
+}
+
+#: What to work on, per metric and side of the band.
+ADVICE: Mapping[tuple[str, str], str] = {
+    ("speech_speed", "above"): "slow down",
+    ("speech_speed", "below"): "pick up the pace",
+    ("speech_volume", "below"): "speak louder",
+    ("speech_volume", "above"): "speak more softly",
+    ("speech_accuracy", "below"): "articulate more clearly",
+    ("cv_headGaze", "below"): "look up at your audience",
+    ("cv_headGaze", "above"): "lower your gaze to the audience",
+    ("cv_gestures", "below"): "use your hands more",
+    ("cv_gestures", "above"): "calm your hands",
+}
+
+
+def metric_label(metric: str) -> str:
+    """A reader's name for ``metric`` (the metric name itself when none is known).
+
+    Example:
+        >>> metric_label("cv_headGaze"), metric_label("my_module")
+        ('eye contact', 'my_module')
+    """
+    return METRIC_LABELS.get(metric, metric)
+
+
+def advice(rule: Rule, side: str) -> str:
+    """What to do about ``rule``'s metric being on ``side`` ("below"/"above") of its band.
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> advice(Rule("speech_speed", Check.IN_RANGE, low=140, high=180), "above")
+        'slow down'
+        >>> advice(Rule("x", Check.MIN, low=1.0), "below")
+        'raise x'
+    """
+    known = ADVICE.get((rule.metric, side))
+    if known is not None:
+        return known
+    return f"{'raise' if side == 'below' else 'lower'} {metric_label(rule.metric)}"
+
+
+# -- pure figures ------------------------------------------------------------------------------
+
+
+def deviation_seconds(
+    rule: Rule, samples: Sequence[Sample], talk_s: float, stale_s: float
+) -> dict[str, float]:
+    """Deviation integrated over time (%·s) on each side of the band, sample-and-hold.
+
+    Each sample's deviation holds until the next sample, the end of the talk, or ``stale_s``
+    after it, whichever comes first (the same holding as the summary's time in range), so a
+    module that writes twice as often does not count twice as much.
+
+    Returns:
+        ``{"below": %·s, "above": %·s}``.
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
+        >>> ss = [Sample("speech_speed", 0.0, 198.0), Sample("speech_speed", 10.0, 160.0)]
+        >>> deviation_seconds(r, ss, talk_s=20.0, stale_s=60.0)
+        {'below': 0.0, 'above': 100.0}
+    """
+    out = {"below": 0.0, "above": 0.0}
+    for i, s in enumerate(samples):
+        if s.t >= talk_s:
+            break
+        nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
+        dt = max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
+        side = rule.side(s.value)
+        if side is not None and dt > 0:
+            out[side] += rule.deviation(s.value) * dt
+    return {k: round(v, 3) for k, v in out.items()}
+
+
+def mean_deviation(rule: Rule, samples: Sequence[Sample], start: float, end: float) -> float | None:
+    """Mean deviation (%) of the samples with ``start <= t < end``; None when there are none.
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_volume", Check.MIN, low=60.0, scale=6.0)
+        >>> ss = [Sample("speech_volume", t, v) for t, v in [(1, 54.0), (2, 57.0), (5, 66.0)]]
+        >>> mean_deviation(r, ss, 0.0, 3.0), mean_deviation(r, ss, 3.0, 9.0)
+        (75.0, 0.0)
+        >>> mean_deviation(r, ss, 10.0, 20.0) is None
+        True
+    """
+    devs = [rule.deviation(s.value) for s in samples if start <= s.t < end]
+    return sum(devs) / len(devs) if devs else None
+
+
+def cue_effect(
+    rule: Rule, samples: Sequence[Sample], t: float, *, window_s: float = EFFECT_WINDOW_S
+) -> dict[str, Any]:
+    """Did the presenter improve after a cue at ``t``? Mean deviation before vs after.
+
+    Compares the mean deviation of the samples in ``[t - window_s, t)`` with those in
+    ``[t, t + window_s)``. ``improved`` is True when the deviation after is at most
+    :data:`IMPROVED_RATIO` of the one before, False when it is not, None when either window has
+    no samples or there was nothing to improve (deviation 0 before).
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
+        >>> ss = [Sample("speech_speed", t, 200.0 if t < 30 else 170.0) for t in range(60)]
+        >>> cue_effect(r, ss, 30.0)
+        {'deviation_before': 11.111, 'deviation_after': 0.0, 'improved': True}
+    """
+    before = mean_deviation(rule, samples, t - window_s, t)
+    after = mean_deviation(rule, samples, t, t + window_s)
+    improved: bool | None = None
+    if before is not None and after is not None and before > 0.0:
+        improved = after <= IMPROVED_RATIO * before
+    return {
+        "deviation_before": None if before is None else round(before, 3),
+        "deviation_after": None if after is None else round(after, 3),
+        "improved": improved,
+    }
+
+
+def rank_priorities(
+    config: Config, dev_s: Mapping[str, Mapping[str, float]], *, talk_s: float, top: int = 2
+) -> list[dict[str, Any]]:
+    """The things to work on first: metrics ranked by deviation × time out of range.
+
+    The score of a metric is its deviation integrated over the talk (%·s), which is the time it
+    spent out of range times its mean deviation while out; the side with the larger share names
+    the advice. Metrics that never left their band are not listed.
+
+    Args:
+        config: the rules.
+        dev_s: per metric, :func:`deviation_seconds`'s result.
+        talk_s: the talk's length (to express the score per minute of talk).
+        top: how many to return.
+    """
+    rows: list[dict[str, Any]] = []
+    for rule in config.rules:
+        d = dev_s.get(rule.metric)
+        if not d:
+            continue
+        score = float(d.get("below", 0.0)) + float(d.get("above", 0.0))
+        if score <= 0.0:
+            continue
+        side = "above" if d.get("above", 0.0) > d.get("below", 0.0) else "below"
+        rows.append(
+            {
+                "metric": rule.metric,
+                "label": metric_label(rule.metric),
+                "side": side,
+                "bound": rule.high if side == "above" else rule.low,
+                "unit": rule.unit,
+                "score": round(score, 1),
+                "score_per_min": round(60.0 * score / talk_s, 1) if talk_s > 0 else None,
+                "advice": advice(rule, side),
+            }
+        )
+    rows.sort(key=lambda r: (-r["score"], r["metric"]))
+    return rows[:top]
+
+
+# -- reading the folder ------------------------------------------------------------------------
+
+
+def _read_meta(session: SessionDir) -> dict[str, Any]:
+    try:
+        return session.read_meta()
+    except json.JSONDecodeError as e:  # torn while being written: the rest still tells a lot
+        log.warning("%s: unreadable (%s); going on without it", session.meta, e)
+        return {}
+
+
+def _load_session_config(session: SessionDir) -> Config:
+    from prezence.config.load import load_config
+
+    if session.config.exists():
+        return load_config(session.config)
+    log.warning("%s missing: using the built-in configuration", session.config)
+    return load_config(None)
+
+
+def _talk_length(
+    meta: Mapping[str, Any],
+    streams: Mapping[str, Sequence[Sample]],
+    cues: Sequence[Mapping[str, Any]],
+    stale_s: float,
+) -> tuple[float, bool]:
+    """The talk's length and whether the record covers it.
+
+    ``session.json`` states the planned length; when the records stop more than a stale
+    period before it (the processor or the modules died), the talk is taken to have ended
+    at the last record.
+    """
+    last = max(
+        [s[-1].t for s in streams.values() if s] + [float(c["t"]) for c in cues if "t" in c],
+        default=0.0,
+    )
+    planned = meta.get("talk_s")
+    if planned is None:
+        return last, True
+    planned = float(planned)
+    if last + stale_s < planned:
+        return last, False
+    return planned, True
+
+
+def _why(rule: Rule, row: Mapping[str, Any]) -> str:
+    """A reader's reason for a metric cue: which metric, which way, how far."""
+    side = str(row.get("side"))
+    bound = rule.low if side == "below" else rule.high
+    unit = f" {rule.unit}" if rule.unit else ""
+    dev = row.get("deviation")
+    how = f"{float(dev):.0f}% " if dev else ""
+    strict = "strict rule: " if row.get("kind") == "strict" else ""
+    return f"{strict}{metric_label(rule.metric)} {how}{side} {bound:g}{unit}"
+
+
+def _why_other(row: Mapping[str, Any]) -> str:
+    kind = row.get("kind")
+    if kind == "time":
+        p = row.get("params") or {}
+        if "minutes" in p:
+            return f"{p['minutes']} min of the allocated time left"
+        return "over the allocated time"
+    if kind == "praise":
+        return "everything in range for a while"
+    return str(row.get("reason") or "")
+
+
+def _cue_dicts(summary: Mapping[str, Any]) -> list[dict[str, Any]]:
+    return [dict(c) for c in summary.get("cues", [])]
+
+
+def build_report(session_dir: str | Path, *, config: Config | None = None) -> dict[str, Any]:
+    """Rebuild the report of one talk from its session folder.
+
+    Args:
+        session_dir: the session folder (see :mod:`prezence.session`).
+        config: the rules to judge by; None reads the folder's ``config.toml`` (or the
+            built-in configuration if the talk died before writing it).
+
+    Returns:
+        The report as a JSON-ready dict: ``time`` (used vs allocated), ``metrics`` (the
+        summary's figures plus band, label and deviation-seconds), ``cues`` (each with its
+        latency and effect), ``priorities`` (the two things to work on first), ``counts``,
+        ``complete`` (False when the record stops before the planned end) and ``streams``.
+
+    Raises:
+        ConfigError: the folder does not exist, or its ``config.toml`` is invalid.
+    """
+    return _rebuild(session_dir, config)[0]
+
+
+def _rebuild(
+    session_dir: str | Path, config: Config | None
+) -> tuple[dict[str, Any], dict[str, list[Sample]]]:
+    session = SessionDir(Path(session_dir))
+    if not session.root.is_dir():
+        raise ConfigError("no such session folder", path=session.root)
+    meta = _read_meta(session)
+    cfg = config if config is not None else _load_session_config(session)
+    from prezence.streams.tail import read_stream
+
+    streams: dict[str, list[Sample]] = {}
+    stats: dict[str, dict[str, Any]] = {}
+    for rule in cfg.rules:
+        samples, st = read_stream(session.stream(rule.stream), rule.metric)
+        streams[rule.metric] = sorted(samples, key=lambda s: s.t)
+        stats[rule.metric] = st.to_dict()
+    cues = read_jsonl(session.cues)
+    truth = read_jsonl(session.truth) if session.truth.exists() else None
+    stale_default = cfg.processor.stale_after_s
+    talk_s, complete = _talk_length(meta, streams, cues, stale_default)
+    if not complete:
+        log.warning(
+            "%s: the record stops at %.1f s of a planned %.1f s; reporting what was recorded",
+            session.root,
+            talk_s,
+            float(meta["talk_s"]),
+        )
+    backend_stats = {
+        "joint_limit_violations": sum(int(c.get("gesture_violations") or 0) for c in cues)
+    }
+    summary = build_summary(
+        cfg,
+        streams,
+        cues,
+        talk_s=talk_s,
+        truth=truth,
+        stream_stats=stats,
+        backend_stats=backend_stats,
+    )
+
+    dev_s: dict[str, dict[str, float]] = {}
+    metrics: dict[str, Any] = {}
+    for rule in cfg.rules:
+        stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
+        dev_s[rule.metric] = deviation_seconds(rule, streams[rule.metric], talk_s, stale_s)
+        m = dict(summary["metrics"][rule.metric])
+        m.update(
+            label=metric_label(rule.metric),
+            check=rule.check.value,
+            low=rule.low,
+            high=rule.high,
+            strict=rule.strict,
+            deviation_s=dev_s[rule.metric],
+        )
+        metrics[rule.metric] = m
+
+    rules = {r.metric: r for r in cfg.rules}
+    cue_rows = _cue_dicts(summary)
+    for row, rec in zip(cue_rows, cues, strict=True):
+        row["phrase"] = rec.get("phrase")
+        cue_rule = rules.get(row.get("metric") or "")
+        if cue_rule is not None:
+            row["deviation"] = rec.get("deviation")
+            row["side"] = "below" if row["command"] == cue_rule.below else "above"
+            row["why"] = _why(cue_rule, row)
+            row.update(cue_effect(cue_rule, streams[cue_rule.metric], float(row["t"])))
+        else:
+            row["why"] = _why_other(row)
+    helped = [r for r in cue_rows if r.get("improved") is not None]
+
+    time_used = dict(summary["time"])
+    priorities = rank_priorities(cfg, dev_s, talk_s=talk_s)
+    counts = dict(summary["counts"])
+    counts["cues_improved"] = sum(1 for r in helped if r["improved"])
+    counts["cues_judged"] = len(helped)
+    report: dict[str, Any] = {
+        "format": REPORT_FORMAT,
+        "session": str(session.root),
+        "scenario": meta.get("scenario"),
+        "seed": meta.get("seed"),
+        "policy": meta.get("policy"),
+        "backend": meta.get("backend"),
+        "complete": complete,
+        "planned_s": meta.get("talk_s"),
+        "talk_s": round(talk_s, 3),
+        "time": time_used,
+        "metrics": metrics,
+        "cues": cue_rows,
+        "priorities": priorities,
+        "counts": counts,
+        "has_truth": truth is not None,
+        "effect_window_s": EFFECT_WINDOW_S,
+    }
+    return report, streams
+
+
+def finite(x: Any) -> Any:
+    """``x`` with infinities and NaNs replaced by None, recursively (strict JSON has neither)."""
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: finite(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [finite(v) for v in x]
+    return x
+
+
+def write_report(session_dir: str | Path, *, config: Config | None = None) -> Path:
+    """Build the report and write it into ``SESSION/report/``.
+
+    Writes ``report.html`` (self-contained), ``report.json``, ``summary.txt`` (the terminal
+    summary), ``spoken.txt`` (what the robot says) and, with matplotlib installed, the plots as
+    ``summary.png`` and ``timeline_<metric>.png``. Without matplotlib the page has tables only.
+
+    Returns:
+        The path of ``report.html``.
+
+    Raises:
+        ConfigError: see :func:`build_report`.
+    """
+    from prezence.report import plots
+    from prezence.report.html import render_html
+    from prezence.report.speech import format_text, summary_phrase
+    from prezence.session import write_json
+
+    session = SessionDir(Path(session_dir))
+    report, streams = _rebuild(session.root, config)
+    report["phrase"] = summary_phrase(report)
+    report["text"] = format_text(report)
+    folder = session.report
+    folder.mkdir(parents=True, exist_ok=True)
+    images: dict[str, bytes] = {}
+    if plots.available():
+        images["summary"] = plots.summary_png(report)
+        allocated = report["time"].get("allocated_s")
+        for metric, m in report["metrics"].items():
+            about = [c for c in report["cues"] if c.get("metric") == metric]
+            images[f"timeline_{metric}"] = plots.timeline_png(
+                m, streams[metric], about, talk_s=float(report["talk_s"]), allocated_s=allocated
+            )
+        for name, png in images.items():
+            (folder / f"{name}.png").write_bytes(png)
+        report["plots"] = sorted(f"{name}.png" for name in images)
+    else:
+        log.warning(
+            'matplotlib is not installed: report without plots (pip install "prezence[report]")'
+        )
+        report["plots"] = []
+    write_json(folder / "report.json", finite(report))
+    (folder / "summary.txt").write_text(report["text"], encoding="utf-8")
+    (folder / "spoken.txt").write_text(report["phrase"] + "\n", encoding="utf-8")
+    page = folder / "report.html"
+    page.write_text(render_html(report, images), encoding="utf-8")
+    return page
+
+
+def report_main(session_dir: str | Path, *, config: str | Path | None = None) -> int:
+    """``prezence report SESSION_DIR``: write the report, print the summary; returns 0.
+
+    Args:
+        session_dir: the session folder.
+        config: a configuration file to judge by instead of the folder's ``config.toml``.
+
+    Raises:
+        ConfigError: the folder does not exist or a configuration is invalid (the CLI prints it).
+    """
+    from prezence.config.load import load_config
+
+    cfg = load_config(config) if config is not None else None
+    page = write_report(session_dir, config=cfg)
+    print((page.parent / "summary.txt").read_text(encoding="utf-8"), end="")
+    print(f"report: {page}")
+    return 0

@@ -1,0 +1,241 @@
+"""The report as one self-contained HTML page (inline CSS, plots inline as base64 PNG)."""
+
+from __future__ import annotations
+
+import base64
+import html
+from collections.abc import Mapping
+from typing import Any
+
+from prezence.report.speech import summary_phrase, time_sentence
+
+_CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0;
+       background: #f5f6f8; color: #1d2129; }
+main { max-width: 1040px; margin: 0 auto; padding: 24px 28px 48px; }
+h1 { font-size: 26px; margin: 0 0 4px; }
+h2 { font-size: 19px; margin: 32px 0 10px; border-bottom: 1px solid #d6d9de; padding-bottom: 4px; }
+.sub { color: #5f6773; font-size: 14px; margin-bottom: 18px; }
+.note { background: #fff4e5; border-left: 4px solid #f9a825; padding: 8px 12px; margin: 12px 0; }
+.cards { display: flex; gap: 14px; flex-wrap: wrap; }
+.card { background: #fff; border-radius: 8px; padding: 12px 16px; flex: 1 1 200px;
+        box-shadow: 0 1px 2px rgba(0,0,0,.08); }
+.card .big { font-size: 26px; font-weight: 600; }
+.card .lbl { color: #5f6773; font-size: 13px; }
+.over { color: #c62828; } .under { color: #1565c0; } .ok { color: #2e7d32; }
+ol.work { background: #fff; border-radius: 8px; padding: 12px 16px 12px 40px; margin: 0;
+          box-shadow: 0 1px 2px rgba(0,0,0,.08); }
+ol.work li { margin: 6px 0; font-size: 16px; }
+ol.work .why { color: #5f6773; font-size: 13px; }
+table { border-collapse: collapse; width: 100%; background: #fff; font-size: 14px;
+        box-shadow: 0 1px 2px rgba(0,0,0,.08); }
+th, td { padding: 6px 10px; border-bottom: 1px solid #eceef1; text-align: right; }
+th { background: #eef0f3; font-weight: 600; }
+td.l, th.l { text-align: left; }
+img { width: 100%; height: auto; background: #fff; border-radius: 6px; display: block;
+      margin: 8px 0 14px; box-shadow: 0 1px 2px rgba(0,0,0,.08); }
+.yes { color: #2e7d32; font-weight: 600; } .no { color: #c62828; }
+.reason { color: #7a828e; font-size: 12px; }
+.said { font-style: italic; color: #37474f; }
+footer { color: #5f6773; font-size: 12px; margin-top: 36px; }
+"""
+
+
+def _e(x: object) -> str:
+    return html.escape(str(x))
+
+
+def _mmss(t: float | None) -> str:
+    if t is None:
+        return "–"
+    total = int(round(max(0.0, float(t))))
+    return f"{total // 60}:{total % 60:02d}"
+
+
+def _pct(x: float | None) -> str:
+    return "–" if x is None else f"{100.0 * x:.0f}%"
+
+
+def _num(x: float | None) -> str:
+    if x is None:
+        return "–"
+    return f"{x:.3g}" if abs(x) < 10 else f"{x:.0f}"
+
+
+def _img(png: bytes | None, alt: str) -> str:
+    if not png:
+        return ""
+    data = base64.b64encode(png).decode("ascii")
+    return f'<img alt="{_e(alt)}" src="data:image/png;base64,{data}">'
+
+
+def _band(m: Mapping[str, Any]) -> str:
+    low, high, unit = m.get("low"), m.get("high"), m.get("unit") or ""
+    if low is not None and high is not None:
+        return f"{_num(low)}–{_num(high)} {unit}".strip()
+    if low is not None:
+        return f"≥ {_num(low)} {unit}".strip()
+    if high is not None:
+        return f"≤ {_num(high)} {unit}".strip()
+    return "–"
+
+
+def _time_card(report: Mapping[str, Any]) -> str:
+    t = report["time"]
+    alloc = t.get("allocated_s")
+    pct = t.get("over_under_pct")
+    if alloc and pct is not None:
+        cls = "ok" if abs(pct) < 5 else "over" if pct > 0 else "under"
+        word = "over" if pct > 0 else "under"
+        detail = f'<span class="{cls}">{abs(pct):.0f}% {word}</span> the {_mmss(alloc)} allocated'
+    else:
+        detail = "no time allocated"
+    return (
+        f'<div class="card"><div class="lbl">time used</div>'
+        f'<div class="big">{_mmss(t["used_s"])}</div><div>{detail}</div></div>'
+    )
+
+
+def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = None) -> str:
+    """The report page.
+
+    Args:
+        report: from :func:`prezence.report.build.build_report`.
+        images: PNG bytes by name: ``summary`` and ``timeline_<metric>``; missing ones are
+            left out (without matplotlib the page has tables only).
+    """
+    images = images or {}
+    counts = report["counts"]
+    title = "Post-speech report"
+    who = report.get("scenario") or report.get("session")
+    sub = [f"talk: {_e(who)}"]
+    if report.get("seed") is not None:
+        sub.append(f"seed {_e(report['seed'])}")
+    if report.get("policy"):
+        sub.append(f"policy {_e(report['policy'])}")
+    if report.get("backend"):
+        sub.append(f"robot {_e(report['backend'])}")
+    out: list[str] = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>{title}: {_e(who)}</title><style>{_CSS}</style></head><body><main>",
+        f"<h1>{title}</h1>",
+        f'<div class="sub">{" · ".join(sub)}</div>',
+    ]
+    if not report.get("complete", True):
+        out.append(
+            f'<div class="note">The record stops at {_mmss(report["talk_s"])} of a planned '
+            f"{_mmss(report.get('planned_s'))} (the coach stopped early). The figures cover "
+            "what was recorded.</div>"
+        )
+    judged = counts.get("cues_judged", 0)
+    out.append('<div class="cards">')
+    out.append(_time_card(report))
+    out.append(
+        f'<div class="card"><div class="lbl">cues from the robot</div>'
+        f'<div class="big">{counts.get("cues", 0)}</div>'
+        f"<div>{counts.get('cues_improved', 0)} of {judged} corrections followed by an "
+        "improvement</div></div>"
+    )
+    tirs = [m.get("time_in_range") for m in report["metrics"].values()]
+    tirs_ok = [x for x in tirs if x is not None]
+    overall = sum(tirs_ok) / len(tirs_ok) if tirs_ok else None
+    out.append(
+        f'<div class="card"><div class="lbl">time in the ideal range (mean of metrics)</div>'
+        f'<div class="big">{_pct(overall)}</div><div>{len(tirs_ok)} metrics measured</div></div>'
+    )
+    out.append("</div>")
+
+    out.append("<h2>Work on first</h2>")
+    pri = report.get("priorities") or []
+    if pri:
+        out.append('<ol class="work">')
+        for p in pri:
+            m = report["metrics"][p["metric"]]
+            out.append(
+                f"<li><b>{_e(p['advice'].capitalize())}</b> ({_e(p['label'])}). "
+                f'<span class="why">{_e(p["label"].capitalize())} was {_e(p["side"])} '
+                f"{_e(_num(p['bound']))} {_e(p['unit'] or '')} for "
+                f"{m.get('out_of_range_s', 0.0):.0f} s, longest stretch "
+                f"{m.get('longest_out_of_range_s', 0.0):.0f} s; score "
+                f"{p['score_per_min']:g} %·s per minute.</span></li>"
+            )
+        out.append("</ol>")
+        out.append(
+            '<p class="sub">Ranked by time out of range × how far out: the deviation from the '
+            "ideal range (in %) integrated over the talk, per minute of talk.</p>"
+        )
+    else:
+        out.append("<p>Every metric stayed in its ideal range. Well done.</p>")
+    out.append(
+        f'<p>What the robot says: <span class="said">“{_e(summary_phrase(report))}”</span></p>'
+    )
+
+    out.append("<h2>Overview</h2>")
+    out.append(_img(images.get("summary"), "time in range and deviation per metric"))
+    out.append(
+        '<table><tr><th class="l">metric</th><th class="l">ideal</th><th>in range</th>'
+        "<th>mean</th><th>10th pct</th><th>median</th><th>90th pct</th>"
+        "<th>longest out</th><th>samples</th></tr>"
+    )
+    for m in report["metrics"].values():
+        out.append(
+            f'<tr><td class="l">{_e(m.get("label"))}</td><td class="l">{_e(_band(m))}</td>'
+            f"<td>{_pct(m.get('time_in_range'))}</td><td>{_num(m.get('mean'))}</td>"
+            f"<td>{_num(m.get('p10'))}</td><td>{_num(m.get('p50'))}</td>"
+            f"<td>{_num(m.get('p90'))}</td>"
+            f"<td>{m.get('longest_out_of_range_s', 0.0):.0f} s</td><td>{m.get('samples', 0)}</td>"
+            "</tr>"
+        )
+    out.append("</table>")
+
+    timelines = [(k, images.get(f"timeline_{k}")) for k in report["metrics"]]
+    if any(png for _, png in timelines):
+        out.append("<h2>Timelines</h2>")
+        out.append(
+            '<p class="sub">Green band: the ideal range. Red dots: samples out of range. '
+            "Blue lines: the robot's cues about that metric.</p>"
+        )
+        for k, png in timelines:
+            out.append(_img(png, f"{report['metrics'][k].get('label')} over the talk"))
+
+    out.append("<h2>Cues</h2>")
+    cues = report.get("cues") or []
+    if cues:
+        w = report.get("effect_window_s", 30.0)
+        out.append(
+            f'<p class="sub">Latency: from the start of the problem to the cue. Effect: mean '
+            f"deviation in the {w:g} s before vs the {w:g} s after the cue.</p>"
+        )
+        out.append(
+            '<table><tr><th>time</th><th class="l">cue</th><th class="l">why</th>'
+            "<th>latency</th><th>deviation before</th><th>after</th><th>effect</th></tr>"
+        )
+        for c in cues:
+            lat = c.get("latency_s")
+            eff = c.get("improved")
+            eff_html = {
+                True: '<span class="yes">improved</span>',
+                False: '<span class="no">no change</span>',
+                None: "–",
+            }[eff]
+            before, after = c.get("deviation_before"), c.get("deviation_after")
+            out.append(
+                f'<tr><td>{_mmss(c["t"])}</td><td class="l">{_e(c["command"])}'
+                f'<br><span class="said">{_e(c.get("phrase") or "")}</span></td>'
+                f'<td class="l">{_e(c.get("why") or "")}<br>'
+                f'<span class="reason">{_e(c.get("reason") or "")}</span></td>'
+                f"<td>{'–' if lat is None else f'{lat:.0f} s'}</td>"
+                f"<td>{'–' if before is None else f'{before:.0f}%'}</td>"
+                f"<td>{'–' if after is None else f'{after:.0f}%'}</td><td>{eff_html}</td></tr>"
+            )
+        out.append("</table>")
+    else:
+        out.append("<p>The robot gave no cue.</p>")
+    out.append(
+        "<footer>Rebuilt from the session's module files (streams/), cues.jsonl and "
+        f"config.toml. {_e(time_sentence(report))}</footer>"
+    )
+    out.append("</main></body></html>")
+    return "\n".join(out) + "\n"

@@ -1,0 +1,177 @@
+"""Report plots as PNG bytes (matplotlib, the ``report`` extra).
+
+matplotlib is imported inside each function, and only its object-oriented API is used (a
+:class:`~matplotlib.figure.Figure` with an Agg canvas, no ``pyplot``): no global state, no GUI
+backend, safe in worker processes. :func:`available` tells whether plots can be drawn.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import io
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from prezence.samples import Sample
+
+#: Colours: in range, out of range, cue markers, the ideal band.
+GOOD = "#2e7d32"
+BAD = "#c62828"
+CUE = "#1565c0"
+BAND = "#c8e6c9"
+NEUTRAL = "#757575"
+
+
+def available() -> bool:
+    """True when matplotlib is installed (``pip install "prezence[report]"``)."""
+    return importlib.util.find_spec("matplotlib") is not None
+
+
+def _png(fig: Any) -> bytes:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    return buf.getvalue()
+
+
+def _minutes_axis(ax: Any, talk_s: float) -> None:
+    from matplotlib.ticker import FuncFormatter, MultipleLocator
+
+    step = 60.0 if talk_s <= 1200 else 120.0 if talk_s <= 2400 else 300.0
+    ax.xaxis.set_major_locator(MultipleLocator(step))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{int(x // 60)}:{int(x % 60):02d}"))
+    ax.set_xlim(0.0, max(talk_s, 1.0))
+
+
+def timeline_png(
+    metric: Mapping[str, Any],
+    samples: Sequence[Sample],
+    cues: Sequence[Mapping[str, Any]],
+    *,
+    talk_s: float,
+    allocated_s: float | None = None,
+    width_in: float = 10.0,
+    height_in: float = 2.4,
+) -> bytes:
+    """One metric over the talk: samples, its ideal band, and the cues about it.
+
+    Args:
+        metric: the report's entry for the metric (``label``, ``unit``, ``low``, ``high``).
+        samples: the metric's samples.
+        cues: the cues about this metric (``t``, ``command``).
+        talk_s: the talk's length (x range).
+        allocated_s: drawn as a dashed line when inside the x range.
+    """
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width_in, height_in))
+    # Fixed margins (not a constrained layout) so that the timelines of all metrics line up
+    # one under the other on the page, whatever the width of their tick labels.
+    fig.subplots_adjust(left=0.075, right=0.985, top=0.84, bottom=0.14)
+    ax = fig.add_subplot()
+    low, high = metric.get("low"), metric.get("high")
+    t = np.array([s.t for s in samples], dtype=float)
+    v = np.array([s.value for s in samples], dtype=float)
+    finite = [x for x in (low, high) if x is not None]
+    lo_y = min([*v.tolist(), *finite]) if len(v) or finite else 0.0
+    hi_y = max([*v.tolist(), *finite]) if len(v) or finite else 1.0
+    pad = 0.08 * (hi_y - lo_y or 1.0)
+    y0, y1 = lo_y - pad, hi_y + pad
+    band_lo = low if low is not None else y0
+    band_hi = high if high is not None else y1
+    ax.axhspan(band_lo, band_hi, color=BAND, alpha=0.7, lw=0, label="ideal range")
+    for b in finite:
+        ax.axhline(b, color=GOOD, lw=0.8, alpha=0.8)
+    if len(t):
+        out = np.zeros(t.shape, dtype=bool)
+        if low is not None:
+            out |= v < low
+        if high is not None:
+            out |= v > high
+        ax.plot(t, v, color=NEUTRAL, lw=0.8, alpha=0.8)
+        ax.scatter(t[out], v[out], s=6, color=BAD, zorder=3, label="out of range")
+    last_x: float | None = None
+    row = 0
+    for i, c in enumerate(sorted(cues, key=lambda c: float(c["t"]))):
+        tc = float(c["t"])
+        ax.axvline(tc, color=CUE, lw=1.4, alpha=0.9, label="cue" if i == 0 else None)
+        right_edge = tc > 0.85 * talk_s  # keep the name inside the plot near the end
+        # Names of cues close together go on successive rows instead of on top of each other.
+        row = row + 1 if last_x is not None and tc - last_x < 0.12 * talk_s else 0
+        last_x = tc
+        ax.annotate(
+            str(c["command"]),
+            (tc, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(-3 if right_edge else 3, -3 - 11 * (row % 3)),
+            textcoords="offset points",
+            fontsize=8,
+            color=CUE,
+            va="top",
+            ha="right" if right_edge else "left",
+            bbox={"boxstyle": "square,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.8},
+        )
+    if allocated_s and allocated_s < talk_s:
+        ax.axvline(allocated_s, color="black", lw=1.0, ls="--", label="time allocated")
+    ax.set_ylim(y0, y1)
+    _minutes_axis(ax, talk_s)
+    unit = metric.get("unit") or ""
+    ax.set_ylabel(unit)
+    ax.set_title(str(metric.get("label", "")), loc="left", fontsize=11, fontweight="bold")
+    ax.grid(axis="x", alpha=0.3)
+    # Above the plot, right of the title: never over the data or the cue names.
+    ax.legend(
+        loc="lower right",
+        bbox_to_anchor=(1.0, 1.0),
+        fontsize=8,
+        ncols=4,
+        frameon=False,
+        borderaxespad=0.2,
+    )
+    return _png(fig)
+
+
+def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
+    """Time in range per metric (bars) and deviation per minute of talk (what to work on)."""
+    from matplotlib.figure import Figure
+
+    metrics = list(report["metrics"].values())
+    labels = [str(m.get("label")) for m in metrics]
+    tir = [100.0 * (m.get("time_in_range") or 0.0) for m in metrics]
+    talk_min = max(float(report["talk_s"]) / 60.0, 1e-9)
+    dev = [
+        (m["deviation_s"].get("below", 0.0) + m["deviation_s"].get("above", 0.0)) / talk_min
+        for m in metrics
+    ]
+    fig = Figure(figsize=(width_in, 0.45 * len(metrics) + 1.3), layout="constrained")
+    a1, a2 = fig.subplots(1, 2, sharey=True)
+    y = list(range(len(metrics)))
+    colours = [GOOD if x >= 90 else "#f9a825" if x >= 70 else BAD for x in tir]
+    a1.barh(y, tir, color=colours)
+    for yi, x in zip(y, tir, strict=True):
+        inside = x > 15
+        a1.text(
+            x - 1.5 if inside else x + 1.5,
+            yi,
+            f"{x:.0f}%",
+            va="center",
+            fontsize=9,
+            ha="right" if inside else "left",
+            color="white" if inside else "black",
+        )
+    a1.set_xlim(0, 100)
+    a1.set_yticks(y, labels)
+    a1.invert_yaxis()
+    a1.set_title("time in the ideal range", loc="left", fontsize=10)
+    a2.barh(y, dev, color=BAD)
+    top = max(dev, default=0.0) or 1.0
+    a2.set_xlim(0, 1.15 * top)
+    for yi, x in zip(y, dev, strict=True):
+        a2.text(x + 0.01 * top, yi, f"{x:.0f}", va="center", fontsize=9)
+    a2.set_title("deviation per minute of talk (%·s/min)", loc="left", fontsize=10)
+    for a in (a1, a2):
+        a.grid(axis="x", alpha=0.3)
+    return _png(fig)

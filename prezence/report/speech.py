@@ -1,0 +1,132 @@
+"""The report in words: the robot's short spoken summary and the terminal summary."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+#: The spoken summary stays under this many words (the robot speaks at ~150 wpm: ~16 s).
+MAX_SPOKEN_WORDS = 40
+
+
+def _mmss(t: float | None) -> str:
+    if t is None:
+        return "-"
+    total = int(round(max(0.0, float(t))))
+    return f"{total // 60}:{total % 60:02d}"
+
+
+def _spoken_minutes(s: float) -> str:
+    """Seconds as a speakable length: ``"9 and a half minutes"``, ``"40 seconds"``."""
+    if s < 60:
+        return f"{int(round(s))} seconds"
+    half = round(s / 30.0) / 2.0
+    whole = int(half)
+    unit = "minute" if half == 1 else "minutes"
+    return f"{whole} and a half {unit}" if half != whole else f"{whole} {unit}"
+
+
+def time_sentence(report: Mapping[str, Any]) -> str:
+    """One sentence on time used vs allocated.
+
+    Example:
+        >>> time_sentence({"time": {"used_s": 630.0, "allocated_s": 600.0, "over_under_pct": 5.0}})
+        'You used 10 and a half minutes of 10 minutes, 5% over.'
+        >>> time_sentence({"time": {"used_s": 300.0, "allocated_s": None}})
+        'You spoke for 5 minutes.'
+    """
+    t = report["time"]
+    used = float(t["used_s"])
+    alloc = t.get("allocated_s")
+    if not alloc:
+        return f"You spoke for {_spoken_minutes(used)}."
+    pct = float(t.get("over_under_pct", 0.0))
+    side = "over" if pct > 0 else "under"
+    how = "right on time" if abs(pct) < 1.0 else f"{abs(pct):.0f}% {side}"
+    return f"You used {_spoken_minutes(used)} of {_spoken_minutes(float(alloc))}, {how}."
+
+
+def summary_phrase(report: Mapping[str, Any]) -> str:
+    """What the robot says after the talk (at most :data:`MAX_SPOKEN_WORDS` words).
+
+    Time used vs allocated, then the two things to work on first (or praise when nothing was
+    out of range).
+
+    Example:
+        >>> r = {"time": {"used_s": 600.0, "allocated_s": 600.0, "over_under_pct": 0.0},
+        ...      "priorities": [{"advice": "slow down"}, {"advice": "look up at your audience"}]}
+        >>> summary_phrase(r)
+        'You used 10 minutes of 10 minutes, right on time. Work first on this: slow down. Then: look up at your audience.'
+    """  # noqa: E501 - a doctest output line
+    parts = [time_sentence(report)]
+    pri = list(report.get("priorities") or [])
+    if not pri:
+        parts.append("Your delivery stayed in the ideal range. Well done!")
+    else:
+        parts.append(f"Work first on this: {pri[0]['advice']}.")
+        if len(pri) > 1:
+            parts.append(f"Then: {pri[1]['advice']}.")
+    text = " ".join(parts)
+    words = text.split()
+    if len(words) > MAX_SPOKEN_WORDS:  # custom advice texts could be long: never ramble
+        text = " ".join(words[:MAX_SPOKEN_WORDS]).rstrip(",.;:") + "."
+    return text
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{100.0 * x:.0f}%"
+
+
+def _num(x: float | None) -> str:
+    if x is None:
+        return "-"
+    return f"{x:.3g}" if abs(x) < 10 else f"{x:.0f}"
+
+
+def format_text(report: Mapping[str, Any]) -> str:
+    """The terminal summary of a report: time, work-on list, a table per metric, the cues."""
+    lines: list[str] = []
+    head = f"Post-speech report: {report.get('scenario') or report.get('session')}"
+    if report.get("seed") is not None:
+        head += f" (seed {report['seed']}, policy {report.get('policy')})"
+    lines.append(head)
+    if not report.get("complete", True):
+        lines.append(
+            f"  note: the record stops at {_mmss(report['talk_s'])} of a planned "
+            f"{_mmss(report.get('planned_s'))}; figures cover what was recorded"
+        )
+    lines.append("  " + time_sentence(report))
+    pri = report.get("priorities") or []
+    if pri:
+        lines.append("  Work on, first:")
+        for i, p in enumerate(pri, 1):
+            lines.append(
+                f"    {i}. {p['advice']} ({p['label']}: {p['score_per_min']:g} %·s of deviation "
+                "per minute of talk)"
+            )
+    else:
+        lines.append("  Every metric stayed in its ideal range.")
+    lines.append("")
+    lines.append(
+        f"  {'metric':<12} {'in range':>8} {'mean':>7} {'p10':>7} {'p90':>7} {'longest out':>12}"
+    )
+    for name, m in report["metrics"].items():
+        lines.append(
+            f"  {m.get('label', name):<12} {_pct(m.get('time_in_range')):>8} "
+            f"{_num(m.get('mean')):>7} {_num(m.get('p10')):>7} {_num(m.get('p90')):>7} "
+            f"{m.get('longest_out_of_range_s', 0.0):>10.0f} s"
+        )
+    lines.append("")
+    cues = report.get("cues") or []
+    judged = report["counts"].get("cues_judged", 0)
+    lines.append(
+        f"  {len(cues)} cues; {report['counts'].get('cues_improved', 0)} of {judged} corrective "
+        "cues were followed by an improvement"
+    )
+    for c in cues:
+        eff = c.get("improved")
+        mark = {True: "improved", False: "no change", None: ""}[eff]
+        lat = c.get("latency_s")
+        lat_s = f" {lat:.0f} s after onset" if lat is not None else ""
+        lines.append(f"    {_mmss(c['t']):>5}  {c['command']:<12}{lat_s:<20} {mark}")
+    return "\n".join(lines) + "\n"

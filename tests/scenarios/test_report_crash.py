@@ -1,0 +1,97 @@
+"""The report after a crash: the processor dies mid-talk, files are torn, the report still comes.
+
+The talk is killed from inside (an exception at a fixed simulated time) rather than by killing
+a process at a wall-clock moment, so the test is deterministic; then the last lines of
+``cues.jsonl`` and of a stream are torn, as a power cut mid-write would leave them.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from prezence.processor import Decision
+from prezence.report import build_report, write_report
+from prezence.session import SessionDir, read_jsonl
+from sim.runner import run_talk
+
+ROOT = Path(__file__).resolve().parents[2]
+CRASH_AT_S = 300.0
+
+
+class ProcessorDied(RuntimeError):
+    pass
+
+
+def die_at(t: float) -> Callable[[Decision], None]:
+    def on_decision(d: Decision) -> None:
+        if d.t >= t:
+            raise ProcessorDied(f"killed at {d.t}")
+
+    return on_decision
+
+
+@pytest.fixture(scope="module")
+def crashed(tmp_path_factory: pytest.TempPathFactory) -> SessionDir:
+    out = tmp_path_factory.mktemp("crash") / "session"
+    with pytest.raises(ProcessorDied):
+        run_talk("demo", out=out, seed=0, on_decision=die_at(CRASH_AT_S))
+    session = SessionDir(out)
+    with session.cues.open("a") as f:
+        f.write('{"command":"lookUp","t":300.5,"me')  # torn mid-line
+    with session.stream("speech_speed.txt").open("a") as f:
+        f.write("300.7 21")  # torn mid-line: no newline
+    return session
+
+
+def test_crash_leaves_no_summary_or_truth(crashed: SessionDir) -> None:
+    assert not crashed.summary.exists()
+    assert not crashed.truth.exists()
+
+
+def test_report_is_rebuilt_up_to_the_crash(crashed: SessionDir) -> None:
+    report = build_report(crashed.root)
+    assert report["complete"] is False
+    assert CRASH_AT_S - 1.0 <= report["talk_s"] <= CRASH_AT_S
+    whole = read_jsonl(crashed.cues)
+    assert [c["t"] for c in report["cues"]] == [c["t"] for c in whole]
+    assert all(c["t"] <= CRASH_AT_S for c in report["cues"])
+    # The demo's first two problems (racing at 1:30, reading notes from 4:00) were coached.
+    commands = [c["command"] for c in report["cues"]]
+    assert "slowDown" in commands and "lookUp" in commands
+    assert report["metrics"]["speech_speed"]["stream"]["malformed"] == 1  # the torn line
+    assert {p["metric"] for p in report["priorities"]} <= set(report["metrics"])
+    assert report["priorities"], "the racing and the notes must give things to work on"
+
+
+def test_report_files_are_written_after_a_crash(crashed: SessionDir) -> None:
+    page = write_report(crashed.root)
+    assert "the coach stopped early" in page.read_text()
+    data = json.loads((crashed.report / "report.json").read_text())
+    assert data["complete"] is False
+
+
+def test_screenshot_of_the_report_is_not_blank(crashed: SessionDir, tmp_path: Path) -> None:
+    if not any(shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")):
+        pytest.skip("chromium is not installed (apt-get install chromium)")
+    image = pytest.importorskip("PIL.Image")
+    page = write_report(crashed.root)
+    shot = tmp_path / "shot.png"
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "screenshot_report.py"), str(page), "-o", str(shot)],
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
+    assert done.returncode == 0, done.stderr
+    with image.open(shot) as im:
+        assert im.size == (1200, 3000)
+        colours = im.convert("L").getcolors(maxcolors=1 << 16)
+    # A blank page has one or two shades; a rendered report has text, plots and tables.
+    assert colours is None or len(colours) > 50

@@ -1,0 +1,220 @@
+"""The post-speech report, rebuilt from a hand-made session folder (no simulator)."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from prezence.config.model import Check, Config, Rule, TimeSettings
+from prezence.config.tomlconf import dumps_config
+from prezence.errors import ConfigError
+from prezence.report import build_report, summary_phrase, write_report
+from prezence.report.build import cue_effect, deviation_seconds, rank_priorities
+from prezence.report.speech import MAX_SPOKEN_WORDS
+from prezence.samples import Sample
+from prezence.session import SessionDir
+
+SPEED = Rule(
+    "speech_speed", Check.IN_RANGE, low=140, high=180, below="speedUp", above="slowDown", unit="wpm"
+)
+VOLUME = Rule("speech_volume", Check.MIN, low=60, scale=6, below="louder", unit="dB")
+GAZE = Rule("cv_headGaze", Check.MIN, low=-15, scale=10, below="lookUp", unit="deg")
+CONFIG = Config(rules=(SPEED, VOLUME, GAZE), time=TimeSettings(allocated_s=100.0))
+
+
+def speed(t: int) -> float:
+    """Too fast (216 wpm, 20 % above) from 20 s to 60 s; slows down after a cue at 40 s."""
+    if 20 <= t < 40:
+        return 216.0
+    if 40 <= t < 60:
+        return 190.0
+    return 160.0
+
+
+def gaze(t: int) -> float:
+    """A short glance down (10 s at -20 deg: 50 %) from 70 s."""
+    return -20.0 if 70 <= t < 80 else 0.0
+
+
+def make_session(
+    root: Path,
+    *,
+    seconds: int = 110,
+    talk_s: float | None = 110.0,
+    cues: list[dict[str, object]] | None = None,
+) -> SessionDir:
+    """A session of ``seconds`` of 1 Hz samples for three metrics, as the runner writes it."""
+    session = SessionDir(root).create()
+    session.config.write_text(dumps_config(CONFIG))
+    meta: dict[str, object] = {"scenario": "handmade", "seed": 3, "policy": "weighted"}
+    if talk_s is not None:
+        meta["talk_s"] = talk_s
+    session.write_meta(meta)
+    lines = {
+        "speech_speed": [f"{t} {speed(t)}" for t in range(1, seconds + 1)],
+        "speech_volume": [f"{t} 66.0" for t in range(1, seconds + 1)],
+        "cv_headGaze": [f"{t} {gaze(t)}" for t in range(1, seconds + 1)],
+    }
+    for metric, rows in lines.items():
+        session.stream(f"{metric}.txt").write_text("\n".join(rows) + "\n")
+    if cues is None:
+        cues = [
+            {
+                "t": 40.0,
+                "command": "slowDown",
+                "metric": "speech_speed",
+                "kind": "weighted",
+                "reason": "speech_speed 216 is 20% above 180 wpm",
+                "params": {},
+                "onset": 20.0,
+                "deviation": 20.0,
+                "phrase": "Slow down a little.",
+                "planned_s": 3.0,
+                "measured_s": 3.0,
+                "dropped": False,
+            },
+            {
+                "t": 80.0,
+                "command": "timeLeft",
+                "metric": None,
+                "kind": "time",
+                "reason": "...",
+                "params": {"minutes": 1},
+                "onset": 80.0,
+                "deviation": 0.0,
+                "weight": float("inf"),
+                "phrase": "One minute left.",
+                "dropped": False,
+            },
+        ]
+    with session.cues.open("w") as f:
+        for c in cues:
+            f.write(json.dumps(c) + "\n")
+    return session
+
+
+@pytest.fixture
+def session(tmp_path: Path) -> SessionDir:
+    return make_session(tmp_path / "talk")
+
+
+def test_time_used_is_compared_with_time_allocated(session: SessionDir) -> None:
+    report = build_report(session.root)
+    assert report["time"]["used_s"] == 110.0
+    assert report["time"]["allocated_s"] == 100.0
+    assert report["time"]["over_under_pct"] == pytest.approx(10.0)
+    assert report["complete"] is True
+
+
+def test_metric_figures_come_from_the_stream_files(session: SessionDir) -> None:
+    m = build_report(session.root)["metrics"]["speech_speed"]
+    assert m["out_of_range_s"] == pytest.approx(40.0)
+    assert m["longest_out_of_range_s"] == pytest.approx(40.0)
+    assert m["deviation_s"]["above"] == pytest.approx(20 * 20.0 + 20 * 100 * 10 / 180, rel=1e-3)
+    assert m["low"] == 140 and m["high"] == 180 and m["label"] == "pace"
+
+
+def test_priorities_rank_deviation_times_duration(session: SessionDir) -> None:
+    pri = build_report(session.root)["priorities"]
+    # pace: 40 s out, ~15 % on average; eye contact: 10 s out at 50 %; volume never out.
+    assert [p["metric"] for p in pri] == ["speech_speed", "cv_headGaze"]
+    assert pri[0]["advice"] == "slow down"
+    assert pri[1]["advice"] == "look up at your audience"
+
+
+def test_a_cue_records_latency_and_whether_the_presenter_improved(session: SessionDir) -> None:
+    cue = build_report(session.root)["cues"][0]
+    assert cue["latency_s"] == pytest.approx(20.0)
+    # 30 s before: 10 s in range, 20 s at 20 %; after: 20 s at 5.6 %, 10 s in range.
+    assert cue["deviation_before"] == pytest.approx(20.0 * 20 / 30, abs=1e-3)
+    assert cue["deviation_after"] == pytest.approx(100 * 10 / 180 * 20 / 30, abs=1e-3)
+    assert cue["improved"] is True
+
+
+def test_cue_effect_says_no_change_when_the_deviation_stays() -> None:
+    ss = [Sample("speech_speed", float(t), 216.0) for t in range(60)]
+    assert cue_effect(SPEED, ss, 30.0)["improved"] is False
+
+
+def test_deviation_seconds_does_not_depend_on_the_sample_rate() -> None:
+    slow = [Sample("speech_speed", float(t), 198.0) for t in range(0, 20, 2)]
+    fast = [Sample("speech_speed", t / 4, 198.0) for t in range(0, 80)]
+    a = deviation_seconds(SPEED, slow, 20.0, 6.0)
+    b = deviation_seconds(SPEED, fast, 20.0, 6.0)
+    assert a == b == {"below": 0.0, "above": pytest.approx(200.0)}
+
+
+def test_rank_priorities_leaves_out_metrics_that_stayed_in_range() -> None:
+    dev = {"speech_speed": {"below": 0.0, "above": 0.0}, "speech_volume": {"below": 5.0}}
+    assert [p["metric"] for p in rank_priorities(CONFIG, dev, talk_s=60.0)] == ["speech_volume"]
+
+
+def test_a_torn_last_cue_line_is_ignored(tmp_path: Path) -> None:
+    session = make_session(tmp_path / "t")
+    with session.cues.open("a") as f:
+        f.write('{"t": 90.0, "command": "lookU')
+    report = build_report(session.root)
+    assert [c["command"] for c in report["cues"]] == ["slowDown", "timeLeft"]
+
+
+def test_talk_length_is_the_last_sample_without_session_json(tmp_path: Path) -> None:
+    session = make_session(tmp_path / "t", seconds=95, talk_s=None)
+    assert build_report(session.root)["time"]["used_s"] == 95.0
+
+
+def test_a_record_that_stops_early_is_reported_as_incomplete(tmp_path: Path) -> None:
+    session = make_session(tmp_path / "t", seconds=50, talk_s=110.0)
+    session.cues.write_text(session.cues.read_text().splitlines()[0] + "\n")  # the cue at 40 s
+    report = build_report(session.root)
+    assert report["complete"] is False
+    assert report["talk_s"] == 50.0
+    assert report["metrics"]["speech_volume"]["no_data_s"] == pytest.approx(1.0)
+
+
+def test_missing_folder_raises_config_error(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="no such session folder"):
+        build_report(tmp_path / "nope")
+
+
+def test_summary_phrase_names_time_and_the_two_priorities(session: SessionDir) -> None:
+    phrase = summary_phrase(build_report(session.root))
+    assert "10% over" in phrase
+    assert "slow down" in phrase and "look up at your audience" in phrase
+    assert len(phrase.split()) <= MAX_SPOKEN_WORDS
+
+
+def test_summary_phrase_never_rambles() -> None:
+    report = {
+        "time": {"used_s": 60.0, "allocated_s": 60.0, "over_under_pct": 0.0},
+        "priorities": [{"advice": "word " * 30}, {"advice": "other " * 30}],
+    }
+    assert len(summary_phrase(report).split()) <= MAX_SPOKEN_WORDS
+
+
+def test_write_report_writes_every_output(session: SessionDir) -> None:
+    page = write_report(session.root)
+    folder = session.report
+    assert page == folder / "report.html"
+    data = json.loads((folder / "report.json").read_text(), parse_constant=_no_constants)
+    assert data["priorities"][0]["metric"] == "speech_speed"
+    assert "slow down" in (folder / "spoken.txt").read_text()
+    assert "Work on" in (folder / "summary.txt").read_text()
+    html = page.read_text()
+    assert 'src="http' not in html and "<link" not in html  # self-contained
+
+
+def test_report_page_inlines_its_plots(session: SessionDir) -> None:
+    pytest.importorskip("matplotlib")
+    html = write_report(session.root).read_text()
+    images = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html)
+    assert len(images) == 1 + len(CONFIG.rules)  # the summary chart and one timeline each
+    assert all(base64.b64decode(i)[:8] == b"\x89PNG\r\n\x1a\n" for i in images)
+    assert (session.report / "timeline_speech_speed.png").is_file()
+
+
+def _no_constants(name: str) -> object:
+    raise ValueError(f"report.json holds {name}, which is not JSON")
