@@ -80,8 +80,10 @@ COMFORT_BAND_FRACTION = 0.25
 #: with a 6 dB scale; -5 deg for >= -15 deg with a 10 deg scale).
 COMFORT_SCALES = 1.0
 
-# The forms of a garbage line; the runner writes them where a sample would have gone.
-_GARBAGE_FORMS = ("{t:.3f}", "{t:.3f} ???", "garbage")
+# The forms of a garbage line; the runner writes them where a sample would have gone. Each is
+# invalid for the stream codec (not a number, not finite, too many fields, a word). A bare
+# "<t>" would not do: the codec reads a single field as a bare "<value>" line, as the seed allows.
+_GARBAGE_FORMS = ("{t:.3f} ???", "{t:.3f} nan", "{t:.3f} 1 2", "garbage")
 
 _NOISE, _GARBAGE = 0, 1  # the two random streams of each metric
 _REACTIONS_KEY = zlib.crc32(b"reactions")

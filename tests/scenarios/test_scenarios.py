@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from prezence.session import read_jsonl
+from prezence.streams.codec import StreamLineError, parse_line
 from sim.scenario import check_expectations, list_scenarios, load_scenario
 
 runner = pytest.importorskip("sim.runner")
@@ -59,3 +60,19 @@ def test_truth_file_records_the_scripted_problem(tmp_path: Path) -> None:
     assert gaze[0]["start"] == 300.0
     assert gaze[0]["side"] == "below"
     assert all(row["start"] >= 300.0 and row["end"] <= 420.0 for row in gaze)
+
+
+def _is_bad(line: str) -> bool:
+    try:
+        parse_line(line)
+    except StreamLineError:
+        return True
+    return False
+
+
+def test_garbage_lines_reach_the_module_files(tmp_path: Path) -> None:
+    """camera_dropout writes garbage lines; its expectations (above) hold in spite of them."""
+    result = runner.run_talk("camera_dropout", out=tmp_path, seed=0, backend="fake")
+    lines = result.session.stream("cv_headGaze.txt").read_text().splitlines()
+    bad = [line for line in lines if _is_bad(line)]
+    assert 0.005 * len(lines) < len(bad) < 0.05 * len(lines)
