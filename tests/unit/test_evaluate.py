@@ -1,0 +1,143 @@
+"""Closed-loop evaluation: scoring of cues, the tables, and a small grid run twice."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import pytest
+
+from prezence.errors import UnknownName
+from prezence.evaluate import (
+    aggregate,
+    classify_cue,
+    csv_text,
+    evaluate,
+    evaluate_main,
+    markdown_table,
+    score_talk,
+)
+
+TRUTH = [
+    {"metric": "speech_speed", "start": 100.0, "end": 160.0, "side": "above"},
+    {"metric": "cv_headGaze", "start": 300.0, "end": 330.0, "side": "below"},
+]
+
+
+@pytest.mark.parametrize(
+    ("t", "side", "kind"),
+    [
+        (120.0, "above", "relevant"),
+        (165.0, "above", "stale"),  # 5 s after the problem ended
+        (200.0, "above", "false_alarm"),  # long after
+        (120.0, "below", "false_alarm"),  # the wrong way round
+    ],
+    ids=["during", "just-after", "long-after", "wrong-side"],
+)
+def test_classify_cue(t: float, side: str, kind: str) -> None:
+    assert classify_cue(TRUTH, "speech_speed", side, decided=t, started=t) == kind
+
+
+def test_a_cue_started_after_the_problem_ended_is_stale() -> None:
+    assert classify_cue(TRUTH, "speech_speed", "above", decided=159.0, started=161.0) == "stale"
+
+
+def summary_with(cues: list[dict[str, object]]) -> dict[str, object]:
+    rows = [dict(c, latency_s=float(c["t"]) - 100.0) for c in cues]  # type: ignore[arg-type]
+    return {
+        "talk_s": 600.0,
+        "metrics": {"a": {"truth_time_in_range": 0.9}, "b": {"truth_time_in_range": 0.7}},
+        "cues": rows,
+        "counts": {"joint_limit_violations": 0},
+    }
+
+
+def test_score_talk_counts_and_measures_backlog() -> None:
+    cues: list[dict[str, object]] = [
+        {"t": 120.0, "command": "slowDown", "metric": "speech_speed"},
+        {"t": 200.0, "command": "slowDown", "metric": "speech_speed"},
+        {"t": 480.0, "command": "timeLeft", "metric": None},
+    ]
+    row = score_talk(
+        summary_with(cues),
+        TRUTH,
+        cues,
+        {"slowDown": "above"},
+        started=[120.0, 200.5, 480.0],
+        decided=[120.0, 200.0, 480.0],
+    )
+    assert row["time_in_range"] == pytest.approx(0.8)
+    assert (row["cues"], row["corrective"], row["relevant"], row["false_alarms"]) == (3, 2, 1, 1)
+    assert row["latency_s"] == pytest.approx(20.0)
+    assert row["backlog_s"] == pytest.approx(0.5)
+    assert row["waited"] == 1
+
+
+def fake_rows() -> list[dict[str, object]]:
+    base = {"talk_s": 600.0, "relevant": 1, "stale": 0, "backlog_s": 0.0, "waited": 0}
+    return [
+        dict(base, scenario="s1", policy="weighted", seed=0, time_in_range=0.9, cues=4,
+             corrective=2, false_alarms=0, latency_s=10.0, latencies=[10.0], violations=0),
+        dict(base, scenario="s2", policy="weighted", seed=0, time_in_range=0.7, cues=2,
+             corrective=1, false_alarms=1, latency_s=30.0, latencies=[30.0, 40.0], violations=0),
+        dict(base, scenario="s1", policy="none", seed=0, time_in_range=0.6, cues=0,
+             corrective=0, false_alarms=0, latency_s=None, latencies=[], violations=0),
+    ]  # fmt: skip
+
+
+def test_aggregate_pools_over_scenarios_and_seeds() -> None:
+    agg = {a["policy"]: a for a in aggregate(fake_rows())}
+    assert agg["weighted"]["time_in_range"] == pytest.approx(0.8)
+    assert agg["weighted"]["cues_per_talk"] == pytest.approx(3.0)
+    assert agg["weighted"]["latency_s"] == pytest.approx(30.0)  # median of 10, 30, 40
+    assert agg["none"]["latency_s"] is None
+
+
+def test_tables_have_a_row_per_policy_and_per_talk() -> None:
+    md = markdown_table(fake_rows())
+    policy_rows = [line.split(" | ")[0] for line in md.splitlines()[2:4]]
+    assert policy_rows == ["| weighted", "| none"]
+    assert "| s2 | 70.0 | – |" in md
+    parsed = list(csv.DictReader(io.StringIO(csv_text(fake_rows()))))
+    assert [r["scenario"] for r in parsed] == ["s1", "s2", "s1"]
+    assert parsed[1]["latencies"] == "30;40"
+
+
+def test_unknown_policy_fails_before_any_talk() -> None:
+    with pytest.raises(UnknownName, match="weigthed"):
+        evaluate(["demo"], ["weigthed"], 1)
+
+
+@pytest.mark.slow
+def test_small_grid_is_deterministic_and_independent_of_jobs(tmp_path: Path) -> None:
+    grid = (["demo"], ["weighted", "none"], [0])
+    serial = evaluate(*grid, jobs=1)
+    parallel = evaluate(*grid, jobs=2)
+    assert markdown_table(serial) == markdown_table(parallel)
+    assert csv_text(serial) == csv_text(parallel)
+    by_policy = {r["policy"]: r for r in serial}
+    # The coach must help on the demo talk, without backlog, and stay silent under "none".
+    assert by_policy["weighted"]["time_in_range"] > by_policy["none"]["time_in_range"]
+    assert by_policy["weighted"]["backlog_s"] == 0.0
+    assert by_policy["none"]["cues"] == 0
+
+
+@pytest.mark.slow
+def test_evaluate_main_writes_csv_and_markdown(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["--scenarios", "ideal", "--policies", "none", "--seeds", "1", "--out", str(tmp_path)]
+    assert evaluate_main(argv) == 0
+    assert "| none | 1 |" in capsys.readouterr().out
+    assert (tmp_path / "evaluation.md").read_text().startswith("| policy |")
+    assert (tmp_path / "evaluation.csv").read_text().startswith("scenario,policy,seed")
+
+
+def test_ray_runs_the_grid_on_a_local_instance() -> None:
+    ray = pytest.importorskip("ray")
+    try:
+        rows = evaluate(["ideal"], ["none"], [0], ray="local")
+    finally:
+        ray.shutdown()
+    assert [(r["scenario"], r["policy"], r["seed"]) for r in rows] == [("ideal", "none", 0)]
