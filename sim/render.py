@@ -25,13 +25,12 @@ log = logging.getLogger(__name__)
 
 #: Physics step for rendering (fine: pictures are not on the talk's hot path).
 RENDER_TIMESTEP = 1 / 240
-FRAME_SIZE = (320, 320)
-#: Camera: looking at the robot's chest from its front-left (the viewer's front-right), a little
-#: from above, so both arms and the head's tilt are visible.
-CAMERA_TARGET = (0.0, 0.0, 0.32)
+FRAME_SIZE = (240, 240)
+#: Two cameras side by side in every frame: nearly facing the robot (arm spread, head turn and
+#: nod read best) and from its front-right (reach forward and head tilt read best).
+CAMERA_TARGET = (0.0, 0.0, 0.30)
 CAMERA_DISTANCE = 0.95
-CAMERA_YAW_DEG = 90.0 + 30.0
-CAMERA_PITCH_DEG = -10.0
+CAMERA_VIEWS = ((90.0 + 15.0, -8.0), (90.0 - 60.0, -10.0))
 
 
 def _cv2() -> Any:
@@ -58,31 +57,34 @@ def _add_floor(cid: int) -> None:
     )
 
 
-def _camera(cid: int, size: tuple[int, int]) -> tuple[list[float], list[float]]:
-    view = p.computeViewMatrixFromYawPitchRoll(
-        list(CAMERA_TARGET),
-        CAMERA_DISTANCE,
-        CAMERA_YAW_DEG,
-        CAMERA_PITCH_DEG,
-        0,
-        2,
-        physicsClientId=cid,
-    )
+def _cameras(cid: int, size: tuple[int, int]) -> list[tuple[list[float], list[float]]]:
     proj = p.computeProjectionMatrixFOV(40, size[0] / size[1], 0.05, 5.0, physicsClientId=cid)
-    return list(view), list(proj)
+    out = []
+    for yaw, pitch in CAMERA_VIEWS:
+        view = p.computeViewMatrixFromYawPitchRoll(
+            list(CAMERA_TARGET), CAMERA_DISTANCE, yaw, pitch, 0, 2, physicsClientId=cid
+        )
+        out.append((list(view), list(proj)))
+    return out
 
 
-def _grab(cid: int, size: tuple[int, int], camera: tuple[list[float], list[float]]) -> np.ndarray:
-    w, h, rgba, _, _ = p.getCameraImage(
-        size[0],
-        size[1],
-        camera[0],
-        camera[1],
-        renderer=p.ER_TINY_RENDERER,
-        lightDirection=[1.0, 0.6, 2.0],
-        physicsClientId=cid,
-    )
-    return np.reshape(np.asarray(rgba, dtype=np.uint8), (h, w, 4))[:, :, :3].copy()
+def _grab(
+    cid: int, size: tuple[int, int], cameras: Sequence[tuple[list[float], list[float]]]
+) -> np.ndarray:
+    """One frame: the views side by side (RGB uint8)."""
+    images = []
+    for view, proj in cameras:
+        w, h, rgba, _, _ = p.getCameraImage(
+            size[0],
+            size[1],
+            view,
+            proj,
+            renderer=p.ER_TINY_RENDERER,
+            lightDirection=[1.0, 0.6, 2.0],
+            physicsClientId=cid,
+        )
+        images.append(np.reshape(np.asarray(rgba, dtype=np.uint8), (h, w, 4))[:, :, :3])
+    return np.hstack(images)
 
 
 def sheet_times(traj: Trajectory, n: int = 6) -> list[float]:
@@ -104,7 +106,7 @@ def sheet_times(traj: Trajectory, n: int = 6) -> list[float]:
 
 
 def contact_sheet(
-    frames: Sequence[np.ndarray], labels: Sequence[str], title: str, *, cols: int = 3
+    frames: Sequence[np.ndarray], labels: Sequence[str], title: str, *, cols: int = 2
 ) -> np.ndarray:
     """Frames in a grid with a label under each and a title bar (RGB uint8)."""
     cv2 = _cv2()
@@ -150,7 +152,7 @@ def render_gesture(
         params: gesture parameters.
         fps: video frame rate (frames are rendered at simulated times k / fps).
         speed_fraction: fraction of the URDF velocity limits.
-        size: frame width and height in pixels.
+        size: width and height of each view in pixels (a frame holds two views).
         frames: frames on the contact sheet.
 
     Returns:
@@ -168,7 +170,7 @@ def render_gesture(
     with NaoSim(timestep=RENDER_TIMESTEP) as sim:
         cid = sim.client
         _add_floor(cid)
-        camera = _camera(cid, size)
+        camera = _cameras(cid, size)
         sim.follow(traj, speed_fraction=speed_fraction)
         for t in wanted:
             sim.step_to(t)
@@ -191,20 +193,21 @@ def render_gesture(
     }
     if out_video is not None:
         out_video = Path(out_video)
-        _write_video(out_video, [shots[t] for t in video_at], fps, size)
+        _write_video(out_video, [shots[t] for t in video_at], fps)
         result["video"] = str(out_video)
         result["video_frames"] = len(video_at)
     return result
 
 
-def _write_video(path: Path, images: Sequence[np.ndarray], fps: int, size: tuple[int, int]) -> None:
+def _write_video(path: Path, images: Sequence[np.ndarray], fps: int) -> None:
     cv2 = _cv2()
     codecs = {".mp4": "mp4v", ".avi": "MJPG"}
     codec = codecs.get(path.suffix.lower())
     if codec is None:
         raise ValueError(f"video must be .mp4 or .avi, not {path.suffix!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*codec), float(fps), size)
+    h, w = images[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*codec), float(fps), (w, h))
     if not writer.isOpened():
         raise OSError(f"OpenCV cannot write {path} with codec {codec}")
     try:
