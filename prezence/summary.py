@@ -126,6 +126,10 @@ def build_summary(
         for k in (
             "planned_s",
             "measured_s",
+            "gesture",
+            "gesture_planned_s",
+            "gesture_measured_s",
+            "phrase",
             "dropped",
             "gesture_peak_velocity_ratio",
             "gesture_violations",
@@ -168,7 +172,7 @@ def build_summary(
             "stale_episodes": sum(m["stale_episodes"] for m in metrics.values()),
             "joint_limit_violations": int((backend_stats or {}).get("joint_limit_violations", 0)),
         },
-        "backend": dict(backend_stats or {}),
+        "backend_stats": dict(backend_stats or {}),
     }
     if extra:
         out.update(extra)

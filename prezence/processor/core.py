@@ -274,15 +274,12 @@ class Processor:
             unit = f" {r.unit}" if r.unit else ""
             since = f" since {c.onset:.1f} s" if c.onset is not None else ""
             if c.kind == Kind.STRICT:
-                now_ = "" if c.deviation > 0 else f" (now {c.value:g}, back in range)"
+                now_ = "" if c.deviation > 0 else f" (now {c.value:.4g}, back in range)"
                 why = f"strict: {c.metric} went {c.side} {bound:g}{unit}{since}{now_}"
             else:
-                why = (
-                    f"{c.metric} {c.value:g} is {c.deviation:.0f}% {c.side} {bound:g}{unit}{since}"
-                    f" (weight {c.weight:.0f} >= {thr:g})"
-                    if c.eligible
-                    else f"{c.metric} {c.value:g} is {c.deviation:.0f}% {c.side} {bound:g}{unit}"
-                )
+                why = f"{c.metric} {c.value:.4g} is {c.deviation:.0f}% {c.side} {bound:g}{unit}"
+                if c.eligible:
+                    why += f"{since} (weight {c.weight:.0f} >= {thr:g})"
         others = [o for o in cands if o is not c]
         if others:
             beat = ", ".join(
