@@ -1,0 +1,397 @@
+"""A Gymnasium environment for learning when to cue: ``prezence/Coach-v0``.
+
+Importing this module registers the id, so ``gymnasium.make("prezence/Coach-v0")`` works after
+``import sim.gym_env``, and ``gymnasium.make("sim.gym_env:prezence/Coach-v0")`` works with no
+import at all (Gymnasium imports the module named before the colon). Gymnasium 1.x has no
+entry-point plugin discovery, so a package cannot register itself on ``import gymnasium``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import numpy.typing as npt
+from gymnasium import spaces
+
+from prezence.backends.base import Motion
+from prezence.backends.fake import FakeBackend
+from prezence.coach import GesturePlanner, default_planner
+from prezence.config.load import load_config
+from prezence.config.model import Config, Rule
+from prezence.errors import UnknownName
+from prezence.feedback.commands import get_command
+from prezence.processor import Processor
+from prezence.processor.resolve import SilentPolicy
+from prezence.samples import Sample
+from sim.presenters import PHYSICAL_RANGES, SyntheticPresenter
+from sim.scenario import Scenario, list_scenarios, load_scenario
+
+ENV_ID = "prezence/Coach-v0"
+
+#: Observation columns per metric, then the global ones.
+METRIC_FEATURES = ("value", "signed_deviation", "weight", "fresh")
+GLOBAL_FEATURES = ("robot_busy", "busy_left_s", "time_fraction", "time_left")
+
+_DEV_CLIP = 10.0  # signed deviation / 100, clipped: ±1000 %
+_WEIGHT_CLIP = 10.0  # weight / threshold, clipped
+_BUSY_CLIP_S = 30.0
+
+
+class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
+    """The coach's choice at every decision point: which cue, if any, the robot gives now.
+
+    ## Description
+
+    A synthetic presenter (:class:`sim.presenters.SyntheticPresenter`) plays a scenario: metric
+    samples (speech speed, volume, clarity, head gaze, gesture rate) that drift out of their
+    ideal bands in scripted episodes. At every step (``step_s`` of talk time, by default the
+    configuration's decision period, 0.5 s) the agent may have the robot give one cue. The
+    robot is busy for the cue's planned duration (the gesture, timed against the URDF joint
+    limits, and the phrase, whichever is longer, on the fake backend); a cue asked for while it
+    is busy is ignored and costs nothing. The presenter reacts to a corrective cue as the
+    scenario says (with a delay, by a seeded fraction, for a while), so good timing pays.
+
+    The seed's rule processor is available as a baseline policy
+    (:class:`sim.policies.RuleBaseline`).
+
+    ## Action Space
+
+    ``Discrete(1 + K)``: 0 is no cue; then, in the order of :attr:`actions`, every
+    ``(command, metric)`` pair a rule of the configuration can give (its ``below`` then its
+    ``above`` command, rules in config order), then the time-left and overtime commands
+    (``metric`` None). With the default configuration ``K = 10``: speedUp, slowDown, louder,
+    articulate, lookUp, gestureMore, gestureLess, timeLeft, overtime (see :attr:`actions`).
+
+    ## Observation Space
+
+    ``Box(float32)`` of ``4 × n_rules + 4`` values. Per rule, in config order:
+
+    | column           | meaning                                              | range          |
+    |------------------|------------------------------------------------------|----------------|
+    | value            | newest sample (the band's midpoint before the first) | physical range |
+    | signed_deviation | deviation % / 100, negative below the band           | [-10, 10]      |
+    | weight           | the processor's time-integrated weight / threshold   | [0, 10]        |
+    | fresh            | 1 if the newest sample is newer than the stale time  | {0, 1}         |
+
+    then ``robot_busy`` (0/1), ``busy_left_s`` (planned seconds left of the cue, [0, 30]),
+    ``time_fraction`` (talk time done / talk length, [0, 1]) and ``time_left``
+    ((allocated − now) / allocated, [-1, 1]; 1 when no time is allocated). Weights are those
+    of the seed's processor (growth ∝ deviation × time, halving in range), reset when the agent
+    cues that metric.
+
+    ## Rewards
+
+    Per step: ``step_s / talk length × (share of metrics really in range at the end of the
+    step)`` − ``cue_cost`` per cue given − ``in_range_penalty`` per corrective cue about a metric
+    that was really (noise-free) in range when given. "Really in range" is the presenter's
+    noise-free value judged by the rule. Without costs, an episode's return is the talk's mean
+    time in range (1.0 for a perfect talk); time cues earn nothing in v0 (the presenter's talk
+    length is scripted) and cost ``cue_cost``.
+
+    ## Starting State
+
+    ``reset(seed=…)`` picks a scenario uniformly from ``scenarios`` (or ``options["scenario"]``)
+    and a presenter seed, both from the environment's generator, so the same seed gives the
+    same episode. The talk starts at t = 0 with the robot free and all weights 0.
+
+    ## Episode End
+
+    Terminated when the talk's scripted length is reached. Never truncated by the environment
+    itself (``gymnasium.make`` may add a TimeLimit with ``max_episode_steps``).
+
+    ## Arguments
+
+    ``gymnasium.make("prezence/Coach-v0", scenarios=None, config=None, step_s=None,
+    cue_cost=0.005, in_range_penalty=0.01, speed_fraction=0.6, planner=None, render_mode=None)``
+
+    * ``scenarios``: names or paths of scenarios (default: every built-in scenario).
+    * ``config``: a :class:`~prezence.config.model.Config` (default: the built-in one); each
+      scenario's allocated time replaces the config's, as in headless talks.
+    * ``step_s``: seconds of talk per step (default: ``decision_period_s``).
+    * ``cue_cost``, ``in_range_penalty``: reward terms above.
+    * ``speed_fraction``: fraction of the joints' velocity limits used by gestures.
+    * ``planner``: gesture planner (default: the gesture library retimed at ``speed_fraction``).
+    * ``render_mode``: None or ``"ansi"`` (a one-line text state).
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": ["ansi"], "render_fps": 2}
+
+    def __init__(
+        self,
+        scenarios: str | Sequence[str] | None = None,
+        *,
+        config: Config | None = None,
+        step_s: float | None = None,
+        cue_cost: float = 0.005,
+        in_range_penalty: float = 0.01,
+        speed_fraction: float = 0.6,
+        planner: GesturePlanner | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+        names = [scenarios] if isinstance(scenarios, str) else list(scenarios or list_scenarios())
+        if not names:
+            raise ValueError("no scenarios")
+        self.scenarios: tuple[Scenario, ...] = tuple(load_scenario(n) for n in names)
+        self.config = config if config is not None else load_config(None)
+        self.step_s = float(
+            step_s if step_s is not None else self.config.processor.decision_period_s
+        )
+        if not self.step_s > 0:
+            raise ValueError(f"step_s must be > 0, got {self.step_s}")
+        self.cue_cost = float(cue_cost)
+        self.in_range_penalty = float(in_range_penalty)
+        self.render_mode = render_mode
+        self._planner = planner if planner is not None else default_planner(speed_fraction)
+        self.rules: tuple[Rule, ...] = self.config.rules
+        acts: list[tuple[str | None, str | None]] = [(None, None)]
+        for r in self.rules:
+            for cmd in (r.below, r.above):
+                if cmd is not None and (cmd, r.metric) not in acts:
+                    acts.append((cmd, r.metric))
+        for cmd in (self.config.time.warn_command, self.config.time.overtime_command):
+            if (cmd, None) not in acts:
+                acts.append((cmd, None))
+        #: ``actions[i]`` is the ``(command, metric)`` of action ``i`` (``(None, None)``: no cue).
+        self.actions: tuple[tuple[str | None, str | None], ...] = tuple(acts)
+        self.action_space = spaces.Discrete(len(self.actions))
+        low: list[float] = []
+        high: list[float] = []
+        for r in self.rules:
+            lo, hi = PHYSICAL_RANGES.get(r.metric, (-1e4, 1e4))
+            low += [lo, -_DEV_CLIP, 0.0, 0.0]
+            high += [hi, _DEV_CLIP, _WEIGHT_CLIP, 1.0]
+        low += [0.0, 0.0, 0.0, -1.0]
+        high += [1.0, _BUSY_CLIP_S, 1.0, 1.0]
+        self.observation_space = spaces.Box(
+            np.array(low, dtype=np.float32), np.array(high, dtype=np.float32), dtype=np.float32
+        )
+        self._episode: dict[str, Any] = {}
+
+    # -- helpers -----------------------------------------------------------------------------
+
+    def action_index(self, command: str, metric: str | None) -> int:
+        """The action that gives ``command`` about ``metric``.
+
+        Raises:
+            UnknownName: no action gives it.
+        """
+        for i, (c, m) in enumerate(self.actions):
+            if c == command and (m == metric or metric is None or m is None):
+                return i
+        raise UnknownName("action", command, [c for c, _ in self.actions if c])
+
+    @property
+    def episode_config(self) -> Config:
+        """The configuration of the current episode (the scenario's allocated time applied)."""
+        cfg: Config = self._episode["config"]
+        return cfg
+
+    @property
+    def now(self) -> float:
+        """Talk time of the current step."""
+        return float(self._episode["t"])
+
+    def _truly_in_range(self, metric: str, t: float) -> bool:
+        pres: SyntheticPresenter = self._episode["presenter"]
+        rule = self._episode["config"].rule(metric)
+        return rule.side(pres.true_value(metric, t)) is None
+
+    def _judged_metrics(self) -> list[str]:
+        sc: Scenario = self._episode["scenario"]
+        have = {m.metric for m in sc.metrics}
+        return [r.metric for r in self.rules if r.metric in have]
+
+    def _obs(self) -> npt.NDArray[np.float32]:
+        ep = self._episode
+        proc: Processor = ep["processor"]
+        t = float(ep["t"])
+        thr = self.config.processor.threshold
+        out: list[float] = []
+        for r in self.rules:
+            st = proc.state(r.metric)
+            if st.value is None:
+                mid = [x for x in (r.low, r.high) if x is not None]
+                value = sum(mid) / len(mid) if mid else 0.0
+                signed = 0.0
+            else:
+                value = st.value
+                dev = st.deviation() / 100.0
+                signed = -dev if r.side(st.value) == "below" else dev
+            lo, hi = PHYSICAL_RANGES.get(r.metric, (-1e4, 1e4))
+            out += [
+                min(max(value, lo), hi),
+                min(max(signed, -_DEV_CLIP), _DEV_CLIP),
+                min(st.weight / thr, _WEIGHT_CLIP) if thr > 0 else 0.0,
+                0.0 if st.stale(t) else 1.0,
+            ]
+        busy_left = max((m.started_at + m.planned_s - t for m in ep["motions"]), default=0.0)
+        busy = bool(ep["backend"].busy)
+        duration = float(ep["scenario"].duration_s)
+        alloc = ep["config"].time.allocated_s
+        left = 1.0 if not alloc else min(max((alloc - t) / alloc, -1.0), 1.0)
+        out += [
+            1.0 if busy else 0.0,
+            min(max(busy_left, 0.0), _BUSY_CLIP_S) if busy else 0.0,
+            min(t / duration, 1.0),
+            left,
+        ]
+        return np.array(out, dtype=np.float32)
+
+    def _info(
+        self, samples: list[Sample], cue: dict[str, Any] | None, ignored: bool
+    ) -> dict[str, Any]:
+        ep = self._episode
+        return {
+            "t": float(ep["t"]),
+            "scenario": ep["scenario"].name,
+            "presenter_seed": ep["seed"],
+            "samples": samples,
+            "robot_busy": bool(ep["backend"].busy),
+            "robot_free_since": None if ep["backend"].busy else ep["free_since"],
+            "cue": cue,
+            "ignored": ignored,
+            "in_range": ep["in_range"],
+        }
+
+    # -- Gymnasium API -------------------------------------------------------------------------
+
+    def reset(
+        self, *, seed: int | None = None, options: Mapping[str, Any] | None = None
+    ) -> tuple[npt.NDArray[np.float32], dict[str, Any]]:
+        super().reset(seed=seed)
+        if self._episode:
+            self._episode["backend"].close()
+        options = options or {}
+        if "scenario" in options:
+            sc = next((s for s in self.scenarios if s.name == options["scenario"]), None)
+            sc = sc if sc is not None else load_scenario(str(options["scenario"]))
+        else:
+            sc = self.scenarios[int(self.np_random.integers(len(self.scenarios)))]
+        pseed = int(self.np_random.integers(0, 2**31 - 1))
+        cfg = self.config.with_allocated(sc.allocated_s)
+        backend = FakeBackend()
+        backend.open()
+        self._episode = {
+            "scenario": sc,
+            "seed": pseed,
+            "config": cfg,
+            "presenter": SyntheticPresenter(sc, cfg, seed=pseed),
+            "processor": Processor(cfg, policy=SilentPolicy()),
+            "backend": backend,
+            "motions": [],
+            "free_since": 0.0,
+            "t": 0.0,
+            "in_range": 1.0,
+            "cues": 0,
+        }
+        self._episode["presenter"].advance(0.0)
+        return self._obs(), self._info([], None, False)
+
+    def _params(self, command: str, t: float) -> dict[str, Any]:
+        ts = self._episode["config"].time
+        if ts.allocated_s is None:
+            return {"minutes": 1} if command == ts.warn_command else {}
+        left = ts.allocated_s - t
+        if command == ts.warn_command:
+            return {"minutes": max(1, int(round(left / 60.0)))}
+        if command == ts.overtime_command:
+            return {"minutes_over": int(max(0.0, -left) // 60)}
+        return {}
+
+    def _perform(self, command: str, metric: str | None, t: float) -> dict[str, Any]:
+        ep = self._episode
+        params = self._params(command, t)
+        cmd = get_command(command)
+        phrase = cmd.say(params)
+        traj = self._planner(cmd.gesture, params)
+        backend: FakeBackend = ep["backend"]
+        motions: list[Motion] = [backend.play(traj, now=t), backend.say(phrase, now=t)]
+        ep["motions"] = motions
+        ep["presenter"].on_cue(t, command, metric, params)
+        if metric is not None:
+            ep["processor"].state(metric).fired(t)
+        ep["cues"] += 1
+        return {
+            "t": t,
+            "command": command,
+            "metric": metric,
+            "params": params,
+            "phrase": phrase,
+            "planned_s": max(m.planned_s for m in motions),
+        }
+
+    def step(
+        self, action: np.int64 | int
+    ) -> tuple[npt.NDArray[np.float32], float, bool, bool, dict[str, Any]]:
+        if not self._episode:
+            raise RuntimeError("call reset() before step()")
+        if not self.action_space.contains(np.int64(action)):
+            raise ValueError(f"action {action!r} is not in {self.action_space}")
+        ep = self._episode
+        t0 = float(ep["t"])
+        backend: FakeBackend = ep["backend"]
+        reward = 0.0
+        cue: dict[str, Any] | None = None
+        ignored = False
+        command, metric = self.actions[int(action)]
+        if command is not None:
+            if backend.busy:
+                ignored = True
+            else:
+                cue = self._perform(command, metric, t0)
+                reward -= self.cue_cost
+                if metric is not None and self._truly_in_range(metric, t0):
+                    reward -= self.in_range_penalty
+        duration = float(ep["scenario"].duration_s)
+        t1 = min(t0 + self.step_s, duration)
+        presenter: SyntheticPresenter = ep["presenter"]
+        samples = presenter.advance(t1)
+        presenter.garbage(t1)  # the environment reads samples directly: no files to garble
+        was_busy = backend.busy
+        backend.advance(t1)
+        if was_busy and not backend.busy:
+            ends = [m.finished_at for m in ep["motions"] if m.finished_at is not None]
+            ep["free_since"] = max(ends) if ends else t1
+        ep["processor"].step(t1, samples, free_since=None)
+        ep["t"] = t1
+        metrics = self._judged_metrics()
+        share = sum(self._truly_in_range(m, t1) for m in metrics) / len(metrics) if metrics else 1.0
+        ep["in_range"] = share
+        reward += (t1 - t0) / duration * share
+        terminated = t1 >= duration - 1e-9
+        return self._obs(), float(reward), terminated, False, self._info(samples, cue, ignored)
+
+    def render(self) -> str | None:
+        if self.render_mode != "ansi" or not self._episode:
+            return None
+        ep = self._episode
+        proc: Processor = ep["processor"]
+        parts = [f"t={ep['t']:6.1f}s", "busy" if ep["backend"].busy else "free"]
+        for r in self.rules:
+            st = proc.state(r.metric)
+            v = "-" if st.value is None else f"{st.value:.3g}"
+            parts.append(f"{r.metric}={v}(w{st.weight:.0f})")
+        return " ".join(parts)
+
+    def close(self) -> None:
+        if self._episode:
+            self._episode["backend"].close()
+
+
+def _register() -> None:
+    if ENV_ID not in gym.registry:
+        gym.register(id=ENV_ID, entry_point="sim.gym_env:CoachEnv")
+
+
+_register()
+
+__all__ = ["ENV_ID", "GLOBAL_FEATURES", "METRIC_FEATURES", "CoachEnv"]

@@ -1,0 +1,103 @@
+"""CoachEnv: the Gymnasium checker, determinism under reset(seed), busy robot, rewards."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pybullet")
+gym = pytest.importorskip("gymnasium")
+
+from gymnasium.utils.env_checker import check_env  # noqa: E402
+
+from sim.gym_env import ENV_ID, CoachEnv  # noqa: E402
+from sim.policies import RuleBaseline, ThresholdPolicy, mean_return, run_episode  # noqa: E402
+
+
+def rollout(env: CoachEnv, seed: int, actions: list[int]) -> list[tuple[object, ...]]:
+    obs, info = env.reset(seed=seed)
+    out: list[tuple[object, ...]] = [(obs.tobytes(), info["scenario"], info["presenter_seed"])]
+    for a in actions:
+        obs, r, term, trunc, info = env.step(a)
+        out.append((obs.tobytes(), r, term, trunc, info["cue"], info["ignored"]))
+    return out
+
+
+def test_env_checker_passes() -> None:
+    env = CoachEnv("demo")
+    check_env(env, skip_render_check=True)
+
+
+def test_make_by_id_after_import() -> None:
+    env = gym.make(ENV_ID, scenarios="ideal")
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    env.close()
+
+
+def test_make_with_module_prefix_needs_no_import() -> None:
+    code = (
+        "import gymnasium; e = gymnasium.make('sim.gym_env:prezence/Coach-v0', scenarios='ideal');"
+        "print(e.unwrapped.action_space)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().startswith("Discrete(")
+
+
+def test_same_seed_same_episode() -> None:
+    rng = np.random.default_rng(7)
+    actions = [int(a) for a in rng.integers(0, 10, size=300) * (rng.random(300) < 0.05)]
+    a = rollout(CoachEnv(), 123, actions)
+    b = rollout(CoachEnv(), 123, actions)
+    assert a == b
+
+
+def test_seeds_choose_scenario_and_presenter() -> None:
+    env = CoachEnv()
+    firsts = {env.reset(seed=s)[1]["presenter_seed"] for s in range(5)}
+    assert len(firsts) == 5
+
+
+def test_robot_is_busy_for_the_planned_duration_and_ignores_cues() -> None:
+    env = CoachEnv("demo")
+    env.reset(seed=0)
+    look_up = env.action_index("lookUp", "cv_headGaze")
+    *_, info = env.step(look_up)
+    planned = info["cue"]["planned_s"]
+    assert planned > 0
+    steps = 0
+    while True:
+        *_, info = env.step(look_up)
+        if not info["robot_busy"]:
+            break
+        assert info["ignored"] and info["cue"] is None
+        steps += 1
+    assert steps * env.step_s < planned <= (steps + 2) * env.step_s
+
+
+def test_cueing_an_in_range_metric_costs_cue_and_penalty() -> None:
+    env = CoachEnv("ideal", cue_cost=0.01, in_range_penalty=0.02)
+    env.reset(seed=0)
+    _, quiet, *_ = env.step(0)
+    _, cued, *_ = env.step(env.action_index("slowDown", "speech_speed"))
+    assert cued == pytest.approx(quiet - 0.03)
+
+
+def test_rule_baseline_and_tuned_policy_beat_silence_on_the_demo_talk() -> None:
+    env = CoachEnv("demo")
+
+    class Silent:
+        def reset(self, env: CoachEnv, seed: int) -> None:
+            pass
+
+        def act(self, obs: object, info: object) -> int:
+            return 0
+
+    seeds = [0, 1]
+    silent = mean_return(env, Silent(), seeds)
+    assert mean_return(env, RuleBaseline(), seeds) > silent
+    assert mean_return(env, ThresholdPolicy(), seeds) > silent
+    assert run_episode(env, RuleBaseline(), 0)["cues"] >= 4
