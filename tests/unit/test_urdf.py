@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
 import pytest
 import yourdfpy
 
@@ -21,7 +22,8 @@ REFERENCE = ROOT.parent / "shared" / "reference"
 
 
 def _generator() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("gen_nao_urdf", ROOT / "tools" / "gen_nao_urdf.py")
+    path = ROOT / "tools" / "gen_nao_urdf.py"
+    spec = importlib.util.spec_from_file_location("gen_nao_urdf", path)
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     sys.modules.setdefault(spec.name, mod)  # dataclasses look their module up by name
@@ -59,7 +61,8 @@ def test_generator_check_flags_an_edited_urdf(tmp_path: Path) -> None:
 
 @pytest.mark.skipif(not REFERENCE.is_dir(), reason="reference facts folder not beside the checkout")
 def test_asset_tables_are_copies_of_the_reference() -> None:
-    assert (MODEL_DIR / "nao_joints.csv").read_bytes() == (REFERENCE / "nao_joints.csv").read_bytes()
+    copy = (MODEL_DIR / "nao_joints.csv").read_bytes()
+    assert copy == (REFERENCE / "nao_joints.csv").read_bytes()
     assert _generator().check(reference_dir=REFERENCE) == []
 
 
@@ -103,7 +106,7 @@ def test_inertia_tensors_are_physical(urdf: yourdfpy.URDF) -> None:
     for link in urdf.link_map.values():
         if link.inertial is None:
             continue
-        eig = sorted(float(x) for x in __import__("numpy").linalg.eigvalsh(link.inertial.inertia))
+        eig = sorted(float(x) for x in np.linalg.eigvalsh(link.inertial.inertia))
         assert eig[0] > 0, link.name
         assert eig[0] + eig[1] >= eig[2] * (1 - 1e-6), link.name
 
@@ -124,7 +127,8 @@ def test_standing_height_matches_the_link_lengths(urdf: yourdfpy.URDF) -> None:
 
 
 def test_model_folder_has_readme_license_changelog() -> None:
-    for name in ("README.md", "LICENSE", "CHANGELOG.md", "nao.urdf", "nao_joints.csv", "nao_links.csv"):
+    files = ("README.md", "LICENSE", "CHANGELOG.md", "nao.urdf", "nao_joints.csv", "nao_links.csv")
+    for name in files:
         assert (MODEL_DIR / name).is_file(), name
     readme = (MODEL_DIR / "README.md").read_text(encoding="utf-8")
     assert "Grade" in readme or "grade" in readme

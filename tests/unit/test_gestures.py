@@ -1,0 +1,235 @@
+"""The gesture library: one gesture per command, every one timed within the joint limits."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from prezence.errors import ConfigError, LimitViolation, UnknownName
+from prezence.feedback.commands import load_commands
+from prezence.feedback.gesture_check import MAX_RATIO, check_gestures, gesture_rows
+from prezence.feedback.gestures import (
+    DEFAULT_SPEED_FRACTION,
+    build_trajectory,
+    load_library,
+    parse_library,
+    time_optimal_minimum,
+)
+from prezence.feedback.limits import JointLimits, load_limits
+from prezence.feedback.trajectory import ACCEL_TIME_S, Trajectory
+
+LIMITS = load_limits()
+LIBRARY = load_library(LIMITS)
+FRACTIONS = [0.2, DEFAULT_SPEED_FRACTION, 1.0]
+
+
+def _all_cases() -> list[tuple[str, dict[str, int] | None]]:
+    out: list[tuple[str, dict[str, int] | None]] = []
+    for name in LIBRARY.names:
+        if LIBRARY[name].params:
+            out += [(name, {"minutes": m}) for m in (1, 3, 5)]
+        else:
+            out.append((name, None))
+    return out
+
+
+CASES = _all_cases()
+IDS = [n if p is None else f"{n}-{p['minutes']}" for n, p in CASES]
+
+
+def _tiny_library(keyframes: str, limits: JointLimits = LIMITS) -> str:
+    neutral = "\n".join(f"{j} = {0.5 if j.endswith('Hand') else 0.0}" for j in limits.names)
+    neutral = neutral.replace("LElbowRoll = 0.0", "LElbowRoll = -10.0").replace(
+        "RElbowRoll = 0.0", "RElbowRoll = 10.0"
+    )
+    return f"format = 1\n[neutral]\n{neutral}\n[gestures.wave]\n{keyframes}\n"
+
+
+def test_every_command_has_a_gesture() -> None:
+    wanted = {c.gesture for c in load_commands().values()}
+    assert wanted <= set(LIBRARY.names)
+
+
+@pytest.mark.parametrize("fraction", FRACTIONS)
+@pytest.mark.parametrize(("name", "params"), CASES, ids=IDS)
+def test_gesture_stays_within_every_limit(
+    name: str, params: dict[str, int] | None, fraction: float
+) -> None:
+    traj = build_trajectory(name, params=params, speed_fraction=fraction, limits=LIMITS)
+    vmax = np.array([LIMITS.velocity[j] for j in traj.joints])
+    assert np.all(traj.peak_velocities() <= fraction * vmax * (1 + 1e-9))
+    assert np.all(traj.peak_accelerations() <= fraction * vmax / ACCEL_TIME_S * (1 + 1e-9))
+    for t in np.arange(0.0, traj.duration, 0.01):
+        q = dict(zip(traj.joints, traj.sample(float(t)), strict=True))
+        LIMITS.check(q, pose=dict(LIBRARY.neutral), where=f"{name} t={t:.2f}", tol=1e-9)
+    # starts from and returns to the neutral pose
+    neutral = [LIBRARY.neutral[j] for j in traj.joints]
+    assert list(traj.start) == pytest.approx(neutral)
+    assert list(traj.positions[-1]) == pytest.approx(neutral)
+
+
+@pytest.mark.parametrize("fraction", FRACTIONS)
+@pytest.mark.parametrize(("name", "params"), CASES, ids=IDS)
+def test_planned_duration_is_near_the_time_optimal_minimum(
+    name: str, params: dict[str, int] | None, fraction: float
+) -> None:
+    traj = build_trajectory(name, params=params, speed_fraction=fraction, limits=LIMITS)
+    t_min = time_optimal_minimum(traj, speed_fraction=fraction, limits=LIMITS)
+    assert t_min <= traj.duration <= MAX_RATIO * t_min
+
+
+def test_the_slowest_joint_runs_at_its_cap_in_every_gesture() -> None:
+    # the timing is tight: some joint reaches fraction x limit (or the move is too short to)
+    traj = build_trajectory("look_up", speed_fraction=0.5, limits=LIMITS)
+    ratios = traj.peak_velocities() / np.array([LIMITS.velocity[j] for j in traj.joints])
+    assert ratios.max() == pytest.approx(0.5)
+
+
+def test_a_faster_fraction_gives_a_shorter_gesture() -> None:
+    slow = build_trajectory("louder", speed_fraction=0.3, limits=LIMITS)
+    fast = build_trajectory("louder", speed_fraction=0.9, limits=LIMITS)
+    assert fast.duration < slow.duration
+    assert fast.positions == slow.positions
+
+
+def test_time_left_taps_once_per_minute_capped_at_five() -> None:
+    def plan(m: int) -> Trajectory:
+        return build_trajectory(
+            "time_left", params={"minutes": m}, speed_fraction=0.6, limits=LIMITS
+        )
+
+    one, three, five, nine = plan(1), plan(3), plan(5), plan(9)
+    assert one.duration < three.duration < five.duration
+    assert nine == five
+    rsp = three.joints.index("RShoulderPitch")
+    pitch = [three.start[rsp]] + [p[rsp] for p in three.positions[:-1]]  # without the return
+    moves = [b - a for a, b in zip(pitch, pitch[1:], strict=False) if b != a]
+    presses = sum(1 for d in moves if d > 0)  # pitch up = the hand goes down onto the wrist
+    assert presses == 3
+
+
+def test_time_left_defaults_to_one_minute_and_ignores_other_params() -> None:
+    plain = build_trajectory("time_left", speed_fraction=0.6, limits=LIMITS)
+    extra = build_trajectory(
+        "time_left", params={"minutes": 1, "metric": "x"}, speed_fraction=0.6, limits=LIMITS
+    )
+    assert plain == extra
+
+
+def test_minutes_must_be_a_whole_number() -> None:
+    with pytest.raises(TypeError, match="minutes must be a whole number"):
+        build_trajectory("time_left", params={"minutes": 2.5}, speed_fraction=0.6, limits=LIMITS)
+
+
+def test_unknown_gesture_suggests_a_name() -> None:
+    with pytest.raises(UnknownName, match="did you mean 'look_up'"):
+        build_trajectory("look_upp", speed_fraction=0.6, limits=LIMITS)
+
+
+@pytest.mark.parametrize("fraction", [0.0, -0.5, 1.5, float("nan")])
+def test_speed_fraction_outside_0_1_is_refused(fraction: float) -> None:
+    with pytest.raises(ValueError, match="speed_fraction"):
+        build_trajectory("encourage", speed_fraction=fraction, limits=LIMITS)
+
+
+def test_keyframe_outside_limits_names_gesture_keyframe_and_joint() -> None:
+    lib = parse_library(
+        _tiny_library(
+            "[[gestures.wave.keyframes]]\npose = { HeadYaw = 30 }\n"
+            "[[gestures.wave.keyframes]]\npose = { LShoulderRoll = 95 }\n"
+        ),
+        limits=LIMITS,
+    )
+    with pytest.raises(
+        LimitViolation, match=r"gesture 'wave' keyframes\[1\]: LShoulderRoll = 95\.0°"
+    ):
+        build_trajectory("wave", speed_fraction=0.6, limits=LIMITS, library=lib)
+
+
+def test_keyframe_in_a_repeated_sequence_is_located() -> None:
+    lib = parse_library(
+        _tiny_library(
+            "[[gestures.wave.keyframes]]\nrepeat = 2\n"
+            "sequence = [ { pose = { HeadYaw = 10 } }, { pose = { RHand = 1.5 } } ]\n"
+        ),
+        limits=LIMITS,
+    )
+    with pytest.raises(LimitViolation, match=r"keyframes\[0\]\.sequence\[1\]: RHand"):
+        build_trajectory("wave", speed_fraction=0.6, limits=LIMITS, library=lib)
+
+
+def test_nan_keyframe_is_a_value_error_naming_the_joint() -> None:
+    with pytest.raises(ValueError, match="HeadPitch target is nan"):
+        parse_library(
+            _tiny_library("[[gestures.wave.keyframes]]\npose = { HeadPitch = nan }\n"),
+            limits=LIMITS,
+        )
+
+
+def test_nan_start_pose_is_a_value_error_naming_the_joint() -> None:
+    with pytest.raises(ValueError, match="LElbowYaw target is nan"):
+        build_trajectory(
+            "summary", speed_fraction=0.6, limits=LIMITS, start_pose={"LElbowYaw": math.nan}
+        )
+
+
+def test_unknown_joint_in_the_data_is_a_config_error_with_its_key() -> None:
+    with pytest.raises(
+        ConfigError, match=r"gestures\.wave\.keyframes\[0\]\.pose\.HeadYow.*HeadYaw"
+    ):
+        parse_library(
+            _tiny_library("[[gestures.wave.keyframes]]\npose = { HeadYow = 5 }\n"), limits=LIMITS
+        )
+
+
+def test_start_pose_is_where_the_plan_begins() -> None:
+    start = {"HeadYaw": 0.4}
+    traj = build_trajectory("look_up", speed_fraction=0.6, limits=LIMITS, start_pose=start)
+    assert traj.start[traj.joints.index("HeadYaw")] == pytest.approx(0.4)
+    assert traj.positions[-1][traj.joints.index("HeadYaw")] == pytest.approx(
+        LIBRARY.neutral["HeadYaw"]
+    )
+
+
+def test_mirrored_gestures_move_both_arms_symmetrically() -> None:
+    traj = build_trajectory("gesture_more", speed_fraction=0.6, limits=LIMITS)
+    j = traj.joints
+    for pose in traj.positions:
+        assert pose[j.index("RShoulderRoll")] == pytest.approx(-pose[j.index("LShoulderRoll")])
+        assert pose[j.index("RShoulderPitch")] == pytest.approx(pose[j.index("LShoulderPitch")])
+
+
+def test_trajectory_round_trips_through_a_dict() -> None:
+    traj = build_trajectory("overtime", speed_fraction=0.6, limits=LIMITS)
+    assert Trajectory.from_dict(json.loads(json.dumps(traj.to_dict()))) == traj
+
+
+def test_sampled_velocity_is_the_derivative_of_the_sampled_position() -> None:
+    traj = build_trajectory("speed_up", speed_fraction=0.6, limits=LIMITS)
+    h = 1e-6
+    for t in np.linspace(0.01, traj.duration - 0.01, 97):
+        numeric = (traj.sample(t + h) - traj.sample(t - h)) / (2 * h)
+        assert numeric == pytest.approx(traj.velocity(t), abs=1e-4)
+
+
+def test_check_reports_every_gesture_and_passes() -> None:
+    text, status = check_gestures(0.6, as_json=False)
+    assert status == 0, text
+    for name in LIBRARY.names:
+        assert name in text
+    report = json.loads(check_gestures(0.6, as_json=True)[0])
+    assert report["ok"] is True
+    assert all(row["peak_velocity_pct"] <= 60.0 + 1e-6 for row in report["gestures"])
+    assert all(row["ratio"] <= MAX_RATIO for row in report["gestures"])
+
+
+def test_check_refuses_a_bad_fraction() -> None:
+    assert check_gestures(0.0, as_json=False)[1] == 2
+
+
+def test_check_rows_give_positive_margins() -> None:
+    rows = gesture_rows(1.0)
+    assert all(r["ok"] and r["margin_deg"] >= 0.0 for r in rows)

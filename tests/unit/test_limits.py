@@ -1,0 +1,115 @@
+"""Joint limits come from the URDF, and the rules a URDF cannot express are enforced."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from prezence.errors import LimitViolation, UnknownName
+from prezence.feedback.limits import HEAD_PITCH_TABLE, JointLimits, load_limits
+from prezence.resources import urdf_path
+
+
+@pytest.fixture(scope="module")
+def lim() -> JointLimits:
+    return load_limits()
+
+
+def test_limits_are_read_from_the_urdf_file_given(tmp_path: Path) -> None:
+    text = urdf_path().read_text(encoding="utf-8")
+    edited = tmp_path / "nao.urdf"
+    edited.write_text(
+        text.replace(
+            'lower="-2.08567" upper="2.08567" effort="1.547" velocity="8.26797"',
+            'lower="-1.0" upper="1.5" effort="1.547" velocity="3.0"',
+            1,
+        ),
+        encoding="utf-8",
+    )
+    mine = load_limits(edited)
+    assert (mine.lower["HeadYaw"], mine.upper["HeadYaw"], mine.velocity["HeadYaw"]) == (
+        -1.0,
+        1.5,
+        3.0,
+    )
+    assert load_limits().velocity["HeadYaw"] == pytest.approx(8.26797)
+
+
+def test_load_limits_is_cached(lim: JointLimits) -> None:
+    assert load_limits() is lim
+    assert load_limits(urdf_path()) is lim
+
+
+def test_all_26_naoqi_joints_in_body_order(lim: JointLimits) -> None:
+    assert len(lim.names) == 26
+    assert lim.names[:2] == ("HeadYaw", "HeadPitch")
+    assert lim.chains["Body"] == lim.names
+    assert lim.expand("LArm")[-1] == "LHand"
+    assert lim.expand("RLeg")[0] == "RHipYawPitch"
+    assert lim.expand("HeadYaw") == ("HeadYaw",)
+
+
+def test_unknown_chain_suggests_the_close_name(lim: JointLimits) -> None:
+    with pytest.raises(UnknownName, match="did you mean 'LArm'"):
+        lim.expand("LArn")
+
+
+def test_check_names_the_joint_out_of_range(lim: JointLimits) -> None:
+    with pytest.raises(LimitViolation, match=r"where: LShoulderRoll = 90\.0° is outside"):
+        lim.check({"LShoulderRoll": math.radians(90)}, where="where")
+
+
+def test_nan_target_is_a_value_error_naming_the_joint(lim: JointLimits) -> None:
+    with pytest.raises(ValueError, match="RElbowYaw target is nan"):
+        lim.clip({"RElbowYaw": float("nan")})
+
+
+def test_clip_moves_targets_inside(lim: JointLimits) -> None:
+    out = lim.clip({"HeadYaw": 5.0, "LElbowRoll": 0.5, "LHand": 1.7})
+    assert out == {
+        "HeadYaw": lim.upper["HeadYaw"],
+        "LElbowRoll": lim.upper["LElbowRoll"],
+        "LHand": 1.0,
+    }
+
+
+def test_one_hip_motor_target_goes_to_both_and_left_wins(lim: JointLimits) -> None:
+    assert lim.couple({"RHipYawPitch": -0.3}) == {"RHipYawPitch": -0.3, "LHipYawPitch": -0.3}
+    both = lim.clip({"LHipYawPitch": -0.2, "RHipYawPitch": 0.4})
+    assert both["RHipYawPitch"] == both["LHipYawPitch"] == -0.2
+
+
+def test_different_hip_values_are_refused(lim: JointLimits) -> None:
+    with pytest.raises(LimitViolation, match="one motor"):
+        lim.check({"LHipYawPitch": -0.2, "RHipYawPitch": 0.1})
+
+
+def test_head_pitch_range_narrows_when_the_head_turns(lim: JointLimits) -> None:
+    lo0, hi0 = lim.head_pitch_range(0.0)
+    lo, hi = lim.head_pitch_range(1.5)
+    assert (lo0, hi0) == (pytest.approx(-0.671951), pytest.approx(lim.upper["HeadPitch"]))
+    assert lo > lo0 and hi < hi0
+    assert lim.head_pitch_range(-1.5) == lim.head_pitch_range(1.5)
+    # at a table point the table's own values apply
+    yaw, pmin, pmax = HEAD_PITCH_TABLE[4]
+    assert lim.head_pitch_range(yaw) == (pytest.approx(pmin), pytest.approx(pmax))
+
+
+def test_head_pitch_legal_ahead_is_refused_with_the_head_turned(lim: JointLimits) -> None:
+    pose = {"HeadYaw": 1.5, "HeadPitch": 0.45}
+    lim.check({"HeadYaw": 0.0, "HeadPitch": 0.45})
+    with pytest.raises(LimitViolation, match="HeadPitch .* anti-collision"):
+        lim.check(pose)
+
+
+def test_clip_uses_the_current_head_yaw(lim: JointLimits) -> None:
+    out = lim.clip({"HeadPitch": 0.5}, pose={"HeadYaw": 1.5})
+    assert out["HeadPitch"] == pytest.approx(lim.head_pitch_range(1.5)[1])
+
+
+def test_hands_are_opening_fractions(lim: JointLimits) -> None:
+    assert (lim.lower["LHand"], lim.upper["LHand"]) == (0.0, 1.0)
+    with pytest.raises(LimitViolation, match=r"RHand = 1\.20 \(opening\)"):
+        lim.check({"RHand": 1.2})
