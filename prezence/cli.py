@@ -34,7 +34,8 @@ def format_timeline(summary: dict[str, Any]) -> str:
     """A readable timeline of the cues and a short per-metric table."""
     lines = []
     head = (
-        f"Talk: {summary.get('scenario', '?')}  seed {summary.get('seed', '?')}  "
+        f"Talk: {summary.get('scenario', summary.get('replay_of', '?'))}  "
+        f"seed {summary.get('seed', '-')}  "
         f"backend {summary.get('backend', '?')}  policy {summary.get('policy', '?')}"
     )
     lines.append(head)
@@ -143,6 +144,30 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_replay(args: argparse.Namespace) -> int:
+    from prezence.config.load import load_config
+    from prezence.replay import replay
+
+    src = Path(args.session)
+    out = Path(args.out) if args.out else src.parent / f"{src.name}-replay-{args.policy}"
+    result = replay(
+        src,
+        out=out,
+        config=load_config(args.config) if args.config else None,
+        policy=args.policy,
+        backend=args.backend,
+        backend_kwargs=_backend_kwargs(args),
+        speed_fraction=args.speed,
+        seed=args.seed or 0,
+    )
+    if args.json:
+        print(json.dumps(result.summary, indent=2, sort_keys=True))
+    else:
+        print(format_timeline(result.summary))
+        print(f"session folder: {result.session.root}")
+    return 0
+
+
 def cmd_check_config(args: argparse.Namespace) -> int:
     from prezence.config.load import check_config_files
 
@@ -214,6 +239,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help=f"run the '{DEMO_SCENARIO}' talk headless")
     _add_run_args(p)
     p.set_defaults(func=cmd_run, scenario=DEMO_SCENARIO)
+
+    p = sub.add_parser("replay", help="re-run the processor over a recorded session's streams")
+    p.add_argument("session", help="a session folder (or any folder with stream files)")
+    _add_run_args(p)
+    p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser("check-config", help="validate config or rules files")
     p.add_argument("files", nargs="+")

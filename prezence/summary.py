@@ -14,6 +14,7 @@ import numpy as np
 
 from prezence.config.model import Config, Rule
 from prezence.samples import Sample
+from prezence.session import SessionDir, read_jsonl, write_json
 
 
 def _in_range_time(
@@ -177,3 +178,35 @@ def build_summary(
     if extra:
         out.update(extra)
     return out
+
+
+def summarize_session(
+    session: SessionDir,
+    config: Config,
+    *,
+    talk_s: float,
+    truth: Sequence[Mapping[str, Any]] | None = None,
+    backend_stats: Mapping[str, Any] | None = None,
+    extra: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Read a session folder's module files and cue log, write and return ``summary.json``."""
+    from prezence.streams.tail import read_stream
+
+    samples: dict[str, list[Sample]] = {}
+    stats: dict[str, dict[str, Any]] = {}
+    for rule in config.rules:
+        ss, st = read_stream(session.stream(rule.stream), rule.metric)
+        samples[rule.metric] = ss
+        stats[rule.metric] = st.to_dict()
+    summary = build_summary(
+        config,
+        samples,
+        read_jsonl(session.cues),
+        talk_s=talk_s,
+        truth=truth,
+        stream_stats=stats,
+        backend_stats=backend_stats,
+        extra=extra,
+    )
+    write_json(session.summary, summary)
+    return summary

@@ -24,10 +24,10 @@ from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.processor import Cue, Decision, Processor, make_policy
-from prezence.session import SessionDir, read_jsonl, write_json
-from prezence.streams.tail import MultiTailer, read_stream
+from prezence.session import SessionDir, read_jsonl
+from prezence.streams.tail import MultiTailer
 from prezence.streams.writer import StreamWriter
-from prezence.summary import build_summary
+from prezence.summary import summarize_session
 from sim.presenters import SyntheticPresenter
 from sim.scenario import Scenario, load_scenario
 
@@ -148,19 +148,11 @@ def run_talk(
     with session.truth.open("w") as f:
         for row in truth:
             f.write(json.dumps(row, sort_keys=True) + "\n")
-    samples = {}
-    stats = {}
-    for m, p in streams.items():
-        samples[m], st = read_stream(p, m)
-        stats[m] = st.to_dict()
-    cues = read_jsonl(session.cues)
-    summary = build_summary(
+    summary = summarize_session(
+        session,
         cfg,
-        samples,
-        cues,
         talk_s=sc.duration_s,
         truth=truth,
-        stream_stats=stats,
         backend_stats=backend_stats,
         extra={
             "scenario": sc.name,
@@ -173,5 +165,4 @@ def run_talk(
             "realtime_factor": round(sc.duration_s / wall, 1) if wall > 0 else None,
         },
     )
-    write_json(session.summary, summary)
-    return TalkResult(session, sc, cues, summary, coach.decisions, wall)
+    return TalkResult(session, sc, read_jsonl(session.cues), summary, coach.decisions, wall)

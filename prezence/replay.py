@@ -1,0 +1,155 @@
+"""Replay: run the processor again over module files already recorded, on their own timestamps.
+
+Any folder with stream files in the project's format works: a live talk, a recorded rehearsal, a
+synthetic run, or files another tool wrote. The decision points fall at the same times as in a
+live or headless talk (every ``decision_period_s``) and each point sees exactly the samples
+stamped up to it, so replaying a synthetic run with the same config, policy and backend
+reproduces its decision log byte for byte. The presenter cannot react to replayed cues: the
+loop is open.
+"""
+
+from __future__ import annotations
+
+import logging
+import shutil
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from prezence.backends.registry import make_backend
+from prezence.coach import Coach, default_planner
+from prezence.config.load import load_config
+from prezence.config.model import Config
+from prezence.config.tomlconf import dumps_config
+from prezence.errors import ConfigError
+from prezence.processor import Processor, make_policy
+from prezence.samples import Sample
+from prezence.session import SessionDir, read_jsonl
+from prezence.streams.tail import read_stream
+from prezence.summary import summarize_session
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class ReplayResult:
+    session: SessionDir
+    cues: list[dict[str, Any]]
+    summary: dict[str, Any]
+
+
+def find_streams(src: Path, config: Config) -> dict[str, Path]:
+    """The stream file of each rule: ``src/streams/<file>`` or ``src/<file>``."""
+    found: dict[str, Path] = {}
+    for rule in config.rules:
+        for cand in (src / "streams" / rule.stream, src / rule.stream):
+            if cand.is_file():
+                found[rule.metric] = cand
+                break
+    if not found:
+        names = ", ".join(r.stream for r in config.rules)
+        raise ConfigError(
+            f"no stream files found (looked for {names} in streams/ and the folder)", path=src
+        )
+    return found
+
+
+def replay(
+    src: Path,
+    *,
+    out: Path,
+    config: Config | None = None,
+    policy: str = "weighted",
+    backend: str = "fake",
+    backend_kwargs: dict[str, Any] | None = None,
+    speed_fraction: float = 0.6,
+    seed: int = 0,
+) -> ReplayResult:
+    """Re-run the processor over the recorded streams in ``src``; write a new session in ``out``.
+
+    Args:
+        src: a session folder (or any folder holding stream files).
+        out: where the new decisions, cues and summary go (must differ from ``src``).
+        config: rules and settings; None uses ``src/config.toml`` if present, else the default.
+        policy: the conflict policy to try.
+        backend: robot backend (``fake`` or ``sim``).
+        speed_fraction: gesture speed.
+        seed: for policies that use chance.
+    """
+    src = Path(src)
+    out = Path(out)
+    if out.resolve() == src.resolve():
+        raise ConfigError(
+            "--out must be another folder: replay never overwrites a recording", path=out
+        )
+    src_session = SessionDir(src)
+    if config is None:
+        config = (
+            load_config(src_session.config) if src_session.config.exists() else load_config(None)
+        )
+    meta = src_session.read_meta()
+    paths = find_streams(src, config)
+    samples: list[Sample] = []
+    for metric, path in paths.items():
+        ss, tail_stats = read_stream(path, metric)
+        if tail_stats.malformed:
+            log.warning("%s: %d malformed lines skipped", path, tail_stats.malformed)
+        samples.extend(ss)
+    samples.sort(key=lambda s: s.t)  # stable: per-file order is kept
+    talk_s = float(meta.get("talk_s") or (samples[-1].t if samples else 0.0))
+
+    session = SessionDir(out).create()
+    session.config.write_text(dumps_config(config))
+    for metric, path in paths.items():
+        shutil.copyfile(path, session.stream(config.rule(metric).stream))
+    session.write_meta(
+        {
+            "kind": "replay",
+            "source": str(src),
+            "policy": policy,
+            "backend": backend,
+            "talk_s": talk_s,
+            **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
+        }
+    )
+    truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
+
+    bk = make_backend(backend, **(backend_kwargs or {}))
+    processor = Processor(config, policy=make_policy(policy, seed=seed))
+    dt = config.processor.decision_period_s
+    wall0 = time.perf_counter()
+    bk.open()
+    coach = Coach(processor, bk, session, planner=default_planner(speed_fraction))
+    try:
+        i = 0
+        n = int(round(talk_s / dt))
+        for k in range(1, n + 1):
+            now = k * dt
+            j = i
+            while j < len(samples) and samples[j].t <= now:
+                j += 1
+            coach.tick(now, samples[i:j])
+            i = j
+        end = coach.drain(n * dt, step_s=dt)
+        backend_stats = bk.stats()
+    finally:
+        coach.close()
+        bk.close()
+    summary = summarize_session(
+        session,
+        config,
+        talk_s=talk_s,
+        truth=truth,
+        backend_stats=backend_stats,
+        extra={
+            "replay_of": str(src),
+            "policy": policy,
+            "backend": bk.name,
+            "decisions": coach.decisions,
+            "ended_at_s": round(end, 3),
+            "wall_s": round(time.perf_counter() - wall0, 4),
+            **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
+        },
+    )
+    return ReplayResult(session, read_jsonl(session.cues), summary)
