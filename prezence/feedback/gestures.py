@@ -43,6 +43,8 @@ log = logging.getLogger(__name__)
 GESTURES_FILE = "gestures.toml"
 #: NAOqi-like default ``fractionMaxSpeed`` for feedback gestures.
 DEFAULT_SPEED_FRACTION = 0.6
+#: Moves smaller than this (rad; hands: fraction) are no move at all.
+MIN_MOVE = 1e-9
 #: Mirror rule left → right arm: pitch and hand keep their value, roll and yaw change sign.
 _MIRROR_SIGN = {
     "ShoulderPitch": 1.0,
@@ -352,6 +354,8 @@ def build_trajectory(
         current.update(goal)
         limits.check(current, where=f"gesture '{name}' {where}", pose=current)
         q = tuple(current[j] for j in joints)
+        if max(abs(b - a) for a, b in zip(prev, q, strict=True)) <= MIN_MOVE:
+            q = prev  # nothing to move (a segment this short would not even advance the clock)
         u = max(abs(b - a) / v for a, b, v in zip(prev, q, speeds, strict=True))
         dur = segment_duration(u)
         if dur > 0.0:
