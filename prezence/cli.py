@@ -33,8 +33,11 @@ def _mmss(t: float | None) -> str:
 def format_timeline(summary: dict[str, Any]) -> str:
     """A readable timeline of the cues and a short per-metric table."""
     lines = []
+    name = next(
+        (summary[k] for k in ("scenario", "recording", "replay_of", "kind") if summary.get(k)), "?"
+    )
     head = (
-        f"Talk: {summary.get('scenario', summary.get('replay_of', '?'))}  "
+        f"Talk: {name}  "
         f"seed {summary.get('seed', '-')}  "
         f"backend {summary.get('backend', '?')}  policy {summary.get('policy', '?')}"
     )
@@ -73,7 +76,7 @@ def format_timeline(summary: dict[str, Any]) -> str:
         f"malformed samples {c['malformed_samples']}, stale episodes {c['stale_episodes']}, "
         f"joint-limit violations {c['joint_limit_violations']}"
     )
-    if "wall_s" in summary:
+    if summary.get("realtime_factor"):
         lines.append(
             f"simulated {summary['talk_s']:.0f} s in {summary['wall_s']:.2f} s wall "
             f"({summary.get('realtime_factor')}x real time)"
@@ -168,6 +171,73 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_rehearse(args: argparse.Namespace) -> int:
+    from prezence.config.load import load_config
+    from prezence.rehearse import rehearse
+
+    rec = Path(args.recording)
+    out = Path(args.out) if args.out else Path("sessions") / f"rehearsal-{rec.stem}"
+    result = rehearse(
+        rec,
+        out=out,
+        config=load_config(args.config) if args.config else None,
+        policy=args.policy,
+        backend=args.backend,
+        backend_kwargs=_backend_kwargs(args),
+        speed_fraction=args.speed,
+    )
+    _finish_session(result.session.root, result.summary, args)
+    return 0
+
+
+def cmd_up(args: argparse.Namespace) -> int:
+    from prezence.backends.registry import make_backend
+    from prezence.config.load import load_config
+    from prezence.launcher import LiveView, ModuleSpec, up
+
+    config = load_config(args.config) if args.config else load_config(None)
+    if args.allocated is not None:
+        config = config.with_allocated(args.allocated * 60.0)
+    specs: list[ModuleSpec] = []
+    py = sys.executable
+    if args.audio:
+        file_in = args.audio != "mic"
+        argv = [py, "-m", "prezence.modules.speech", "--audio", args.audio]
+        argv += ["--out", "{session}", "--t0", "{t0}"] + (["--realtime"] if file_in else [])
+        specs.append(ModuleSpec("speech", argv, finite=file_in))
+    if args.video:
+        file_in = not args.video.startswith("cam")
+        argv = [py, "-m", "prezence.modules.vision", "--video", args.video]
+        argv += ["--out", "{session}", "--t0", "{t0}"] + (["--realtime"] if file_in else [])
+        specs.append(ModuleSpec("vision", argv, finite=file_in))
+    specs += [ModuleSpec.parse(m) for m in args.module or []]
+    if not specs:
+        raise PrezenceError("nothing to listen to: give --audio, --video or --module")
+    out = Path(args.out) if args.out else Path("sessions") / "live"
+    backend = make_backend(args.backend, **_backend_kwargs(args))
+    result = up(
+        config,
+        session_dir=out,
+        modules=specs,
+        backend=backend,
+        policy=args.policy,
+        speed_fraction=args.speed,
+        grace_s=args.grace,
+        duration_s=args.duration,
+        view=None if args.quiet else LiveView(config),
+    )
+    _finish_session(result.session.root, result.summary, args)
+    return 0
+
+
+def _finish_session(root: Path, summary: dict[str, Any], args: argparse.Namespace) -> None:
+    if getattr(args, "json", False):
+        print(json.dumps(summary, indent=2, sort_keys=True))
+        return
+    print(format_timeline(summary))
+    print(f"session folder: {root}")
+
+
 def cmd_check_config(args: argparse.Namespace) -> int:
     from prezence.config.load import check_config_files
 
@@ -244,6 +314,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("session", help="a session folder (or any folder with stream files)")
     _add_run_args(p)
     p.set_defaults(func=cmd_replay)
+
+    p = sub.add_parser("up", help="live rehearsal: input modules + processor + robot")
+    p.add_argument("--audio", help="mic, or an audio/video file played as if live")
+    p.add_argument("--video", help="cam, cam:N, or a video file played as if live")
+    p.add_argument(
+        "--module",
+        action="append",
+        help="extra module NAME=COMMAND ({session} and {t0} are filled in); repeatable",
+    )
+    p.add_argument("--allocated", type=float, help="minutes allocated (default: config)")
+    p.add_argument("--grace", type=float, default=30.0, help="seconds after the allocated time")
+    p.add_argument("--duration", type=float, help="stop after this many seconds")
+    _add_run_args(p)
+    p.set_defaults(func=cmd_up)
+
+    p = sub.add_parser("rehearse", help="coach a recorded rehearsal (audio or video file)")
+    p.add_argument("recording")
+    _add_run_args(p)
+    p.set_defaults(func=cmd_rehearse)
 
     p = sub.add_parser("check-config", help="validate config or rules files")
     p.add_argument("files", nargs="+")

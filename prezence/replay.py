@@ -90,13 +90,7 @@ def replay(
         )
     meta = src_session.read_meta()
     paths = find_streams(src, config)
-    samples: list[Sample] = []
-    for metric, path in paths.items():
-        ss, tail_stats = read_stream(path, metric)
-        if tail_stats.malformed:
-            log.warning("%s: %d malformed lines skipped", path, tail_stats.malformed)
-        samples.extend(ss)
-    samples.sort(key=lambda s: s.t)  # stable: per-file order is kept
+    samples = load_samples(paths)
     talk_s = float(meta.get("talk_s") or (samples[-1].t if samples else 0.0))
 
     session = SessionDir(out).create()
@@ -114,7 +108,56 @@ def replay(
         }
     )
     truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
+    extra = {
+        "replay_of": str(src),
+        **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
+    }
+    return process_recorded(
+        session,
+        config,
+        samples,
+        talk_s=talk_s,
+        truth=truth,
+        policy=policy,
+        backend=backend,
+        backend_kwargs=backend_kwargs,
+        speed_fraction=speed_fraction,
+        seed=seed,
+        extra=extra,
+    )
 
+
+def load_samples(paths: dict[str, Path]) -> list[Sample]:
+    """Every sample of the given stream files, in time order (file order kept for ties)."""
+    samples: list[Sample] = []
+    for metric, path in paths.items():
+        ss, tail_stats = read_stream(path, metric)
+        if tail_stats.malformed:
+            log.warning("%s: %d malformed lines skipped", path, tail_stats.malformed)
+        samples.extend(ss)
+    samples.sort(key=lambda s: s.t)
+    return samples
+
+
+def process_recorded(
+    session: SessionDir,
+    config: Config,
+    samples: list[Sample],
+    *,
+    talk_s: float,
+    truth: list[dict[str, Any]] | None = None,
+    policy: str = "weighted",
+    backend: str = "fake",
+    backend_kwargs: dict[str, Any] | None = None,
+    speed_fraction: float = 0.6,
+    seed: int = 0,
+    extra: dict[str, Any] | None = None,
+) -> ReplayResult:
+    """Run the coach over recorded samples on their own clock; write decisions, cues, summary.
+
+    Decision points fall every ``decision_period_s`` and each sees the samples stamped up to it,
+    exactly as in a live or headless talk.
+    """
     bk = make_backend(backend, **(backend_kwargs or {}))
     processor = Processor(config, policy=make_policy(policy, seed=seed))
     dt = config.processor.decision_period_s
@@ -143,13 +186,12 @@ def replay(
         truth=truth,
         backend_stats=backend_stats,
         extra={
-            "replay_of": str(src),
             "policy": policy,
             "backend": bk.name,
             "decisions": coach.decisions,
             "ended_at_s": round(end, 3),
             "wall_s": round(time.perf_counter() - wall0, 4),
-            **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
+            **(extra or {}),
         },
     )
     return ReplayResult(session, read_jsonl(session.cues), summary)
