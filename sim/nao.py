@@ -51,6 +51,9 @@ STANDING_HEIGHT_M = 0.085 + 0.100 + 0.1029 + 0.04519
 #: Share of the position error the motor removes per step (PyBullet's default is 0.1, which lags
 #: by about ten steps; with the trajectory's velocity as feed-forward a stiffer gain is stable).
 POSITION_GAIN = 0.5
+#: Gain of plain position targets (set_targets, holds): PyBullet's default. Without velocity
+#: feed-forward a stiff gain drives a joint into its end stop hard enough to pass it by ~0.01 rad.
+HOLD_GAIN = 0.1
 #: Slack before a sample counts as a position-limit violation (rad; hands: fraction).
 POSITION_TOL = 0.005
 #: Slack before a sample counts as a velocity-limit violation (share of the URDF limit).
@@ -339,8 +342,11 @@ class NaoSim:
         fraction: float,
         velocities: dict[str, float] | None = None,
     ) -> None:
+        """Send position targets; with ``velocities`` (trajectory tracking) the stiffer
+        ``position_gain`` applies, else PyBullet's default gain (setAngles-like approach)."""
         cid = self._require()
         lim = self.limits
+        gain = self.position_gain if velocities is not None else HOLD_GAIN
         for name, q in targets.items():
             self._targets[name] = q
             p.setJointMotorControl2(
@@ -350,7 +356,7 @@ class NaoSim:
                 targetPosition=q,
                 targetVelocity=(velocities or {}).get(name, 0.0),
                 maxVelocity=fraction * lim.velocity[name],
-                positionGain=self.position_gain,
+                positionGain=gain,
                 velocityGain=1.0,
                 force=lim.effort[name],
                 physicsClientId=cid,
