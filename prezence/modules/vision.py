@@ -81,8 +81,14 @@ import cv2
 import numpy as np
 
 from prezence.errors import PrezenceError
+from prezence.modules.common import (
+    ModuleInputError,
+    StreamSet,
+    add_common_arguments,
+    report_error,
+    setup_logging,
+)
 from prezence.samples import GESTURES, HEAD_GAZE
-from prezence.streams.writer import StreamWriter
 
 log = logging.getLogger(__name__)
 
@@ -105,8 +111,8 @@ _CHIN = 152
 _REEXEC_GUARD = "PREZENCE_VISION_REEXEC"
 
 
-class VisionInputError(PrezenceError, ValueError):
-    """A video file or camera cannot be read; the message names it."""
+class VisionInputError(ModuleInputError):
+    """A video file or camera cannot be read; the message names it (``source: reason``)."""
 
 
 class VisionUnavailable(PrezenceError, RuntimeError):
@@ -477,20 +483,20 @@ def open_video(path: Path) -> cv2.VideoCapture:
         VisionInputError: missing, empty, not decodable, no frame rate; names the file.
     """
     if not path.exists():
-        raise VisionInputError(f"{path}: no such file")
+        raise VisionInputError(path, "no such file")
     if not path.is_file():
-        raise VisionInputError(f"{path}: not a file")
+        raise VisionInputError(path, "not a file")
     if path.stat().st_size == 0:
-        raise VisionInputError(f"{path}: empty file (0 bytes), not a video")
+        raise VisionInputError(path, "empty file (0 bytes), not a video")
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
         raise VisionInputError(
-            f"{path}: cannot be read as a video (wrong format, or a truncated file)"
+            path, "cannot be read as a video (wrong format, or a truncated file)"
         )
     fps = cap.get(cv2.CAP_PROP_FPS)
     if not (math.isfinite(fps) and fps > 0.0):
         cap.release()
-        raise VisionInputError(f"{path}: the video states no frame rate")
+        raise VisionInputError(path, "the video states no frame rate")
     return cap
 
 
@@ -529,7 +535,7 @@ class FileSource:
                     continue
             yield t, frame
         if self.stats.frames == 0:
-            raise VisionInputError(f"{self.path}: no video frame could be decoded (truncated?)")
+            raise VisionInputError(self.path, "no video frame could be decoded (truncated?)")
 
     def close(self) -> None:
         """Release the file."""
@@ -543,13 +549,14 @@ class CameraSource:
     Args:
         index: the camera number (``cam:N``).
         t0: wall-clock time (``time.time()``) at which the talk began.
+        capture: an opened ``cv2.VideoCapture``-like object to read instead (tests).
     """
 
-    def __init__(self, index: int, *, t0: float) -> None:
+    def __init__(self, index: int, *, t0: float, capture: Any = None) -> None:
         self.name = f"camera {index}"
-        self._cap = cv2.VideoCapture(index)
+        self._cap = cv2.VideoCapture(index) if capture is None else capture
         if not self._cap.isOpened():
-            raise VisionInputError(f"{self.name}: cannot be opened (is it connected and free?)")
+            raise VisionInputError(self.name, "cannot be opened (is it connected and free?)")
         self.fps = float(self._cap.get(cv2.CAP_PROP_FPS)) or 30.0
         self.t0 = t0
         self.stats = SourceStats()
@@ -627,25 +634,6 @@ class RunSummary:
     source: SourceStats = field(default_factory=SourceStats)
 
 
-class _Streams:
-    def __init__(self, streams_dir: Path, *, fresh: bool) -> None:
-        streams_dir.mkdir(parents=True, exist_ok=True)
-        self.writers: dict[str, StreamWriter] = {}
-        for m in METRICS:
-            p = streams_dir / f"{m}.txt"
-            if fresh and p.exists():
-                p.unlink()
-            self.writers[m] = StreamWriter(p).open()
-
-    def write(self, metric: str, t: float, value: float, summary: RunSummary) -> None:
-        self.writers[metric].write(round(t, 4), round(value, 3))
-        summary.samples[metric] += 1
-
-    def close(self) -> None:
-        for w in self.writers.values():
-            w.close()
-
-
 def run(
     source: FileSource | CameraSource,
     out: Path,
@@ -686,12 +674,18 @@ def run(
         tolerance=opts.tolerance,
     )
     gestures = GestureDetector(window_s=opts.gesture_window_s)
-    streams = _Streams(out / "streams", fresh=fresh)
+    streams = StreamSet(out, METRICS, fresh=fresh).open()
+
+    def write(metric: str, t: float, value: float) -> None:
+        streams.write(metric, round(t, 4), round(value, 3))
+        summary.samples[metric] += 1
+
     step = 1.0 / opts.fps if opts.fps > 0 else 0.0
     next_t = -math.inf
     next_report = 1.0
-    warn_at = 10.0
-    warned_dropped = 0
+    warn_at = -math.inf
+    warned_dropped = warned_analysed = 0
+    warned_at_t = 0.0
     last_t = 0.0
     try:
         for t, frame in source.frames():
@@ -709,31 +703,37 @@ def run(
                 summary.faces += 1
             if estimator is not None:
                 for tt, yaw, pitch in gaze.update(t, pose):
-                    streams.write(HEAD_YAW, tt, yaw, summary)
-                    streams.write(HEAD_GAZE, tt, pitch, summary)
+                    write(HEAD_YAW, tt, yaw)
+                    write(HEAD_GAZE, tt, pitch)
             if opts.gestures:
                 gestures.update(t, frame, exclude=pose.box if pose is not None else None)
+            if t - next_report > 5.0:  # a jump (a paused camera, a far --t0): no backlog
+                next_report = float(math.floor(t))
             while t >= next_report:
                 if estimator is not None:
                     f = gaze.facing(next_report)
                     if f is not None:
-                        streams.write(FACING_AUDIENCE, next_report, f, summary)
+                        write(FACING_AUDIENCE, next_report, f)
                 if opts.gestures:
-                    streams.write(GESTURES, next_report, gestures.rate(next_report), summary)
+                    write(GESTURES, next_report, gestures.rate(next_report))
                 next_report += 1.0
+            if warn_at == -math.inf:
+                warn_at, warned_at_t = t + 10.0, t
             if t >= warn_at:
                 dropped = source.stats.not_analysed - warned_dropped
                 if dropped > 0:
                     log.warning(
                         "%s: falling behind: %d frames not analysed in the last %.0f s "
-                        "(%.1f analysed/s); lower --fps or close other programs",
+                        "(%d analysed); lower --fps or close other programs",
                         source.name,
                         dropped,
-                        t - (warn_at - 10.0),
-                        summary.analysed / max(t, 1e-9),
+                        t - warned_at_t,
+                        summary.analysed - warned_analysed,
                     )
                 warned_dropped = source.stats.not_analysed
-                warn_at += 10.0
+                warned_analysed = summary.analysed
+                warned_at_t = t
+                warn_at = t + 10.0
     finally:
         streams.close()
         if estimator is not None:
@@ -785,9 +785,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Head gaze, facing the audience and gesture rate from a video or camera.",
     )
     p.add_argument("--video", required=True, help="a video file, or cam / cam:N for a camera")
-    p.add_argument("--out", required=True, type=Path, help="the session folder")
-    p.add_argument("--t0", type=float, default=None, help="camera: wall time the talk began")
-    p.add_argument("--realtime", action="store_true", help="file: pace it as if live")
+    add_common_arguments(p)  # --out, --t0, --realtime, -v, -q
     p.add_argument("--calibrate-s", type=float, default=3.0, help="seconds (default %(default)s)")
     p.add_argument("--audience-yaw", type=float, default=None, help="degrees, camera frame")
     p.add_argument("--audience-pitch", type=float, default=None, help="degrees, camera frame")
@@ -801,8 +799,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-head", action="store_true", help="gestures only (no mediapipe needed)")
     p.add_argument("--no-gestures", action="store_true", help="head pose only")
     p.add_argument("--no-reexec", action="store_true", help="do not switch to the vision env")
-    p.add_argument("-v", "--verbose", action="store_true")
-    p.add_argument("-q", "--quiet", action="store_true")
     return p
 
 
@@ -828,10 +824,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the module; return the exit status (0 done, 2 bad input or arguments)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(argv)
-    logging.basicConfig(
-        level=logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO,
-        format="vision: %(levelname)s: %(message)s",
-    )
+    setup_logging("vision", args)
     if args.no_head and args.no_gestures:
         print("error: --no-head and --no-gestures leave nothing to measure", file=sys.stderr)
         return 2
@@ -859,8 +852,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             source = CameraSource(where, t0=args.t0 if args.t0 is not None else time.time())
     except (VisionInputError, ValueError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return report_error("vision", e)
     stop = threading.Event()
 
     def _on_signal(signum: int, frame: FrameType | None) -> None:
@@ -871,8 +863,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         summary = run(source, args.out, opts, fresh=kind == "file", stop=stop)
     except (VisionInputError, VisionUnavailable, ValueError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return report_error("vision", e)
     finally:
         source.close()
     n = source.stats.expected_frames

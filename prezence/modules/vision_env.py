@@ -147,8 +147,14 @@ def install(path: Path | None = None, *, tools: bool = False, clear: bool = Fals
         clear: delete an existing venv at ``path`` first.
 
     Raises:
+        RuntimeError: this python's version has no mediapipe 0.10.21 wheel.
         subprocess.CalledProcessError: a pip step failed (its output is on the terminal).
     """
+    if not (3, 9) <= sys.version_info[:2] <= (3, 12):
+        raise RuntimeError(
+            f"{MEDIAPIPE_PIN} has wheels for CPython 3.9 to 3.12 only, not "
+            f"{sys.version_info.major}.{sys.version_info.minor}; run this with such a python"
+        )
     root = Path(path) if path is not None else default_path()
     if clear and root.exists():
         shutil.rmtree(root)
@@ -202,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
         logging.basicConfig(level=logging.INFO, format="%(message)s")
         try:
             py = install(args.path, tools=args.tools, clear=args.clear)
-        except subprocess.CalledProcessError as e:
+        except (RuntimeError, subprocess.CalledProcessError) as e:
             print(f"error: vision env install failed: {e}", file=sys.stderr)
             return 2
         ok, detail = check(args.path)

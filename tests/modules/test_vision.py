@@ -281,3 +281,42 @@ def test_cli_bad_video_exits_2_naming_the_file(bad_files: dict[str, Path], tmp_p
     proc = run_module(sys.executable, "--video", str(path), "--out", str(tmp_path), "--no-head")
     assert proc.returncode == 2
     assert f"error: {path}:" in proc.stderr
+
+
+class _FakeCapture:
+    """A camera that has delivered ``n`` frames before the analysis asks for one."""
+
+    def __init__(self, n: int) -> None:
+        self.left = n
+
+    def isOpened(self) -> bool:  # noqa: N802 - cv2's name
+        return True
+
+    def get(self, prop: int) -> float:
+        return 30.0
+
+    def read(self) -> tuple[bool, Any]:
+        import numpy as np
+
+        if self.left == 0:
+            return False, None
+        self.left -= 1
+        return True, np.zeros((24, 32, 3), np.uint8)
+
+    def release(self) -> None:
+        pass
+
+
+def test_live_frames_the_analysis_missed_are_counted_and_reported(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    from prezence.modules.vision import CameraSource
+
+    cam = CameraSource(0, t0=0.0, capture=_FakeCapture(12))
+    cam._thread.join()  # the camera ran ahead: all 12 frames arrived before the first analysis
+    with caplog.at_level("WARNING"):
+        summary = run(cam, tmp_path, VisionOptions(head=False, fps=0))
+    cam.close()
+    assert summary.analysed == 1
+    assert cam.stats.not_analysed == 11
+    assert "11 of 12 frames were not analysed" in caplog.text
