@@ -129,8 +129,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         config=config,
         policy=args.policy,
         speed_fraction=args.speed,
-        realtime=args.realtime,
+        realtime=args.realtime or args.backend == "naoqi",  # a real robot moves in real time
         progress=None if args.quiet else _progress_printer(),
+        report=not args.no_report,
     )
     if args.json:
         print(json.dumps(result.summary, indent=2, sort_keys=True))
@@ -143,8 +144,25 @@ def cmd_run(args: argparse.Namespace) -> int:
                 print(f"  - {p}")
         else:
             print("scenario expectations met")
+        post = result.summary.get("post_talk")
+        if post:
+            print(f'robot: "{post["phrase"]}"')
         print(f"session folder: {result.session.root}  (summary.json, cues.jsonl, decisions.jsonl)")
+        if not args.no_report:
+            print(f"report: {result.session.report / 'report.html'}")
     return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from prezence.report.build import report_main
+
+    return report_main(args.session, config=args.config)
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from prezence.evaluate import evaluate_main
+
+    return int(evaluate_main(args.rest))  # its own parser: prezence evaluate -h
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -289,6 +307,7 @@ def _add_run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--speed", type=float, default=0.6, help="gesture speed fraction (0..1]")
     p.add_argument("--realtime", action="store_true", help="pace to the wall clock")
     p.add_argument("--json", action="store_true", help="print summary.json instead")
+    p.add_argument("--no-report", action="store_true", help="skip the post-talk report")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -334,6 +353,18 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run_args(p)
     p.set_defaults(func=cmd_rehearse)
 
+    p = sub.add_parser("report", help="(re)build the report of a session folder")
+    p.add_argument("session")
+    p.add_argument("--config", help="judge by this config instead of the folder's")
+    p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser(
+        "evaluate",
+        help="closed-loop evaluation: scenarios x seeds x policies (see prezence evaluate -h)",
+        add_help=False,
+    )
+    p.set_defaults(func=cmd_evaluate, rest=[])
+
     p = sub.add_parser("check-config", help="validate config or rules files")
     p.add_argument("files", nargs="+")
     p.set_defaults(func=cmd_check_config)
@@ -363,7 +394,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if args.command == "evaluate":
+        args.rest = extra
+    elif extra:
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
     level = logging.WARNING - 10 * args.verbose + (20 if args.quiet else 0)
     logging.basicConfig(
         level=max(logging.DEBUG, level), format="%(levelname)s %(name)s: %(message)s"

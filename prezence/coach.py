@@ -165,6 +165,33 @@ class Coach:
             self._settle()
         return t
 
+    def post_talk(
+        self, phrase: str, now: float, *, step_s: float, limit_s: float = 60.0
+    ) -> dict[str, Any]:
+        """After the talk: the summary gesture while the robot says ``phrase``; waits for both.
+
+        Returns a record like a cue's (not written to ``cues.jsonl``: it is not coaching).
+        """
+        t = self.drain(now, step_s=step_s, limit_s=limit_s)
+        command = get_command("summary")
+        rec: dict[str, Any] = {"t": round(t, 6), "phrase": phrase, "gesture": command.gesture}
+        try:
+            motions = [
+                self.backend.play(self.planner(command.gesture, {}), now=t),
+                self.backend.say(phrase, now=t),
+            ]
+        except BackendUnavailable as e:
+            log.warning("post-talk summary not given: %s", e)
+            rec.update(ok=False, drop_reason=str(e))
+            return rec
+        end = t + limit_s
+        while self.backend.busy and t < end:
+            t += step_s
+            self.backend.advance(t)
+        rec["ok"] = all(m.done and m.ok for m in motions)
+        rec["measured_s"] = round(t - rec["t"], 6)
+        return rec
+
     def close(self) -> None:
         if self._current is not None:
             rec = self._current.record()

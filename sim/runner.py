@@ -62,6 +62,7 @@ def run_talk(
     realtime: bool = False,
     progress: Progress | None = None,
     on_decision: Callable[[Decision], None] | None = None,
+    report: bool = False,
 ) -> TalkResult:
     """Run one synthetic talk from start to end and write its session folder.
 
@@ -78,6 +79,8 @@ def run_talk(
         realtime: pace the simulated clock to the wall clock.
         progress: called after every decision point.
         on_decision: called with every decision (tests, live views).
+        report: after the talk, have the robot say the spoken summary and write ``report/``
+            (HTML, plots, JSON). Off by default: evaluations run thousands of talks.
     """
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     seed = sc.seed if seed is None else seed
@@ -137,13 +140,20 @@ def run_talk(
                 if ahead > 0:
                     time.sleep(ahead)
         end = coach.drain(clock.now(), step_s=dt)
+        wall = time.perf_counter() - wall0
+        post: dict[str, Any] | None = None
+        if report:
+            from prezence.report.build import build_report
+            from prezence.report.speech import summary_phrase
+
+            phrase = summary_phrase(build_report(session.root, config=cfg))
+            post = coach.post_talk(phrase, end, step_s=dt)
         backend_stats = bk.stats()
     finally:
         coach.close()
         for w in writers.values():
             w.close()
         bk.close()
-    wall = time.perf_counter() - wall0
     truth = presenter.truth()
     with session.truth.open("w") as f:
         for row in truth:
@@ -163,6 +173,11 @@ def run_talk(
             "ended_at_s": round(end, 3),
             "wall_s": round(wall, 4),
             "realtime_factor": round(sc.duration_s / wall, 1) if wall > 0 else None,
+            **({"post_talk": post} if post is not None else {}),
         },
     )
+    if report:
+        from prezence.report.build import write_report
+
+        write_report(session.root, config=cfg)
     return TalkResult(session, sc, read_jsonl(session.cues), summary, coach.decisions, wall)
