@@ -311,6 +311,11 @@ class _Task:
     value: Any = None
     started_at: float | None = None
     ends_at: float = math.inf
+    #: when set, the task ends once this returns True (checked from ``settle_from``, the
+    #: duration ``begin`` returned) or ``grace_s`` later at the latest
+    arrived: Callable[[], bool] | None = None
+    grace_s: float = 0.0
+    settle_from: float = math.inf
     info: dict[str, Any] = field(default_factory=dict)
 
 
@@ -423,13 +428,24 @@ class VirtualNao:
         value: Any = None,
         finish: Callable[[bool], None] | None = None,
         info: dict[str, Any] | None = None,
+        arrived: Callable[[], bool] | None = None,
+        grace_s: float = 0.0,
     ) -> Any:
         """Queue a blocking call; returns the ``qi.Future`` the client waits on (lock NOT held)."""
         holder: list[_Task] = []
         promise = qi.Promise(lambda p: self._cancel(holder[0].id) if holder else None)
         with self.lock:
             task = _Task(
-                next(self._ids), name, resources, promise, begin, finish, value, info=info or {}
+                next(self._ids),
+                name,
+                resources,
+                promise,
+                begin,
+                finish,
+                value,
+                info=info or {},
+                arrived=arrived,
+                grace_s=grace_s,
             )
             holder.append(task)
             self._tasks.append(task)
@@ -443,12 +459,20 @@ class VirtualNao:
         for task in self._tasks:
             if task.started_at is None and not (task.resources & held):
                 task.started_at = now
-                task.ends_at = now + max(0.0, task.begin(now))
+                task.settle_from = now + max(0.0, task.begin(now))
+                task.ends_at = task.settle_from + (task.grace_s if task.arrived else 0.0)
                 self.record("start", task)
             held |= task.resources
 
     def _reap_locked(self, now: float) -> list[tuple[_Task, str]]:
-        done = [(t, "value") for t in self._tasks if t.started_at is not None and t.ends_at <= now]
+        done = [
+            (t, "value")
+            for t in self._tasks
+            if t.started_at is not None
+            and (
+                t.ends_at <= now or (t.arrived is not None and t.settle_from <= now and t.arrived())
+            )
+        ]
         if done:
             ended = {id(t) for t, _ in done}
             self._tasks = [t for t in self._tasks if id(t) not in ended]
@@ -703,7 +727,11 @@ class ALMotion:
     def _move_to(
         self, call: str, joints: list[str], targets: list[float], frac: float, value: Any = None
     ) -> Any:
+        """A blocking move to targets that returns when the joints have arrived (NAOqi's
+        ``angleInterpolationWithSpeed``): no earlier than the speed-capped estimate, and as
+        soon as the joints are within 0.01 rad of the goal or have stopped moving."""
         r = self._r
+        state: dict[str, Any] = {}
 
         def begin(now: float) -> float:
             keep = [i for i, j in enumerate(joints) if r.stiffness[j] > 0.0]
@@ -714,12 +742,30 @@ class ALMotion:
             cur = r.model.positions(names_k)
             r.model.set_targets(names_k, goal, frac)
             r.commanded.update(zip(names_k, goal, strict=True))
-            return max(
+            estimate = max(
                 abs(g - q) / (frac * r.specs[n].velocity)
                 for n, g, q in zip(names_k, goal, cur, strict=True)
             )
+            state.update(names=names_k, goal=np.asarray(goal), last=np.asarray(cur))
+            return estimate
 
-        return r.submit(call, frozenset(joints), begin, value=value, info={"joints": joints})
+        def arrived() -> bool:
+            if not state:
+                return True
+            q = np.asarray(r.model.positions(state["names"]))
+            still = float(np.max(np.abs(q - state["last"]))) < 1e-4
+            state["last"] = q
+            return still or float(np.max(np.abs(q - state["goal"]))) < 0.01
+
+        return r.submit(
+            call,
+            frozenset(joints),
+            begin,
+            value=value,
+            info={"joints": joints},
+            arrived=arrived,
+            grace_s=2.0,  # the physics may lag the estimate; never hang for ever
+        )
 
     def openHand(self, handName: str) -> Any:
         """Blocking: open ``LHand`` or ``RHand``."""
