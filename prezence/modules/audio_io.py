@@ -1,0 +1,280 @@
+"""Audio input for the speech module: files (WAV, FLAC, MP3, MP4…) and the microphone.
+
+Everything comes out as 16 kHz mono 16-bit PCM in numpy ``int16`` blocks, the format the
+recogniser wants. Files are decoded with PyAV (``av``: ffmpeg inside the wheel), which reads all
+of WAV, FLAC, MP3 and the audio track of MP4 with one dependency; soundfile (libsndfile) cannot
+read MP4. The microphone is read with ``sounddevice`` (PortAudio) when it is installed.
+
+No audio is ever dropped: a live source queues every block it captures, and the consumer reports
+how far behind it is (:attr:`AudioSource.backlog_s`).
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from prezence.modules.common import ModuleInputError
+
+log = logging.getLogger(__name__)
+
+#: The recogniser's sample rate (pocketsphinx's en-US model is 16 kHz).
+SAMPLE_RATE = 16000
+#: Samples per block handed to the consumer (0.1 s).
+BLOCK = SAMPLE_RATE // 10
+
+
+class AudioSource(Protocol):
+    """A stream of 16 kHz mono int16 blocks."""
+
+    name: str
+
+    def blocks(self) -> Iterator[np.ndarray]:
+        """Yield int16 blocks in order until the input ends (a live input runs until stopped)."""
+        ...
+
+    @property
+    def backlog_s(self) -> float:
+        """Seconds of audio captured but not yet taken by the consumer (0 for unpaced files)."""
+        ...
+
+    def close(self) -> None:
+        """Stop capturing; safe to call twice."""
+        ...
+
+
+def _av() -> Any:
+    try:
+        import av
+    except ImportError as e:  # pragma: no cover - depends on the install
+        raise ModuleInputError(
+            "audio", 'decoding audio files needs PyAV: pip install "prezence[speech]"'
+        ) from e
+    return av
+
+
+def decode_file(path: str | Path) -> Iterator[np.ndarray]:
+    """Decode an audio or video file to 16 kHz mono int16 blocks of any length.
+
+    Args:
+        path: a WAV, FLAC, MP3, MP4 (audio track) or any other file ffmpeg reads.
+
+    Yields:
+        int16 arrays, in order.
+
+    Raises:
+        ModuleInputError: the file is missing, empty, not audio, or breaks off mid-stream.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ModuleInputError(path, "no such file")
+    if path.stat().st_size == 0:
+        raise ModuleInputError(path, "the file is empty")
+    av = _av()
+    try:
+        container = av.open(str(path), mode="r")
+    except (av.error.FFmpegError, UnicodeDecodeError) as e:
+        raise ModuleInputError(path, f"not a readable audio file ({e})") from e
+    n_out = 0
+    try:
+        if not container.streams.audio:
+            raise ModuleInputError(path, "the file has no audio track")
+        stream = container.streams.audio[0]
+        resampler = av.AudioResampler(format="s16", layout="mono", rate=SAMPLE_RATE)
+        try:
+            for frame in container.decode(stream):
+                for out in resampler.resample(frame):
+                    pcm = out.to_ndarray().reshape(-1).astype(np.int16, copy=False)
+                    n_out += len(pcm)
+                    yield pcm
+            for out in resampler.resample(None):
+                pcm = out.to_ndarray().reshape(-1).astype(np.int16, copy=False)
+                n_out += len(pcm)
+                yield pcm
+        except av.error.FFmpegError as e:
+            raise ModuleInputError(path, f"the audio is damaged or truncated ({e})") from e
+    finally:
+        container.close()
+    if n_out == 0:
+        raise ModuleInputError(path, "the file holds no audio samples")
+
+
+def read_file(path: str | Path) -> np.ndarray:
+    """Decode a whole file to one 16 kHz mono int16 array (see :func:`decode_file`)."""
+    parts = list(decode_file(path))
+    return np.concatenate(parts) if parts else np.zeros(0, np.int16)
+
+
+def _reblock(parts: Iterator[np.ndarray], size: int = BLOCK) -> Iterator[np.ndarray]:
+    """Cut a stream of arrays of any length into blocks of ``size`` (the last may be shorter)."""
+    buf = np.zeros(0, np.int16)
+    for p in parts:
+        buf = np.concatenate([buf, p]) if len(buf) else p
+        while len(buf) >= size:
+            yield buf[:size]
+            buf = buf[size:]
+    if len(buf):
+        yield buf
+
+
+class FileSource:
+    """Blocks from a file, as fast as they decode, or paced at real time (``realtime=True``).
+
+    Paced, a reader thread puts each block in a queue when its audio time has come, like a
+    microphone would; the queue is unbounded, so a slow consumer falls behind but loses nothing.
+    """
+
+    def __init__(self, path: str | Path, *, realtime: bool) -> None:
+        self.path = Path(path)
+        self.name = str(path)
+        self.realtime = realtime
+        self._live: _Queued | None = None
+        self._closed = False
+        # Fail early on a missing/empty/non-audio file, before a session is started.
+        first = decode_file(self.path)
+        self._first_block = next(first, None)
+        self._rest = first
+
+    def _all(self) -> Iterator[np.ndarray]:
+        if self._first_block is not None:
+            yield self._first_block
+        yield from self._rest
+
+    def blocks(self) -> Iterator[np.ndarray]:
+        if not self.realtime:
+            for block in _reblock(self._all()):
+                if self._closed:
+                    return
+                yield block
+            return
+        live = self._live = _Queued(self.name)
+        t_start = time.monotonic()
+
+        def produce() -> None:
+            sent = 0
+            for block in _reblock(self._all()):
+                # A block is "captured" once its last sample's time has come.
+                delay = t_start + (sent + len(block)) / SAMPLE_RATE - time.monotonic()
+                if delay > 0 and live.stop.wait(delay):
+                    return
+                live.put(block)
+                sent += len(block)
+
+        yield from live.run(produce)
+
+    @property
+    def backlog_s(self) -> float:
+        return self._live.backlog_s if self._live is not None else 0.0
+
+    def close(self) -> None:
+        self._closed = True
+        if self._live is not None:
+            self._live.close()
+
+
+class MicSource:
+    """Blocks from the default microphone via ``sounddevice`` (PortAudio), until closed."""
+
+    def __init__(self, *, device: str | int | None = None) -> None:
+        self.name = "mic"
+        try:
+            import sounddevice
+        except (ImportError, OSError) as e:
+            raise ModuleInputError(
+                "mic",
+                "microphone input needs sounddevice and the PortAudio library: "
+                "pip install sounddevice (and apt-get install libportaudio2), or pass --audio FILE",
+            ) from e
+        self._sd = sounddevice
+        self._device = device
+        self._live = _Queued("mic")
+
+    def blocks(self) -> Iterator[np.ndarray]:
+        def produce() -> None:
+            def callback(indata: Any, frames: int, t: Any, status: Any) -> None:
+                if status:
+                    log.warning("microphone: %s", status)
+                self._live.put(np.frombuffer(bytes(indata), dtype=np.int16).copy())
+
+            try:
+                with self._sd.RawInputStream(
+                    samplerate=SAMPLE_RATE,
+                    blocksize=BLOCK,
+                    channels=1,
+                    dtype="int16",
+                    device=self._device,
+                    callback=callback,
+                ):
+                    self._live.stop.wait()
+            except self._sd.PortAudioError as e:
+                self._live.fail(ModuleInputError("mic", f"cannot open the microphone ({e})"))
+
+        yield from self._live.run(produce)
+
+    @property
+    def backlog_s(self) -> float:
+        return self._live.backlog_s
+
+    def close(self) -> None:
+        self._live.close()
+
+
+class _Queued:
+    """An unbounded queue between a capture thread and the consumer, with a backlog figure."""
+
+    _END = object()
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.stop = threading.Event()
+        self._q: queue.Queue[Any] = queue.Queue()
+        self._queued_samples = 0
+        self._lock = threading.Lock()
+        self._error: BaseException | None = None
+        self._thread: threading.Thread | None = None
+
+    def put(self, block: np.ndarray) -> None:
+        with self._lock:
+            self._queued_samples += len(block)
+        self._q.put(block)
+
+    def fail(self, err: BaseException) -> None:
+        self._error = err
+
+    @property
+    def backlog_s(self) -> float:
+        with self._lock:
+            return self._queued_samples / SAMPLE_RATE
+
+    def run(self, produce: Any) -> Iterator[np.ndarray]:
+        def target() -> None:
+            try:
+                produce()
+            except BaseException as e:  # handed to the consumer, re-raised there
+                self._error = e
+            finally:
+                self._q.put(self._END)
+
+        self._thread = threading.Thread(target=target, name=f"audio-{self.name}", daemon=True)
+        self._thread.start()
+        while True:
+            item = self._q.get()
+            if item is self._END:
+                break
+            with self._lock:
+                self._queued_samples -= len(item)
+            yield item
+        if self._error is not None:
+            raise self._error
+
+    def close(self) -> None:
+        self.stop.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=5.0)

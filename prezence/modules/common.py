@@ -1,0 +1,132 @@
+"""Helpers shared by the input-module processes (``python -m prezence.modules.<name>``).
+
+An input module is a separate process that reads one input (a file, a microphone, a camera)
+and only appends samples to its stream files, ``SESSION/streams/<metric>.txt``, one
+``<t> <value>`` line each (see :mod:`prezence.streams.writer`). ``t`` is seconds since the talk
+began. The common command line is::
+
+    --out SESSION      the session folder (its streams/ folder is created if needed)
+    --t0 EPOCH         live input: wall time (time.time()) at which the talk began; a sample
+                       captured at wall time w gets t = w - EPOCH. Default: when the module
+                       started. Files use their own media time and ignore it.
+    --realtime         file input: deliver the file at real-time pace, as a live input would
+    -v / -q            more / less logging on stderr
+
+Exit status: 0 done, 2 bad input or arguments (``error: FILE: what is wrong`` on stderr, no
+traceback), as ``prezence``'s own command line does.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+from collections.abc import Iterable
+from pathlib import Path
+from types import TracebackType
+
+from prezence.errors import PrezenceError
+from prezence.session import SessionDir
+from prezence.streams.writer import StreamWriter
+
+log = logging.getLogger(__name__)
+
+
+class ModuleInputError(PrezenceError, ValueError):
+    """An input module cannot read its input (a bad or missing file, no microphone).
+
+    The message starts with the input's name, then says what is wrong and, where it can, how
+    to fix it: ``talk.flac: the audio is damaged or truncated (…)``.
+
+    Attributes:
+        source: the file path, or a name such as ``mic``.
+        reason: what is wrong.
+    """
+
+    def __init__(self, source: str | os.PathLike[str], reason: str) -> None:
+        self.source = str(source)
+        self.reason = reason
+        super().__init__(f"{self.source}: {reason}")
+
+
+def add_common_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``--out``, ``--t0``, ``--realtime``, ``-v`` and ``-q`` to a module's parser."""
+    parser.add_argument("--out", required=True, type=Path, help="the session folder")
+    parser.add_argument(
+        "--t0",
+        type=float,
+        default=None,
+        help="live input: wall time (time.time()) the talk began (default: module start)",
+    )
+    parser.add_argument(
+        "--realtime", action="store_true", help="file input: pace it at real time, as if live"
+    )
+    parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    parser.add_argument("-q", "--quiet", action="store_true", help="warnings only")
+
+
+def setup_logging(module: str, args: argparse.Namespace) -> None:
+    """Log to stderr as ``<module>: LEVEL: message`` (only for a module run as a process)."""
+    level = logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO
+    logging.basicConfig(level=level, format=f"{module}: %(levelname)s: %(message)s")
+
+
+class StreamSet:
+    """One open :class:`StreamWriter` per metric, in ``SESSION/streams/<metric>.txt``.
+
+    Args:
+        out: the session folder.
+        metrics: the metric names this module writes.
+        fresh: remove these metrics' old files first (a file analysed again replaces its
+            earlier run; a live input appends).
+    """
+
+    def __init__(self, out: str | os.PathLike[str], metrics: Iterable[str], *, fresh: bool) -> None:
+        self.session = SessionDir(Path(out))
+        self.metrics = tuple(metrics)
+        self.fresh = fresh
+        self._writers: dict[str, StreamWriter] = {}
+
+    def open(self) -> StreamSet:
+        """Create ``streams/`` and open every file for appending."""
+        self.session.streams.mkdir(parents=True, exist_ok=True)
+        for m in self.metrics:
+            path = self.session.stream(f"{m}.txt")
+            if self.fresh and path.exists():
+                path.unlink()
+            self._writers[m] = StreamWriter(path).open()
+        return self
+
+    def write(self, metric: str, t: float, value: float) -> None:
+        """Append one sample to ``metric``'s file.
+
+        Raises:
+            KeyError: ``metric`` is not one this set was opened with.
+            ValueError: ``t`` or ``value`` is not finite, or ``t`` < 0.
+        """
+        self._writers[metric].write(t, value)
+
+    def close(self) -> None:
+        """Close every file; a second call does nothing."""
+        writers, self._writers = self._writers, {}
+        for w in writers.values():
+            w.close()
+
+    def __enter__(self) -> StreamSet:
+        return self.open()
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+def report_error(module: str, err: PrezenceError | ValueError) -> int:
+    """Print ``error: …`` for a failed module run and return its exit status, 2."""
+    log.debug("%s failed", module, exc_info=err)
+    print(f"error: {err}", file=sys.stderr)
+    return 2

@@ -1,0 +1,706 @@
+"""Speech input module: speed, articulation rate, volume and clarity, from a file or the microphone.
+
+Run it as its own process::
+
+    python -m prezence.modules.speech --audio talk.flac --out SESSION
+    python -m prezence.modules.speech --audio mic --out SESSION --t0 1767225600.0 \\
+        [--window 10] [--hop 1] [--calibration-db 90] [--realtime]
+
+Every ``--hop`` seconds it measures the last ``--window`` seconds and appends one line to each
+stream, ``SESSION/streams/<metric>.txt``, with ``t`` = the end of the window in seconds since the
+talk began (media time for a file; for the microphone, wall time minus ``--t0``):
+
+===================== ========================================================================
+metric                 value
+===================== ========================================================================
+speech_speed           words per minute over the window (recognised words / window length);
+                       the syllable estimate instead when the recogniser is unreliable there
+speech_speed_syllables the ASR-free estimate: syllable nuclei / :data:`SYLLABLES_PER_WORD` / min
+speech_articulation    words per *speaking* minute (same words / voice-activity time)
+speech_volume          active-speech level in estimated dB SPL: RMS dBFS of the speech frames
+                       plus ``--calibration-db`` (see "Calibrating the volume")
+speech_loudness        integrated loudness of the window, LUFS (ITU-R BS.1770, pyloudnorm),
+                       relative to full scale, uncalibrated; only when pyloudnorm is installed
+speech_accuracy        recogniser confidence 0..1: the summed word posteriors over the number
+                       of words spoken (the larger of the recognised and the syllable count)
+speech_clarity         speech_accuracy as a 0-100 score: 0.2 -> 0, 0.8 -> 100, clipped
+===================== ========================================================================
+
+A window with less than :data:`MIN_SPEECH_S` of voice activity writes nothing: silence is not
+slow, quiet or unclear speech, and the processor sees the stream go quiet instead.
+
+How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/bench_speech.py``):
+
+* pocketsphinx's webrtc voice-activity ``Endpointer`` cuts the audio into utterances, and each
+  utterance is decoded **once** (cost does not grow with window/hop); its words keep their times.
+  An utterance longer than :data:`MAX_UTTERANCE_S` is cut there, so that live output lags by at
+  most about that much. A window is written once everything up to its end is decoded, so file
+  input and ``--realtime`` give the same lines; only their timing differs.
+* A word counts in a window by the fraction of it that lies inside.
+* Syllable nuclei (De Jong & Wempe style: 300-3000 Hz band intensity peaks, >= 2 dB prominent,
+  >= 70 ms apart, within 25 dB of the loudest, voiced) are found per utterance with numpy/scipy.
+* The recogniser is *unreliable* in a window when its mean word posterior is below
+  :data:`MIN_RELIABLE_POSTERIOR` or its word count and the syllable estimate differ by more than
+  :data:`MAX_DISAGREEMENT`; speech_speed then falls back to the syllable estimate.
+* Volume: RMS of the 30 ms frames inside voice activity and within 30 dB of the window's
+  95th-percentile speech frame, so pauses do not dilute it and it follows a gain change exactly.
+
+Calibrating the volume (once per microphone, gain setting and distance):
+    1. Put a phone sound-level meter app (A-weighted, "slow") where the listeners' ears would be,
+       or next to the laptop microphone for the "at the laptop" level the rules use.
+    2. Speak (or play pink noise / a recorded talk from a speaker at your mouth's place) at a
+       steady, normal presenting level for 20-30 s while this module runs with
+       ``--calibration-db 0``: speech_volume then shows the raw dBFS (e.g. -31).
+    3. Read the meter's average (e.g. 62 dB SPL). ``--calibration-db`` = meter - dBFS
+       (62 - (-31) = 93). Use that value from then on; change it if the input gain changes.
+    Without calibration the default :data:`DEFAULT_CALIBRATION_DB` (90) is a rough guess for a
+    laptop microphone at arm's length, and the module says so in its log.
+
+Exit status: 0 done; 2 bad input (missing, empty, wrong-format or truncated file, no
+microphone) with ``error: FILE: …`` on stderr, or bad arguments.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import signal
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+import numpy as np
+
+from prezence.errors import BackendUnavailable, PrezenceError
+from prezence.modules.audio_io import SAMPLE_RATE, AudioSource, FileSource, MicSource
+from prezence.modules.common import (
+    ModuleInputError,
+    StreamSet,
+    add_common_arguments,
+    report_error,
+    setup_logging,
+)
+from prezence.samples import SPEECH_ACCURACY, SPEECH_SPEED, SPEECH_VOLUME, Sample
+
+log = logging.getLogger(__name__)
+
+SPEECH_ARTICULATION = "speech_articulation"
+SPEECH_CLARITY = "speech_clarity"
+SPEECH_LOUDNESS = "speech_loudness"
+SPEECH_SPEED_SYLLABLES = "speech_speed_syllables"
+#: Every metric this module may write, in the order it writes them.
+METRICS = (
+    SPEECH_SPEED,
+    SPEECH_SPEED_SYLLABLES,
+    SPEECH_ARTICULATION,
+    SPEECH_VOLUME,
+    SPEECH_LOUDNESS,
+    SPEECH_ACCURACY,
+    SPEECH_CLARITY,
+)
+
+#: dBFS -> dB SPL offset used when the user has not calibrated (a rough laptop-mic guess).
+DEFAULT_CALIBRATION_DB = 90.0
+#: English averages about 1.4-1.5 syllables per word (the reference measured 1.34 on one text).
+SYLLABLES_PER_WORD = 1.45
+#: A window needs this much voice activity to be measured at all.
+MIN_SPEECH_S = 1.0
+#: An utterance is cut here even without a pause (bounds the live lag).
+MAX_UTTERANCE_S = 10.0
+#: Below this mean word posterior the recogniser's word count is not trusted.
+MIN_RELIABLE_POSTERIOR = 0.3
+#: Above this relative difference between ASR and syllable counts the ASR count is not trusted.
+MAX_DISAGREEMENT = 0.25
+#: speech_accuracy -> speech_clarity anchors: (accuracy, score).
+CLARITY_ANCHORS = ((0.2, 0.0), (0.8, 100.0))
+#: Warn when a live input is this many seconds behind.
+BEHIND_WARN_S = 2.0
+
+#: pocketsphinx settings. The second (flat-lexicon) pass is off, the beams are a little
+#: tighter than the defaults (1e-48 / 7e-29) and active HMMs and word exits per frame are
+#: capped. On the test material this keeps the word count (65-66 of 66, defaults: 67-68) and a
+#: clarity that falls monotonically with noise, at about half the CPU on clean speech and a
+#: third on noisy speech (the defaults cost 0.25-0.6 CPU s per audio s there; see
+#: bench/bench_speech.py). Tighter caps (maxhmmpf 1500-2000, maxwpf 5) lost most words at SNR 20.
+DECODER_CONFIG: dict[str, Any] = {
+    "fwdflat": False,
+    "maxhmmpf": 2500,
+    "maxwpf": 10,
+    "beam": 1e-44,
+    "pbeam": 1e-44,
+    "wbeam": 1e-26,
+}
+_FRAME = 480  # 30 ms at 16 kHz: the endpointer's frame
+_FRAME_S = _FRAME / SAMPLE_RATE
+
+
+@dataclass(frozen=True)
+class SpeechOptions:
+    """What the speech analysis measures, and how.
+
+    Attributes:
+        window_s: length of the measured window, seconds.
+        hop_s: time between two measurements, seconds.
+        calibration_db: dB added to dBFS to estimate dB SPL (see the module doc).
+        syllables_per_word: the prior turning syllables into words.
+        min_speech_s: voice activity a window needs to be measured.
+        max_utterance_s: longest utterance decoded in one piece.
+    """
+
+    window_s: float = 10.0
+    hop_s: float = 1.0
+    calibration_db: float = DEFAULT_CALIBRATION_DB
+    syllables_per_word: float = SYLLABLES_PER_WORD
+    min_speech_s: float = MIN_SPEECH_S
+    max_utterance_s: float = MAX_UTTERANCE_S
+
+    def __post_init__(self) -> None:
+        for name in ("window_s", "hop_s", "syllables_per_word", "max_utterance_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+        if self.hop_s > self.window_s:
+            raise ValueError(f"hop_s ({self.hop_s}) must not exceed window_s ({self.window_s})")
+        if not (math.isfinite(self.min_speech_s) and self.min_speech_s >= 0):
+            raise ValueError(f"min_speech_s must be >= 0, got {self.min_speech_s!r}")
+        if not math.isfinite(self.calibration_db):
+            raise ValueError(f"calibration_db must be finite, got {self.calibration_db!r}")
+
+
+@dataclass(frozen=True)
+class Word:
+    """A recognised word: start and end in seconds of input time, posterior in [0, 1]."""
+
+    start: float
+    end: float
+    text: str
+    prob: float
+
+
+@dataclass(frozen=True)
+class SpeechTotals:
+    """Whole-input figures (for the bench, tests and the end-of-run log line)."""
+
+    duration_s: float
+    speech_s: float
+    words: int
+    syllables: int
+    mean_posterior: float
+
+    @property
+    def wpm(self) -> float:
+        """Recognised words per minute of input."""
+        return self.words / self.duration_s * 60.0 if self.duration_s > 0 else 0.0
+
+
+def clarity_score(accuracy: float) -> float:
+    """Map speech_accuracy (0..1) to the 0-100 clarity score by :data:`CLARITY_ANCHORS`.
+
+    Example:
+        >>> clarity_score(0.8), clarity_score(0.5), clarity_score(0.1)
+        (100.0, 50.0, 0.0)
+    """
+    (a0, s0), (a1, s1) = CLARITY_ANCHORS
+    x = (accuracy - a0) / (a1 - a0)
+    return float(s0 + (s1 - s0) * min(1.0, max(0.0, x)))
+
+
+def syllable_nuclei(pcm: np.ndarray, sample_rate: int = SAMPLE_RATE) -> np.ndarray:
+    """Times (s from the start of ``pcm``) of syllable nuclei: voiced band-intensity peaks.
+
+    Args:
+        pcm: mono audio (int16 or float).
+        sample_rate: its rate in Hz.
+
+    Returns:
+        Sorted peak times in seconds (empty for audio shorter than 0.1 s).
+    """
+    from scipy.signal import butter, find_peaks, sosfiltfilt
+
+    x = np.asarray(pcm, dtype=np.float64)
+    win, hop = int(0.032 * sample_rate), int(0.010 * sample_rate)
+    if len(x) < max(win + 2 * hop, int(0.1 * sample_rate)):
+        return np.zeros(0)
+    sos = butter(4, [300.0, 3000.0], btype="bandpass", fs=sample_rate, output="sos")
+    band = sosfiltfilt(sos, x)
+    n = 1 + (len(x) - win) // hop
+    idx = np.arange(win)[None, :] + hop * np.arange(n)[:, None]
+    w = np.hanning(win)
+    power = np.mean((band[idx] * w) ** 2, axis=1) + 1e-9
+    db = 10.0 * np.log10(power)
+    db = np.convolve(db, np.ones(3) / 3.0, mode="same")
+    peaks, _ = find_peaks(db, height=np.percentile(db, 99) - 25.0, prominence=2.0, distance=7)
+    if len(peaks) == 0:
+        return np.zeros(0)
+    # Voicing: normalised autocorrelation peak above 0.45 for a pitch of 80-400 Hz.
+    frames = x[idx[peaks]] * w
+    frames -= frames.mean(axis=1, keepdims=True)
+    spec = np.fft.rfft(frames, n=2 * win, axis=1)
+    ac = np.fft.irfft(np.abs(spec) ** 2, axis=1)[:, :win]
+    lo, hi = sample_rate // 400, sample_rate // 80
+    voiced = np.max(ac[:, lo : hi + 1], axis=1) > 0.45 * (ac[:, 0] + 1e-9)
+    times: np.ndarray = (peaks[voiced] * hop + win / 2) / sample_rate
+    return times
+
+
+def _overlap(a0: float, a1: float, b0: float, b1: float) -> float:
+    return max(0.0, min(a1, b1) - max(a0, b0))
+
+
+def _make_decoder() -> Any:
+    try:
+        from pocketsphinx import Decoder
+    except ImportError as e:
+        raise BackendUnavailable(
+            'the speech module needs pocketsphinx: pip install "prezence[speech]"'
+        ) from e
+    return Decoder(samprate=SAMPLE_RATE, loglevel="FATAL", **DECODER_CONFIG)
+
+
+def _make_endpointer() -> Any:
+    from pocketsphinx import Endpointer
+
+    ep = Endpointer(window=0.3, ratio=0.9, sample_rate=SAMPLE_RATE, frame_length=_FRAME_S)
+    if ep.frame_bytes != 2 * _FRAME:  # pragma: no cover - a pocketsphinx change
+        raise RuntimeError(f"pocketsphinx endpointer frame is {ep.frame_bytes} bytes, not 960")
+    return ep
+
+
+def _loudness_meter() -> Any:
+    try:
+        import pyloudnorm
+    except ImportError:
+        log.info("pyloudnorm is not installed: speech_loudness (LUFS) is not written")
+        return None
+    return pyloudnorm.Meter(SAMPLE_RATE)
+
+
+class SpeechAnalyser:
+    """Incremental speech measurements: feed 16 kHz mono int16 audio, get :class:`Sample` s.
+
+    Each utterance is decoded once; windows are counted from the kept word and syllable times.
+
+    Args:
+        options: window, hop, calibration and priors.
+        loudness: also measure LUFS when pyloudnorm is installed.
+
+    Raises:
+        BackendUnavailable: pocketsphinx is not installed.
+    """
+
+    def __init__(self, options: SpeechOptions, *, loudness: bool = True) -> None:
+        self.options = options
+        self._dec = _make_decoder()
+        self._ep = _make_endpointer()
+        self._meter = _loudness_meter() if loudness else None
+        self._pending = np.zeros(0, np.int16)
+        self._n_frames = 0  # 30 ms frames given to the endpointer
+        self._frame_ms: list[float] = []  # mean square per frame, for the volume
+        # The last few windows' audio, for LUFS: samples from absolute index _ring_start.
+        self._ring = np.zeros(0, np.int16)
+        self._ring_start = 0
+        # Current utterance: start time, time of its next frame, its audio.
+        self._in_utt = False
+        self._utt_start = 0.0
+        self._utt_t = 0.0
+        self._utt_pcm: list[bytes] = []
+        # Finished results, oldest first (pruned once no future window can need them).
+        self._words: deque[Word] = deque()
+        self._spans: deque[tuple[float, float]] = deque()
+        self._syllables: deque[float] = deque()
+        self._span_start: float | None = None
+        self._next_t = options.window_s  # end of the next window to write
+        self._last_t = 0.0  # end of the last window written
+        self._finished = False
+        # Totals over the whole input.
+        self._n_words = 0
+        self._n_syl = 0
+        self._p_sum = 0.0
+        self._speech_s = 0.0
+
+    # ---- input -------------------------------------------------------------------------
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds of audio fed so far."""
+        return (self._n_frames * _FRAME + len(self._pending)) / SAMPLE_RATE
+
+    def feed(self, pcm: np.ndarray) -> list[Sample]:
+        """Analyse the next block of audio; return the samples of every window now complete.
+
+        Args:
+            pcm: 16 kHz mono int16 samples, any length.
+
+        Raises:
+            ValueError: audio fed after :meth:`finish`, or not int16.
+        """
+        if self._finished:
+            raise ValueError("SpeechAnalyser.feed after finish()")
+        pcm = np.asarray(pcm)
+        if pcm.dtype != np.int16:
+            raise ValueError(f"expected int16 samples, got {pcm.dtype}")
+        buf = np.concatenate([self._pending, pcm.reshape(-1)])
+        n = len(buf) // _FRAME
+        self._ring = np.concatenate([self._ring, buf[: n * _FRAME]])
+        for i in range(n):
+            self._frame(buf[i * _FRAME : (i + 1) * _FRAME])
+        self._pending = buf[n * _FRAME :]
+        return self._emit(self._finalised_until())
+
+    def finish(self) -> list[Sample]:
+        """End of input: decode what is left and return the remaining windows.
+
+        The last window ends at the end of the input (a window shorter than ``window_s`` when
+        the whole input is shorter).
+        """
+        if self._finished:
+            return []
+        self._finished = True
+        tail = self._pending
+        self._pending = np.zeros(0, np.int16)
+        if len(tail):
+            ms = float(np.mean(tail.astype(np.float64) ** 2))
+            self._frame_ms.append(ms)
+            self._ring = np.concatenate([self._ring, tail])
+        speech = self._ep.end_stream(tail.tobytes())
+        end = self._n_frames * _FRAME_S + len(tail) / SAMPLE_RATE
+        if speech is not None:
+            self._speech_frame(speech)
+        stop = end
+        if self._span_start is not None and self._span_start < self._ep.speech_end <= end:
+            stop = float(self._ep.speech_end)
+        if self._in_utt:
+            self._end_utterance(stop)
+        self._close_span(stop)
+        out = self._emit(end)
+        if end > self._last_t + 1e-6:
+            out += self._window(end)
+        return out
+
+    def totals(self) -> SpeechTotals:
+        """Figures over everything fed so far (final after :meth:`finish`)."""
+        return SpeechTotals(
+            duration_s=self.duration_s,
+            speech_s=self._speech_s,
+            words=self._n_words,
+            syllables=self._n_syl,
+            mean_posterior=self._p_sum / self._n_words if self._n_words else 0.0,
+        )
+
+    # ---- per frame ---------------------------------------------------------------------
+
+    def _frame(self, frame: np.ndarray) -> None:
+        self._frame_ms.append(float(np.mean(frame.astype(np.float64) ** 2)))
+        speech = self._ep.process(frame.tobytes())
+        self._n_frames += 1
+        if speech is not None:
+            self._speech_frame(speech)
+            if not self._ep.in_speech:
+                self._end_utterance(self._ep.speech_end)
+                self._close_span(self._ep.speech_end)
+
+    def _speech_frame(self, speech: bytes) -> None:
+        if not self._in_utt:
+            if self._span_start is None:  # a new stretch of speech (not a cut utterance)
+                self._utt_t = self._span_start = float(self._ep.speech_start)
+            self._in_utt = True
+            self._utt_start = self._utt_t
+            self._dec.start_utt()
+        self._dec.process_raw(speech, False, False)
+        self._utt_pcm.append(speech)
+        self._utt_t += len(speech) / 2 / SAMPLE_RATE
+        if self._utt_t - self._utt_start >= self.options.max_utterance_s:
+            self._end_utterance(self._utt_t)  # the span goes on: still speech
+
+    def _end_utterance(self, end: float) -> None:
+        self._dec.end_utt()
+        t0 = self._utt_start
+        for seg in self._dec.seg() or ():
+            w = seg.word
+            if w in ("<s>", "</s>", "<sil>") or w.startswith(("[", "++", "<")):
+                continue
+            # Segment.prob is already a linear posterior (do not exp() it).
+            prob = float(min(1.0, max(0.0, seg.prob)))
+            word = Word(t0 + seg.start_frame / 100.0, t0 + (seg.end_frame + 1) / 100.0, w, prob)
+            self._words.append(word)
+            self._n_words += 1
+            self._p_sum += prob
+        pcm = np.frombuffer(b"".join(self._utt_pcm), dtype=np.int16)
+        for s in syllable_nuclei(pcm):
+            self._syllables.append(t0 + float(s))
+            self._n_syl += 1
+        self._utt_pcm = []
+        self._in_utt = False
+        self._utt_start = end
+
+    def _close_span(self, end: float) -> None:
+        if self._span_start is not None and end > self._span_start:
+            self._spans.append((self._span_start, end))
+            self._speech_s += end - self._span_start
+        self._span_start = None
+
+    def _finalised_until(self) -> float:
+        """Input time before which every word, syllable and speech span is known."""
+        if self._in_utt or self._ep.in_speech:
+            return self._utt_start
+        # Out of speech the endpointer may still open a span up to its window back.
+        return self._n_frames * _FRAME_S - 0.3 - 2 * _FRAME_S
+
+    # ---- windows -----------------------------------------------------------------------
+
+    def _emit(self, until: float) -> list[Sample]:
+        out: list[Sample] = []
+        while self._next_t <= until + 1e-9:
+            out += self._window(self._next_t)
+            self._last_t = self._next_t
+            self._next_t += self.options.hop_s
+            self._prune(self._next_t - self.options.window_s)
+        return out
+
+    def _prune(self, lo: float) -> None:
+        while self._words and self._words[0].end <= lo:
+            self._words.popleft()
+        while self._spans and self._spans[0][1] <= lo:
+            self._spans.popleft()
+        while self._syllables and self._syllables[0] < lo:
+            self._syllables.popleft()
+        keep_from = max(0, int(lo * SAMPLE_RATE) - self._ring_start)
+        if keep_from > SAMPLE_RATE:  # trim in chunks, not every hop
+            self._ring = self._ring[keep_from:]
+            self._ring_start += keep_from
+
+    def _window(self, t: float) -> list[Sample]:
+        opt = self.options
+        lo = max(0.0, t - opt.window_s)
+        dur = t - lo
+        spans = list(self._spans)
+        if self._span_start is not None:
+            spans.append((self._span_start, t))
+        speech_s = sum(_overlap(a, b, lo, t) for a, b in spans)
+        if dur <= 0 or speech_s < min(opt.min_speech_s, 0.5 * dur):
+            return []
+        n_asr = 0.0
+        p_sum = 0.0
+        for w in self._words:
+            if w.start >= t:
+                break
+            f = _overlap(w.start, w.end, lo, t) / max(w.end - w.start, 1e-3)
+            n_asr += f
+            p_sum += f * w.prob
+        n_syl = sum(1 for s in self._syllables if lo <= s < t)
+        n_syl_words = n_syl / opt.syllables_per_word
+        mean_post = p_sum / n_asr if n_asr > 0 else 0.0
+        spoken = max(n_asr, n_syl_words)
+        reliable = (
+            n_asr > 0
+            and mean_post >= MIN_RELIABLE_POSTERIOR
+            and abs(n_asr - n_syl_words) <= MAX_DISAGREEMENT * spoken
+        )
+        words = n_asr if reliable else n_syl_words
+        out = [
+            Sample(SPEECH_SPEED, t, words / dur * 60.0),
+            Sample(SPEECH_SPEED_SYLLABLES, t, n_syl_words / dur * 60.0),
+            Sample(SPEECH_ARTICULATION, t, words / speech_s * 60.0),
+        ]
+        level = self._active_dbfs(lo, t, spans)
+        if level is not None:
+            out.append(Sample(SPEECH_VOLUME, t, level + opt.calibration_db))
+        lufs = self._lufs(lo, t)
+        if lufs is not None:
+            out.append(Sample(SPEECH_LOUDNESS, t, lufs))
+        if spoken > 0:
+            accuracy = min(1.0, p_sum / spoken)
+            out.append(Sample(SPEECH_ACCURACY, t, accuracy))
+            out.append(Sample(SPEECH_CLARITY, t, clarity_score(accuracy)))
+        return out
+
+    def _active_dbfs(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float | None:
+        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+        if i1 <= i0:
+            return None
+        ms = np.asarray(self._frame_ms[i0:i1])
+        centres = (np.arange(i0, i1) + 0.5) * _FRAME_S
+        in_speech = np.zeros(len(ms), bool)
+        for a, b in spans:
+            in_speech |= (centres >= a) & (centres < b)
+        ms = ms[in_speech & (ms > 0)]
+        if len(ms) == 0:
+            return None
+        db = 10.0 * np.log10(ms)
+        active = ms[db >= np.percentile(db, 95) - 30.0]
+        return float(10.0 * np.log10(np.mean(active) / 32768.0**2))
+
+    def _lufs(self, lo: float, t: float) -> float | None:
+        if self._meter is None:
+            return None
+        a = max(0, int(lo * SAMPLE_RATE) - self._ring_start)
+        b = max(0, int(t * SAMPLE_RATE) - self._ring_start)
+        x = self._ring[a:b].astype(np.float64) / 32768.0
+        if len(x) < int(0.4 * SAMPLE_RATE):
+            return None
+        v = float(self._meter.integrated_loudness(x))
+        return v if math.isfinite(v) else None
+
+
+def analyse(
+    blocks: Iterable[np.ndarray], options: SpeechOptions, *, loudness: bool = True
+) -> tuple[list[Sample], SpeechTotals]:
+    """Analyse a whole input (blocks of 16 kHz mono int16); return its samples and totals."""
+    an = SpeechAnalyser(options, loudness=loudness)
+    out: list[Sample] = []
+    for b in blocks:
+        out += an.feed(b)
+    out += an.finish()
+    return out, an.totals()
+
+
+def run(
+    source: AudioSource,
+    out: Path,
+    options: SpeechOptions,
+    *,
+    t_offset: float | Callable[[], float] = 0.0,
+    fresh: bool,
+    stop: threading.Event | None = None,
+) -> SpeechTotals:
+    """Analyse ``source`` and append its samples to the session's stream files.
+
+    Args:
+        source: a file or the microphone.
+        out: the session folder.
+        options: the analysis options.
+        t_offset: seconds added to input time to get talk time (or a function giving it,
+            called once the first block has arrived, for a live input).
+        fresh: replace this module's old stream files (a file run again); else append.
+        stop: set it to end a live input; the audio already captured is still analysed.
+
+    Returns:
+        The whole-input totals.
+
+    Raises:
+        ModuleInputError: the input cannot be read.
+        BackendUnavailable: pocketsphinx is missing.
+    """
+    an = SpeechAnalyser(options)
+    cpu0 = time.process_time()
+    offset: float | None = None if callable(t_offset) else float(t_offset)
+    last_warn = -math.inf
+    behind_warned = False
+    with StreamSet(out, METRICS, fresh=fresh) as streams:
+
+        def write(samples: list[Sample]) -> None:
+            for s in samples:
+                streams.write(s.metric, (offset or 0.0) + s.t, s.value)
+
+        for block in source.blocks():
+            if offset is None and callable(t_offset):
+                offset = max(0.0, t_offset() - len(block) / SAMPLE_RATE)
+            write(an.feed(block))
+            behind = source.backlog_s
+            if behind > BEHIND_WARN_S and an.duration_s - last_warn >= 10.0:
+                log.warning(
+                    "falling behind real time: %.1f s of audio waiting (no audio is dropped)",
+                    behind,
+                )
+                last_warn = an.duration_s
+                behind_warned = True
+            elif behind_warned and behind < 0.5:
+                log.info("caught up with real time")
+                behind_warned = False
+            if stop is not None and stop.is_set():
+                source.close()  # a live source ends after the audio it has captured
+        write(an.finish())
+    totals = an.totals()
+    cpu = time.process_time() - cpu0
+    ratio = cpu / totals.duration_s if totals.duration_s > 0 else 0.0
+    log.info(
+        "%.1f s of audio, %.1f s of speech, %d words (%.0f wpm), mean posterior %.2f; "
+        "%.2f CPU s per audio s%s",
+        totals.duration_s,
+        totals.speech_s,
+        totals.words,
+        totals.wpm,
+        totals.mean_posterior,
+        ratio,
+        " (slower than real time)" if ratio > 1.0 else "",
+    )
+    return totals
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the parser of ``python -m prezence.modules.speech``."""
+    p = argparse.ArgumentParser(
+        prog="python -m prezence.modules.speech",
+        description="Speech speed, articulation rate, volume and clarity from audio or the mic.",
+    )
+    p.add_argument(
+        "--audio", required=True, help="an audio/video file (WAV, FLAC, MP3, MP4), or mic"
+    )
+    add_common_arguments(p)
+    p.add_argument("--window", type=float, default=10.0, help="seconds (default %(default)s)")
+    p.add_argument("--hop", type=float, default=1.0, help="seconds (default %(default)s)")
+    p.add_argument(
+        "--calibration-db",
+        type=float,
+        default=None,
+        help=f"dB SPL = dBFS + this (default {DEFAULT_CALIBRATION_DB:g}, a rough guess)",
+    )
+    p.add_argument("--device", default=None, help="mic: sounddevice device name or number")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the module; return the exit status (0 done, 2 bad input or arguments)."""
+    args = build_parser().parse_args(argv)
+    setup_logging("speech", args)
+    if args.calibration_db is None:
+        log.info(
+            "volume is not calibrated: speech_volume = dBFS + %g is a rough guess "
+            "(see --calibration-db)",
+            DEFAULT_CALIBRATION_DB,
+        )
+    try:
+        options = SpeechOptions(
+            window_s=args.window,
+            hop_s=args.hop,
+            calibration_db=(
+                DEFAULT_CALIBRATION_DB if args.calibration_db is None else args.calibration_db
+            ),
+        )
+        source: FileSource | MicSource
+        t_offset: float | Callable[[], float]
+        if args.audio == "mic":
+            device = int(args.device) if args.device and args.device.isdigit() else args.device
+            source = MicSource(device=device)
+            t0 = time.time() if args.t0 is None else args.t0
+            t_offset = lambda: time.time() - t0  # noqa: E731 - evaluated at the first block
+        else:
+            source = FileSource(args.audio, realtime=args.realtime)
+            t_offset = 0.0
+    except (ModuleInputError, ValueError) as e:
+        return report_error("speech", e)
+    stop = threading.Event()
+
+    def _on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _on_signal)
+    try:
+        run(source, args.out, options, t_offset=t_offset, fresh=args.audio != "mic", stop=stop)
+    except (PrezenceError, ValueError) as e:
+        return report_error("speech", e)
+    finally:
+        source.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
