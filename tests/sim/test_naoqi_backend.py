@@ -1,0 +1,207 @@
+"""NaoqiBackend against the virtual NAO in another process, over loopback.
+
+No wall-clock assertions: motions must complete and land where planned; a lost robot must fail
+its motions, refuse cues and come back; an unreachable one must give BackendUnavailable.
+"""
+
+from __future__ import annotations
+
+import queue
+import re
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("pybullet")
+qi = pytest.importorskip("qi")
+
+from prezence.backends.naoqi import NaoqiBackend  # noqa: E402
+from prezence.backends.registry import make_backend  # noqa: E402
+from prezence.clock import MonotonicClock  # noqa: E402
+from prezence.errors import BackendUnavailable, UnknownName  # noqa: E402
+from prezence.feedback.trajectory import Trajectory  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[2]
+TOL = 0.03  # rad
+
+NOD = Trajectory(
+    name="nod",
+    joints=("HeadPitch", "HeadYaw"),
+    times=(0.4, 0.8, 1.2),
+    positions=((0.25, 0.0), (0.0, 0.1), (0.15, 0.2)),
+    start=(0.0, 0.0),
+)
+SLOW = Trajectory(
+    name="slow",
+    joints=("LShoulderPitch",),
+    times=(20.0,),
+    positions=((0.5,),),
+    start=(1.4,),
+)
+
+
+def start_server(*args: str, timeout_s: float = 60.0) -> tuple[subprocess.Popen[str], str]:
+    """``python -m sim.virtual_nao ARGS`` in a subprocess; returns it and the URL it printed."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sim.virtual_nao", *args],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    lines: queue.Queue[str] = queue.Queue()
+    assert proc.stdout is not None
+    out = proc.stdout
+    threading.Thread(target=lambda: [lines.put(x) for x in out], daemon=True).start()
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            line = lines.get(timeout=max(0.0, deadline - time.monotonic()))
+        except queue.Empty:
+            break
+        if line.startswith("listening on "):
+            return proc, line.split()[-1]
+    stop_server(proc, kill=True)
+    raise RuntimeError("virtual NAO did not start")
+
+
+def stop_server(proc: subprocess.Popen[str], *, kill: bool = False) -> None:
+    if kill:
+        proc.kill()
+    else:
+        proc.terminate()
+    proc.wait(timeout=20)
+    if proc.stdout is not None:
+        proc.stdout.close()
+
+
+@pytest.fixture
+def server() -> Iterator[tuple[subprocess.Popen[str], str]]:
+    proc, url = start_server("--port", "0")
+    yield proc, url
+    if proc.poll() is None:
+        stop_server(proc)
+
+
+def read_angles(url: str, names: list[str]) -> list[float]:
+    session = qi.Session()
+    session.connect(url)
+    try:
+        return list(session.service("ALMotion").getAngles(names, True))
+    finally:
+        session.close()
+
+
+def test_plays_a_gesture_and_says_a_phrase(server: tuple[subprocess.Popen[str], str]) -> None:
+    _, url = server
+    clock = MonotonicClock()
+    backend = make_backend("naoqi", url=url, leds=True)
+    with backend:
+        assert isinstance(backend, NaoqiBackend)
+        gesture = backend.play(NOD, now=clock.now())
+        phrase = backend.say("Good pace, keep going.", now=clock.now())
+        assert backend.busy
+        assert backend.wait_idle(10.0, clock.now)
+        assert gesture.ok and phrase.ok, (gesture.info, phrase.info)
+        assert gesture.done and phrase.done
+        assert read_angles(url, list(NOD.joints)) == pytest.approx(NOD.positions[-1], abs=TOL)
+        stats = backend.stats()
+    assert stats["connects"] == 1 and stats["failed"] == 0 and stats["dropped"] == 0
+
+
+def test_unknown_joint_is_refused_before_sending(server: tuple[subprocess.Popen[str], str]) -> None:
+    bad = Trajectory("bad", ("HeadYawn",), (0.5,), ((0.1,),), (0.0,))
+    with NaoqiBackend(url=server[1]) as backend, pytest.raises(UnknownName, match="HeadYaw"):
+        backend.play(bad, now=0.0)
+
+
+def test_lost_robot_fails_motions_drops_cues_and_reconnects() -> None:
+    clock = MonotonicClock()
+    proc, url = start_server("--port", "0")
+    port = url.rsplit(":", 1)[1]
+    backend = NaoqiBackend(url=url, reconnect_initial_s=0.1, reconnect_max_s=0.5, heartbeat_s=0.2)
+    try:
+        backend.open()
+        gesture = backend.play(SLOW, now=clock.now())
+        phrase = backend.say("Slow down a little, you are rushing.", now=clock.now())
+        stop_server(proc, kill=True)  # the robot goes away mid-cue
+        assert backend.wait_idle(10.0, clock.now)
+        assert not gesture.ok and not phrase.ok
+        assert "robot lost" in gesture.info["error"] or "Session closed" in gesture.info["error"]
+        assert not backend.connected
+        assert not backend.busy  # nothing is held for later: the coach may go on
+        with pytest.raises(BackendUnavailable, match="dropped"):
+            backend.play(NOD, now=clock.now())
+        assert not backend.wait_connected(0.5, clock.now)  # nobody listens yet
+
+        proc, url2 = start_server("--port", port)  # the robot comes back on the same address
+        assert url2 == url
+        assert backend.wait_connected(20.0, clock.now)
+        again = backend.play(NOD, now=clock.now())
+        assert backend.wait_idle(10.0, clock.now)
+        assert again.ok
+        assert read_angles(url, list(NOD.joints)) == pytest.approx(NOD.positions[-1], abs=TOL)
+        stats = backend.stats()
+        assert stats["connects"] == 2
+        assert stats["disconnects"] == 1
+        assert stats["dropped"] == 1
+        assert stats["failed"] == 2
+    finally:
+        backend.close()
+        if proc.poll() is None:
+            stop_server(proc)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_closed_port_is_unavailable() -> None:
+    backend = NaoqiBackend(url=f"tcp://127.0.0.1:{free_port()}", connect_timeout_s=2.0)
+    with pytest.raises(BackendUnavailable, match=r"no NAOqi robot at .*refused"):
+        backend.open()
+
+
+def test_silent_host_is_unavailable_after_the_deadline() -> None:
+    # a TCP server that accepts and never speaks qi: libqi alone would wait for ever
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(4)
+        port = listener.getsockname()[1]
+        backend = NaoqiBackend(url=f"tcp://127.0.0.1:{port}", connect_timeout_s=0.5)
+        with pytest.raises(BackendUnavailable, match="no answer within 0.5 s"):
+            backend.open()
+
+
+def test_missing_qi_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "qi", None)
+    backend = NaoqiBackend(url="tcp://127.0.0.1:9559")
+    with pytest.raises(BackendUnavailable, match=r'pip install "prezence\[naoqi\]"'):
+        backend.open()
+
+
+def test_plain_naoqi_client_runs_unchanged(server: tuple[subprocess.Popen[str], str]) -> None:
+    done = subprocess.run(
+        [
+            sys.executable,
+            str(Path(__file__).with_name("naoqi_client_example.py")),
+            f"--qi-url={server[1]}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    values = {k: float(v) for k, v in re.findall(r"^(\w+ \w+): (\S+)$", done.stdout, re.M)}
+    assert values["setAngles HeadYaw"] == pytest.approx(0.3, abs=TOL)
+    assert values["angleInterpolation HeadYaw"] == pytest.approx(0.0, abs=TOL)
+    assert values["angleInterpolation HeadPitch"] == pytest.approx(0.1, abs=TOL)
+    assert "said: Hello, I am NAO." in done.stdout
