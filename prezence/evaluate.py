@@ -240,6 +240,12 @@ def run_task(task: Task) -> dict[str, Any]:
     return row
 
 
+def _worker_init(level: int) -> None:
+    """Workers log at the parent's level, but no lower than ERROR unless it is verbose: the
+    tailer's per-line warnings about deliberately garbled streams would flood the terminal."""
+    logging.getLogger().setLevel(level if level < logging.WARNING else logging.ERROR)
+
+
 def _grid(
     scenarios: Iterable[str],
     policies: Iterable[str],
@@ -320,7 +326,12 @@ def evaluate(
                 progress(i + 1, len(tasks))
     else:
         # spawn: workers start clean (no inherited threads or open files), on every platform.
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
+        with ProcessPoolExecutor(
+            max_workers=jobs,
+            mp_context=get_context("spawn"),
+            initializer=_worker_init,
+            initargs=(logging.getLogger().getEffectiveLevel(),),
+        ) as pool:
             for i, row in enumerate(pool.map(run_task, tasks, chunksize=1)):
                 rows.append(row)
                 if progress is not None:
