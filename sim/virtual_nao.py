@@ -45,7 +45,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType, TracebackType
-from typing import IO, Any, Protocol
+from typing import IO, Any, Protocol, TypeGuard
 
 import numpy as np
 import qi
@@ -285,7 +285,7 @@ def make_model(kind: str, specs: dict[str, JointLimit], *, gui: bool = False) ->
 # -- argument shapes ---------------------------------------------------------------------------
 
 
-def _is_seq(x: object) -> bool:
+def _is_seq(x: object) -> TypeGuard[list[Any] | tuple[Any, ...]]:
     return isinstance(x, list | tuple)
 
 
@@ -559,8 +559,8 @@ class VirtualNao:
         """Joint, chain or group name(s) to joint names; raises for unknown names."""
         if isinstance(names, str):
             items = [names]
-        elif _is_seq(names) and all(isinstance(n, str) for n in names):  # type: ignore[union-attr]
-            items = list(names)  # type: ignore[arg-type]
+        elif _is_seq(names) and all(isinstance(n, str) for n in names):
+            items = list(names)
         else:
             raise TypeError(f"ALMotion.{method}: names must be a string or a list of strings")
         out: list[str] = []
@@ -595,7 +595,7 @@ def _per_joint(values: object, n: int, what: str, method: str) -> list[list[floa
         if n != 1:
             raise ValueError(f"ALMotion.{method}: one {what} for {n} joints")
         return [[_num(values, what)]]
-    seq = list(values)  # type: ignore[call-overload]
+    seq = list(values)
     if n == 1 and all(not _is_seq(v) for v in seq):
         return [[_num(v, what) for v in seq]]
     if len(seq) != n:
@@ -625,13 +625,13 @@ class ALMotion:
         r = self._r
         joints = r.expand(names, method)
         values = (
-            [_num(a, "angle") for a in angles]  # type: ignore[union-attr]
+            [_num(a, "angle") for a in angles]
             if _is_seq(angles)
             else [_num(angles, "angle")] * (1 if len(joints) == 1 else 0)
         )
         if len(values) != len(joints):
             raise ValueError(f"ALMotion.{method}: {len(values)} angles for {len(joints)} joints")
-        fracs = [_num(f, "fractionMaxSpeed") for f in frac] if _is_seq(frac) else None  # type: ignore[union-attr]
+        fracs = [_num(f, "fractionMaxSpeed") for f in frac] if _is_seq(frac) else None
         if fracs is not None and len(fracs) != len(joints):
             raise ValueError(f"ALMotion.{method}: {len(fracs)} speeds for {len(joints)} joints")
         speeds = fracs or [_num(frac, "fractionMaxSpeed")] * len(joints)
@@ -821,7 +821,7 @@ class ALMotion:
         r = self._r
         joints = r.expand(names, "setStiffnesses")
         values = (
-            [_num(s, "stiffness") for s in stiffnesses]  # type: ignore[union-attr]
+            [_num(s, "stiffness") for s in stiffnesses]
             if _is_seq(stiffnesses)
             else [_num(stiffnesses, "stiffness")] * len(joints)
         )
