@@ -77,6 +77,7 @@ def decode_file(path: str | Path) -> Iterator[np.ndarray]:
         raise ModuleInputError(path, "no such file")
     if path.stat().st_size == 0:
         raise ModuleInputError(path, "the file is empty")
+    _check_wav_length(path)
     av = _av()
     try:
         container = av.open(str(path), mode="r")
@@ -100,10 +101,55 @@ def decode_file(path: str | Path) -> Iterator[np.ndarray]:
                 yield pcm
         except av.error.FFmpegError as e:
             raise ModuleInputError(path, f"the audio is damaged or truncated ({e})") from e
+        announced = _announced_s(container, stream)
     finally:
         container.close()
     if n_out == 0:
         raise ModuleInputError(path, "the file holds no audio samples")
+    got = n_out / SAMPLE_RATE
+    if announced is not None and got < 0.98 * announced - 0.1:
+        raise ModuleInputError(
+            path,
+            f"the audio ends after {got:.1f} s of the {announced:.1f} s the file announces "
+            "(truncated?); what was read has been analysed",
+        )
+
+
+def _check_wav_length(path: Path) -> None:
+    """Refuse a RIFF/WAVE file whose data chunk runs past the end of the file.
+
+    ffmpeg estimates a WAV's duration from the file size, so a cut-off WAV would otherwise
+    decode quietly as a shorter talk.
+    """
+    size = path.stat().st_size
+    with path.open("rb") as f:
+        head = f.read(12)
+        if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
+            return
+        pos = 12
+        while pos + 8 <= size:
+            f.seek(pos)
+            chunk = f.read(8)
+            n = int.from_bytes(chunk[4:8], "little")
+            if chunk[:4] == b"data":
+                if n != 0xFFFFFFFF and pos + 8 + n > size:  # 0xFFFFFFFF: streamed, unknown
+                    have = size - pos - 8
+                    raise ModuleInputError(
+                        path,
+                        f"the WAV data is cut short ({have} of the {n} bytes its header "
+                        "announces): the file is truncated",
+                    )
+                return
+            pos += 8 + n + (n & 1)
+
+
+def _announced_s(container: Any, stream: Any) -> float | None:
+    """The duration the file's header announces, in seconds, if it gives one."""
+    if stream.duration is not None and stream.time_base is not None:
+        return float(stream.duration * stream.time_base)
+    if container.duration is not None:
+        return float(container.duration) / 1_000_000.0  # av.time_base: microseconds
+    return None
 
 
 def read_file(path: str | Path) -> np.ndarray:

@@ -369,7 +369,8 @@ class SpeechAnalyser:
             ms = float(np.mean(tail.astype(np.float64) ** 2))
             self._frame_ms.append(ms)
             self._ring = np.concatenate([self._ring, tail])
-        speech = self._ep.end_stream(tail.tobytes())
+        # end_stream needs a non-empty partial frame; one zero sample flushes it all the same.
+        speech = self._ep.end_stream(tail.tobytes() if len(tail) else b"\x00\x00")
         end = self._n_frames * _FRAME_S + len(tail) / SAMPLE_RATE
         if speech is not None:
             self._speech_frame(speech)
@@ -660,12 +661,6 @@ def main(argv: list[str] | None = None) -> int:
     """Run the module; return the exit status (0 done, 2 bad input or arguments)."""
     args = build_parser().parse_args(argv)
     setup_logging("speech", args)
-    if args.calibration_db is None:
-        log.info(
-            "volume is not calibrated: speech_volume = dBFS + %g is a rough guess "
-            "(see --calibration-db)",
-            DEFAULT_CALIBRATION_DB,
-        )
     try:
         options = SpeechOptions(
             window_s=args.window,
@@ -686,6 +681,12 @@ def main(argv: list[str] | None = None) -> int:
             t_offset = 0.0
     except (ModuleInputError, ValueError) as e:
         return report_error("speech", e)
+    if args.calibration_db is None:
+        log.info(
+            "volume is not calibrated: speech_volume = dBFS + %g is a rough guess "
+            "(see --calibration-db)",
+            DEFAULT_CALIBRATION_DB,
+        )
     stop = threading.Event()
 
     def _on_signal(signum: int, frame: FrameType | None) -> None:

@@ -1,0 +1,329 @@
+"""The speech module on the shipped festival test audio (tests/modules/material, made by
+tools/make_test_audio.py; the truth is in its manifest.json)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("av", reason='the speech module needs PyAV: pip install "prezence[speech]"')
+pytest.importorskip(
+    "pocketsphinx", reason='the speech module needs pocketsphinx: pip install "prezence[speech]"'
+)
+
+from prezence.modules.audio_io import FileSource, read_file  # noqa: E402
+from prezence.modules.common import ModuleInputError  # noqa: E402
+from prezence.modules.speech import (  # noqa: E402
+    METRICS,
+    SpeechOptions,
+    SpeechTotals,
+    analyse,
+    clarity_score,
+)
+from prezence.samples import Sample  # noqa: E402
+from prezence.streams.codec import parse_line  # noqa: E402
+
+MATERIAL = Path(__file__).parent / "material"
+MANIFEST = json.loads((MATERIAL / "manifest.json").read_text())["files"]
+RATE_FILES = sorted(f for f, info in MANIFEST.items() if info["kind"] == "rate")
+WHOLE = SpeechOptions(window_s=120.0, hop_s=1.0)  # one window: the whole file
+
+
+def by_metric(samples: list[Sample]) -> dict[str, list[Sample]]:
+    out: dict[str, list[Sample]] = defaultdict(list)
+    for s in samples:
+        out[s.metric].append(s)
+    return out
+
+
+def blocks(x: np.ndarray, n: int = 1600) -> list[np.ndarray]:
+    return [x[i : i + n] for i in range(0, len(x), n)]
+
+
+_cache: dict[tuple[str, SpeechOptions], tuple[dict[str, list[Sample]], SpeechTotals]] = {}
+
+
+def measure(
+    name: str, options: SpeechOptions = WHOLE
+) -> tuple[dict[str, list[Sample]], SpeechTotals]:
+    """Analyse a material file once per options (decoding is the slow part)."""
+    key = (name, options)
+    if key not in _cache:
+        samples, totals = analyse(blocks(read_file(MATERIAL / name)), options)
+        _cache[key] = (by_metric(samples), totals)
+    return _cache[key]
+
+
+def whole(name: str, metric: str) -> float:
+    (s,) = measure(name)[0][metric]
+    return s.value
+
+
+# ---- speed ---------------------------------------------------------------------------------
+
+
+def test_material_spans_the_rates_the_rules_care_about() -> None:
+    rates = sorted(MANIFEST[f]["true_wpm"] for f in RATE_FILES)
+    assert rates[0] <= 135 and rates[-1] >= 220
+
+
+@pytest.mark.parametrize("name", RATE_FILES, ids=lambda f: f.removesuffix(".flac"))
+def test_speech_speed_within_5_percent_of_truth(name: str) -> None:
+    truth = MANIFEST[name]["true_wpm"]
+    assert whole(name, "speech_speed") == pytest.approx(truth, rel=0.05)
+
+
+@pytest.mark.parametrize("name", RATE_FILES, ids=lambda f: f.removesuffix(".flac"))
+def test_sliding_windows_follow_the_rate(name: str) -> None:
+    # 10 s windows measure the local rate, which varies with the words in them (measured:
+    # windows of the 175 wpm file span 144-214 wpm); their mean stays near the truth.
+    truth = MANIFEST[name]["true_wpm"]
+    speeds = [s.value for s in measure(name, SpeechOptions())[0]["speech_speed"]]
+    assert len(speeds) >= 5
+    assert np.mean(speeds) == pytest.approx(truth, rel=0.08)
+    assert all(0.6 * truth < v < 1.4 * truth for v in speeds)
+
+
+def test_syllable_estimate_orders_the_rates_and_is_near_truth() -> None:
+    est = [whole(f, "speech_speed_syllables") for f in RATE_FILES]
+    truth = [MANIFEST[f]["true_wpm"] for f in RATE_FILES]
+    assert est == sorted(est)
+    for e, t in zip(est, truth, strict=True):
+        assert e == pytest.approx(t, rel=0.15)  # measured -6 to -11 %
+
+
+def test_articulation_rate_is_at_least_the_speech_rate() -> None:
+    name = "rate_130.flac"
+    assert whole(name, "speech_articulation") >= whole(name, "speech_speed")
+
+
+# ---- volume --------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["gain_m6.flac", "gain_m12.flac"])
+def test_volume_follows_a_gain_change_within_0_2_db(name: str) -> None:
+    gain = MANIFEST[name]["gain_db"]
+    ref = whole("gain_0.flac", "speech_volume")
+    assert whole(name, "speech_volume") - ref == pytest.approx(gain, abs=0.2)
+    ref_lufs = whole("gain_0.flac", "speech_loudness")
+    assert whole(name, "speech_loudness") - ref_lufs == pytest.approx(gain, abs=0.2)
+
+
+def test_calibration_offset_shifts_the_volume() -> None:
+    opts = SpeechOptions(window_s=120.0, hop_s=1.0, calibration_db=0.0)
+    (raw,) = measure("gain_m6.flac", opts)[0]["speech_volume"]
+    assert raw.value < 0  # dBFS
+    assert whole("gain_m6.flac", "speech_volume") - raw.value == pytest.approx(WHOLE.calibration_db)
+
+
+# ---- clarity -------------------------------------------------------------------------------
+
+
+def test_clarity_falls_as_noise_rises() -> None:
+    files = ["rate_175.flac", "snr_20.flac", "snr_10.flac", "snr_0.flac"]
+    accuracy = [whole(f, "speech_accuracy") for f in files]
+    clarity = [whole(f, "speech_clarity") for f in files]
+    assert accuracy == sorted(accuracy, reverse=True) and len(set(accuracy)) == 4
+    assert clarity == sorted(clarity, reverse=True)
+    assert clarity[0] > 90 and clarity[-1] < 20
+
+
+@pytest.mark.parametrize("name", RATE_FILES, ids=lambda f: f.removesuffix(".flac"))
+def test_clean_speech_is_judged_clear(name: str) -> None:
+    # The default rule is `speech_accuracy min 0.8`; measured 0.80-0.90 on the clean files.
+    assert whole(name, "speech_accuracy") >= 0.78
+
+
+def test_clarity_score_anchors() -> None:
+    assert clarity_score(0.2) == 0.0
+    assert clarity_score(0.8) == 100.0
+    assert clarity_score(0.5) == pytest.approx(50.0)
+    assert clarity_score(0.0) == 0.0 and clarity_score(1.0) == 100.0
+
+
+# ---- streaming -----------------------------------------------------------------------------
+
+
+def test_block_size_does_not_change_the_result() -> None:
+    x = read_file(MATERIAL / "gain_0.flac")
+    opts = SpeechOptions(window_s=4.0, hop_s=0.5)
+    a, _ = analyse(blocks(x, 1600), opts, loudness=False)
+    b, _ = analyse(blocks(x, 7777), opts, loudness=False)
+    assert a == b and len(a) > 0
+
+
+def test_windows_are_written_in_time_order_on_the_hop_grid() -> None:
+    samples = measure("rate_225.flac", SpeechOptions())[0]["speech_speed"]
+    ts = [s.t for s in samples]
+    assert ts[0] == pytest.approx(10.0)
+    assert np.allclose(np.diff(ts[:-1]), 1.0)
+    assert ts[-1] == pytest.approx(MANIFEST["rate_225.flac"]["duration_s"], abs=0.05)
+
+
+def test_silence_writes_nothing(tmp_path: Path) -> None:
+    samples, totals = analyse([np.zeros(16000 * 12, np.int16)], SpeechOptions())
+    assert samples == [] and totals.words == 0
+
+
+def test_invalid_options_are_refused() -> None:
+    with pytest.raises(ValueError, match="hop_s"):
+        SpeechOptions(window_s=5.0, hop_s=10.0)
+
+
+def test_zero_window_is_refused() -> None:
+    with pytest.raises(ValueError, match="window_s"):
+        SpeechOptions(window_s=0.0)
+
+
+# ---- input files ---------------------------------------------------------------------------
+
+
+def _encode(src: Path, dst: Path, codec: str) -> None:
+    import av
+
+    x = read_file(src)
+    with av.open(str(dst), "w") as out:
+        stream = out.add_stream(codec, rate=16000, layout="mono")
+        fmt = stream.codec_context.format.name if stream.codec_context.format else "s16"
+        frame = av.AudioFrame.from_ndarray(x.reshape(1, -1), format="s16", layout="mono")
+        frame.sample_rate = 16000
+        resampler = av.AudioResampler(format=fmt, layout="mono", rate=16000)
+        for f in resampler.resample(frame):
+            for chunk in _split(f, stream.codec_context.frame_size or 1024):
+                for packet in stream.encode(chunk):
+                    out.mux(packet)
+        for packet in stream.encode(None):
+            out.mux(packet)
+
+
+def _split(frame: Any, size: int) -> list[Any]:
+    import av
+
+    arr = frame.to_ndarray()
+    out = []
+    for i in range(0, arr.shape[-1], size):
+        f = av.AudioFrame.from_ndarray(
+            np.ascontiguousarray(arr[..., i : i + size]), format=frame.format.name, layout="mono"
+        )
+        f.sample_rate = 16000
+        out.append(f)
+    return out
+
+
+@pytest.mark.parametrize(
+    ("suffix", "codec"), [(".wav", "pcm_s16le"), (".mp3", "libmp3lame"), (".mp4", "aac")]
+)
+def test_reads_wav_mp3_and_mp4(tmp_path: Path, suffix: str, codec: str) -> None:
+    src = MATERIAL / "gain_0.flac"
+    dst = tmp_path / f"talk{suffix}"
+    _encode(src, dst, codec)
+    ref, x = read_file(src).astype(float), read_file(dst).astype(float)
+    assert len(x) / 16000 == pytest.approx(len(ref) / 16000, abs=0.1)  # codec padding
+    level = 10 * np.log10(np.mean(x**2) / np.mean(ref**2))
+    assert level == pytest.approx(0.0, abs=0.5)
+
+
+def _truncated_flac(tmp_path: Path) -> Path:
+    p = tmp_path / "cut.flac"
+    p.write_bytes((MATERIAL / "rate_175.flac").read_bytes()[:100_000])
+    return p
+
+
+def _truncated_wav(tmp_path: Path) -> Path:
+    p = tmp_path / "cut.wav"
+    _encode(MATERIAL / "gain_0.flac", tmp_path / "full.wav", "pcm_s16le")
+    p.write_bytes((tmp_path / "full.wav").read_bytes()[:50_000])
+    return p
+
+
+def _empty(tmp_path: Path) -> Path:
+    p = tmp_path / "empty.wav"
+    p.write_bytes(b"")
+    return p
+
+
+def _text(tmp_path: Path) -> Path:
+    p = tmp_path / "notes.mp3"
+    p.write_text("these are my speaker notes, not audio\n" * 20)
+    return p
+
+
+def _missing(tmp_path: Path) -> Path:
+    return tmp_path / "nowhere.flac"
+
+
+BAD_FILES = {
+    "empty": (_empty, "empty"),
+    "not-audio": (_text, "not a readable audio file"),
+    "truncated-flac": (_truncated_flac, "damaged or truncated"),
+    "truncated-wav": (_truncated_wav, "truncated"),
+    "missing": (_missing, "no such file"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FILES))
+def test_bad_file_gives_an_error_naming_it(tmp_path: Path, case: str) -> None:
+    make, reason = BAD_FILES[case]
+    path = make(tmp_path)
+    with pytest.raises(ModuleInputError) as info:
+        read_file(path)
+    assert str(path) in str(info.value) and reason in str(info.value)
+
+
+def test_realtime_file_source_delivers_every_sample(tmp_path: Path) -> None:
+    x = np.round(np.sin(np.arange(8000) * 0.05) * 8000).astype(np.int16)
+    wav = tmp_path / "tone.wav"
+    import wave
+
+    with wave.open(str(wav), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(16000)
+        w.writeframes(x.tobytes())
+    src = FileSource(wav, realtime=True)
+    got = np.concatenate(list(src.blocks()))
+    src.close()
+    assert np.array_equal(got, x)
+
+
+# ---- the process ---------------------------------------------------------------------------
+
+
+def _module(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "prezence.modules.speech", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def test_module_process_writes_well_formed_streams(tmp_path: Path) -> None:
+    name = "rate_225.flac"
+    r = _module("--audio", str(MATERIAL / name), "--out", str(tmp_path), "--window", "5")
+    assert r.returncode == 0, r.stderr
+    duration = MANIFEST[name]["duration_s"]
+    for metric in METRICS:
+        lines = (tmp_path / "streams" / f"{metric}.txt").read_text().splitlines()
+        samples = [parse_line(line) for line in lines]
+        ts = [t for t, _ in samples]
+        assert len(samples) >= int(duration - 5), metric
+        assert ts == sorted(ts) and ts[0] >= 5.0 and ts[-1] <= duration + 0.05
+    lines = (tmp_path / "streams" / "speech_speed.txt").read_text().splitlines()
+    speeds = [v for _, v in map(parse_line, lines)]
+    assert np.mean(speeds) == pytest.approx(MANIFEST[name]["true_wpm"], rel=0.1)
+    assert "CPU s per audio s" in r.stderr
+
+
+def test_module_process_bad_file_exits_2_naming_it(tmp_path: Path) -> None:
+    bad = _text(tmp_path)
+    r = _module("--audio", str(bad), "--out", str(tmp_path / "session"))
+    assert r.returncode == 2
+    assert f"error: {bad}" in r.stderr and "Traceback" not in r.stderr
