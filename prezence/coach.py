@@ -156,23 +156,43 @@ class Coach:
         self._free_since = max(ends) if ends else perf.cue.t
         self._current = None
 
-    def drain(self, now: float, *, step_s: float, limit_s: float = 120.0) -> float:
-        """Let the cue in progress finish (no new decisions); returns the time it ended."""
+    def drain(
+        self,
+        now: float,
+        *,
+        step_s: float,
+        limit_s: float = 120.0,
+        pace: Callable[[float], None] | None = None,
+    ) -> float:
+        """Let the cue in progress finish (no new decisions); returns the time it ended.
+
+        Args:
+            now: current time.
+            step_s: how far to move the robot per step.
+            limit_s: give up (the cue is recorded unfinished) after this long.
+            pace: called with each step's time before the robot moves there; a real-time run
+                sleeps in it until the wall clock gets there (a real robot moves in real time).
+        """
         t = now
         while self._current is not None and t < now + limit_s:
-            t += step_s
-            self.backend.advance(t)
+            t = self._step(t + step_s, pace)
             self._settle()
         return t
 
     def post_talk(
-        self, phrase: str, now: float, *, step_s: float, limit_s: float = 60.0
+        self,
+        phrase: str,
+        now: float,
+        *,
+        step_s: float,
+        limit_s: float = 60.0,
+        pace: Callable[[float], None] | None = None,
     ) -> dict[str, Any]:
         """After the talk: the summary gesture while the robot says ``phrase``; waits for both.
 
         Returns a record like a cue's (not written to ``cues.jsonl``: it is not coaching).
         """
-        t = self.drain(now, step_s=step_s, limit_s=limit_s)
+        t = self.drain(now, step_s=step_s, limit_s=limit_s, pace=pace)
         command = get_command("summary")
         rec: dict[str, Any] = {"t": round(t, 6), "phrase": phrase, "gesture": command.gesture}
         try:
@@ -186,11 +206,16 @@ class Coach:
             return rec
         end = t + limit_s
         while self.backend.busy and t < end:
-            t += step_s
-            self.backend.advance(t)
+            t = self._step(t + step_s, pace)
         rec["ok"] = all(m.done and m.ok for m in motions)
         rec["measured_s"] = round(t - rec["t"], 6)
         return rec
+
+    def _step(self, t: float, pace: Callable[[float], None] | None) -> float:
+        if pace is not None:
+            pace(t)
+        self.backend.advance(t)
+        return t
 
     def close(self) -> None:
         if self._current is not None:

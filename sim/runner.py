@@ -115,6 +115,13 @@ def run_talk(
     clock = ManualClock()
     dt = cfg.processor.decision_period_s
     wall0 = time.perf_counter()
+
+    def pace(t: float) -> None:
+        ahead = t - (time.perf_counter() - wall0)
+        if ahead > 0:
+            time.sleep(ahead)
+
+    paced = pace if realtime else None
     bk.open()
     coach = Coach(processor, bk, session, planner=default_planner(speed_fraction), on_cue=heard)
     try:
@@ -135,11 +142,9 @@ def run_talk(
                 on_decision(decision)
             if progress is not None:
                 progress(now, sc.duration_s)
-            if realtime:
-                ahead = now - (time.perf_counter() - wall0)
-                if ahead > 0:
-                    time.sleep(ahead)
-        end = coach.drain(clock.now(), step_s=dt)
+            if paced is not None:
+                paced(now)
+        end = coach.drain(clock.now(), step_s=dt, pace=paced)
         wall = time.perf_counter() - wall0
         post: dict[str, Any] | None = None
         if report:
@@ -147,7 +152,7 @@ def run_talk(
             from prezence.report.speech import summary_phrase
 
             phrase = summary_phrase(build_report(session.root, config=cfg))
-            post = coach.post_talk(phrase, end, step_s=dt)
+            post = coach.post_talk(phrase, end, step_s=dt, pace=paced)
         backend_stats = bk.stats()
     finally:
         coach.close()
