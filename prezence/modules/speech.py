@@ -127,7 +127,7 @@ BEHIND_WARN_S = 2.0
 #: tighter than the defaults (1e-48 / 7e-29) and active HMMs and word exits per frame are
 #: capped. On the test material this keeps the word count (65-66 of 66, defaults: 67-68) and a
 #: clarity that falls monotonically with noise, at about half the CPU on clean speech and a
-#: third on noisy speech (the defaults cost 0.25-0.6 CPU s per audio s there; see
+#: fifth on noisy speech (the defaults cost 0.34-0.5 CPU s per audio s there; see
 #: bench/bench_speech.py). Tighter caps (maxhmmpf 1500-2000, maxwpf 5) lost most words at SNR 20.
 DECODER_CONFIG: dict[str, Any] = {
     "fwdflat": False,
