@@ -218,3 +218,14 @@ def test_report_page_inlines_its_plots(session: SessionDir) -> None:
 
 def _no_constants(name: str) -> object:
     raise ValueError(f"report.json holds {name}, which is not JSON")
+
+
+def test_without_matplotlib_the_page_has_tables_only(
+    session: SessionDir, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from prezence.report import plots
+
+    monkeypatch.setattr(plots, "available", lambda: False)
+    html = write_report(session.root).read_text()
+    assert "<img" not in html and "<table>" in html
+    assert not list(session.report.glob("*.png"))
