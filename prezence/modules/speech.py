@@ -302,6 +302,7 @@ class SpeechAnalyser:
         self._meter = _loudness_meter() if loudness else None
         self._pending = np.zeros(0, np.int16)
         self._n_frames = 0  # 30 ms frames given to the endpointer
+        self._n_samples = 0  # samples fed
         self._frame_ms: list[float] = []  # mean square per frame, for the volume
         # The last few windows' audio, for LUFS: samples from absolute index _ring_start.
         self._ring = np.zeros(0, np.int16)
@@ -330,7 +331,7 @@ class SpeechAnalyser:
     @property
     def duration_s(self) -> float:
         """Seconds of audio fed so far."""
-        return (self._n_frames * _FRAME + len(self._pending)) / SAMPLE_RATE
+        return self._n_samples / SAMPLE_RATE
 
     def feed(self, pcm: np.ndarray) -> list[Sample]:
         """Analyse the next block of audio; return the samples of every window now complete.
@@ -346,6 +347,7 @@ class SpeechAnalyser:
         pcm = np.asarray(pcm)
         if pcm.dtype != np.int16:
             raise ValueError(f"expected int16 samples, got {pcm.dtype}")
+        self._n_samples += pcm.size
         buf = np.concatenate([self._pending, pcm.reshape(-1)])
         n = len(buf) // _FRAME
         self._ring = np.concatenate([self._ring, buf[: n * _FRAME]])

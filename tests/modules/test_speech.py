@@ -327,3 +327,40 @@ def test_module_process_bad_file_exits_2_naming_it(tmp_path: Path) -> None:
     r = _module("--audio", str(bad), "--out", str(tmp_path / "session"))
     assert r.returncode == 2
     assert f"error: {bad}" in r.stderr and "Traceback" not in r.stderr
+
+
+class _SlowLiveSource:
+    """A live source double whose consumer is always 5 s behind."""
+
+    name = "fake-mic"
+
+    def __init__(self, x: np.ndarray) -> None:
+        self._x = x
+        self.closed = False
+
+    def blocks(self) -> Any:
+        yield from blocks(self._x)
+
+    @property
+    def backlog_s(self) -> float:
+        return 5.0
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def test_live_input_that_falls_behind_says_so(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    from prezence.modules.speech import run
+
+    src = _SlowLiveSource(read_file(MATERIAL / "gain_0.flac"))
+    with caplog.at_level("INFO", logger="prezence.modules.speech"):
+        totals = run(
+            src, tmp_path, SpeechOptions(window_s=3.0), t_offset=lambda: 100.0, fresh=False
+        )
+    assert any("falling behind real time" in r.message for r in caplog.records)
+    # Nothing dropped: every sample was analysed, stamped after the talk-time offset.
+    assert totals.duration_s == pytest.approx(len(read_file(MATERIAL / "gain_0.flac")) / 16000)
+    first = (tmp_path / "streams" / "speech_speed.txt").read_text().splitlines()[0]
+    assert parse_line(first)[0] > 100.0
