@@ -204,7 +204,7 @@ def clarity_score(accuracy: float) -> float:
     """Map speech_accuracy (0..1) to the 0-100 clarity score by :data:`CLARITY_ANCHORS`.
 
     Example:
-        >>> clarity_score(0.8), clarity_score(0.5), clarity_score(0.1)
+        >>> clarity_score(0.8), round(clarity_score(0.5), 6), clarity_score(0.1)
         (100.0, 50.0, 0.0)
     """
     (a0, s0), (a1, s1) = CLARITY_ANCHORS
