@@ -36,8 +36,10 @@ import itertools
 import json
 import logging
 import math
+import queue
 import re
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -1208,6 +1210,47 @@ def serve(
     url = next((e for e in session.endpoints() if e.startswith("tcp://")), session.endpoints()[0])
     log.info("virtual NAO listening on %s (model %s)", url, model)
     return VirtualNaoServer(session, robot, url)
+
+
+def spawn(*args: str, timeout_s: float = 60.0) -> tuple[subprocess.Popen[str], str]:
+    """Start ``python -m sim.virtual_nao ARGS`` in another process; return it and its URL.
+
+    Use ``--port 0`` to let the OS pick a free port. Stop it with ``proc.terminate()``.
+
+    Raises:
+        RuntimeError: it did not print its ``listening on`` line within ``timeout_s``.
+    """
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sim.virtual_nao", *args],
+        cwd=Path(__file__).resolve().parents[1],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    lines: queue.Queue[str] = queue.Queue()
+    out = proc.stdout
+    assert out is not None  # noqa: S101 - stdout=PIPE
+    threading.Thread(target=lambda: [lines.put(x) for x in out], daemon=True).start()
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            line = lines.get(timeout=max(0.0, deadline - time.monotonic()))
+        except queue.Empty:
+            break
+        if line.startswith("listening on "):
+            return proc, line.split()[-1]
+    proc.kill()
+    proc.wait()
+    raise RuntimeError("the virtual NAO did not start")
+
+
+def stop_spawned(proc: subprocess.Popen[str], *, kill: bool = False) -> None:
+    """Stop a virtual NAO started with :func:`spawn` (SIGTERM, or SIGKILL: a robot lost)."""
+    if proc.poll() is None:
+        proc.kill() if kill else proc.terminate()
+    proc.wait(timeout=20)
+    if proc.stdout is not None:
+        proc.stdout.close()
 
 
 def build_parser() -> argparse.ArgumentParser:

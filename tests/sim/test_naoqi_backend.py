@@ -6,13 +6,10 @@ its motions, refuse cues and come back; an unreachable one must give BackendUnav
 
 from __future__ import annotations
 
-import queue
 import re
 import socket
 import subprocess
 import sys
-import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -26,6 +23,7 @@ from prezence.backends.registry import make_backend  # noqa: E402
 from prezence.clock import MonotonicClock  # noqa: E402
 from prezence.errors import BackendUnavailable, UnknownName  # noqa: E402
 from prezence.feedback.trajectory import Trajectory  # noqa: E402
+from sim.virtual_nao import spawn  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 TOL = 0.03  # rad
@@ -47,28 +45,7 @@ SLOW = Trajectory(
 
 
 def start_server(*args: str, timeout_s: float = 60.0) -> tuple[subprocess.Popen[str], str]:
-    """``python -m sim.virtual_nao ARGS`` in a subprocess; returns it and the URL it printed."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "sim.virtual_nao", *args],
-        cwd=REPO,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-    )
-    lines: queue.Queue[str] = queue.Queue()
-    assert proc.stdout is not None
-    out = proc.stdout
-    threading.Thread(target=lambda: [lines.put(x) for x in out], daemon=True).start()
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        try:
-            line = lines.get(timeout=max(0.0, deadline - time.monotonic()))
-        except queue.Empty:
-            break
-        if line.startswith("listening on "):
-            return proc, line.split()[-1]
-    stop_server(proc, kill=True)
-    raise RuntimeError("virtual NAO did not start")
+    return spawn(*args, timeout_s=timeout_s)
 
 
 def stop_server(proc: subprocess.Popen[str], *, kill: bool = False) -> None:
