@@ -16,7 +16,9 @@ PACE = Path(__file__).with_name("pace_module.py")
 
 CONFIG = Config(
     rules=(Rule("speech_speed", Check.IN_RANGE, 140, 180, below="speedUp", above="slowDown"),),
-    processor=ProcessorSettings(threshold=40.0, stale_after_s=1.0, refractory_s=60.0, praise_after_s=0),
+    processor=ProcessorSettings(
+        threshold=40.0, stale_after_s=1.0, refractory_s=60.0, praise_after_s=0
+    ),
     time=TimeSettings(allocated_s=None),
 )
 
@@ -28,7 +30,9 @@ def pace(*extra: str) -> ModuleSpec:
 
 @pytest.mark.slow
 def test_up_runs_modules_and_coaches_live(tmp_path: Path) -> None:
-    result = up(CONFIG, session_dir=tmp_path / "s", modules=[pace()], backend=FakeBackend(), duration_s=4.0)
+    result = up(
+        CONFIG, session_dir=tmp_path / "s", modules=[pace()], backend=FakeBackend(), duration_s=4.0
+    )
     cues = read_jsonl(tmp_path / "s" / "cues.jsonl")
     assert [c["command"] for c in cues] == ["slowDown"]
     assert result.summary["metrics"]["speech_speed"]["samples"] >= 10
@@ -49,7 +53,10 @@ def test_crashed_module_is_restarted_and_the_talk_completes(tmp_path: Path) -> N
     mod = result.summary["modules"]["pace"]
     assert mod["restarts"] == 1 and "status 3" in mod["crashes"][0]["why"]
     assert any("restarted" in e for e in result.events)
-    samples = [float(ln.split()[0]) for ln in (tmp_path / "s/streams/speech_speed.txt").read_text().splitlines()]
+    samples = [
+        float(ln.split()[0])
+        for ln in (tmp_path / "s/streams/speech_speed.txt").read_text().splitlines()
+    ]
     assert samples[-1] > mod["crashes"][0]["t"] + 1.0  # it wrote again after the restart
     assert (tmp_path / "s" / "summary.json").exists()
 
