@@ -1248,7 +1248,11 @@ def stop_spawned(proc: subprocess.Popen[str], *, kill: bool = False) -> None:
     """Stop a virtual NAO started with :func:`spawn` (SIGTERM, or SIGKILL: a robot lost)."""
     if proc.poll() is None:
         proc.kill() if kill else proc.terminate()
-    proc.wait(timeout=20)
+    try:
+        proc.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
     if proc.stdout is not None:
         proc.stdout.close()
 

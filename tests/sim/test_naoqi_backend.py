@@ -23,7 +23,7 @@ from prezence.backends.registry import make_backend  # noqa: E402
 from prezence.clock import MonotonicClock  # noqa: E402
 from prezence.errors import BackendUnavailable, UnknownName  # noqa: E402
 from prezence.feedback.trajectory import Trajectory  # noqa: E402
-from sim.virtual_nao import spawn  # noqa: E402
+from sim.virtual_nao import spawn, stop_spawned  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 TOL = 0.03  # rad
@@ -49,13 +49,7 @@ def start_server(*args: str, timeout_s: float = 60.0) -> tuple[subprocess.Popen[
 
 
 def stop_server(proc: subprocess.Popen[str], *, kill: bool = False) -> None:
-    if kill:
-        proc.kill()
-    else:
-        proc.terminate()
-    proc.wait(timeout=20)
-    if proc.stdout is not None:
-        proc.stdout.close()
+    stop_spawned(proc, kill=kill)
 
 
 @pytest.fixture

@@ -7,10 +7,8 @@ blocking calls (from the server's JSONL record, in its own clock), never wall-cl
 from __future__ import annotations
 
 import json
-import queue
 import subprocess
 import sys
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,47 +20,18 @@ pytest.importorskip("pybullet")
 qi = pytest.importorskip("qi")
 
 from prezence.feedback.limits import load_limits  # noqa: E402
+from sim.virtual_nao import spawn, stop_spawned  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 TOL = 0.03  # rad: PyBullet's position control settles within this
 
 
 def start_server(*args: str, timeout_s: float = 60.0) -> tuple[subprocess.Popen[str], str]:
-    """``python -m sim.virtual_nao ARGS`` in a subprocess; returns it and the URL it printed."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "sim.virtual_nao", *args],
-        cwd=REPO,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-    )
-    lines: queue.Queue[str] = queue.Queue()
-    assert proc.stdout is not None
-    out = proc.stdout
-    threading.Thread(target=lambda: [lines.put(x) for x in out], daemon=True).start()
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        try:
-            line = lines.get(timeout=max(0.0, deadline - time.monotonic()))
-        except queue.Empty:
-            break
-        if line.startswith("listening on "):
-            return proc, line.split()[-1]
-    proc.kill()
-    proc.wait()
-    raise RuntimeError(f"virtual NAO did not start (rc={proc.poll()})")
+    return spawn(*args, timeout_s=timeout_s)
 
 
 def stop_server(proc: subprocess.Popen[str]) -> None:
-    """Terminate (SIGTERM: the server closes its session), then release the pipe."""
-    proc.terminate()
-    try:
-        proc.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-    if proc.stdout is not None:
-        proc.stdout.close()
+    stop_spawned(proc)
 
 
 @pytest.fixture(scope="module")
