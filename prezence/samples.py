@@ -28,6 +28,11 @@ class Sample:
         return cls(str(d["metric"]), float(d["t"]), float(d["value"]))
 
 
+#: How far after the reader's clock a sample may be stamped and still be used (module clocks,
+#: window ends). One later than that is bad input: a single bogus future stamp would otherwise
+#: make every later real sample look late and silence its metric for the rest of the talk.
+MAX_AHEAD_S = 1.0
+
 #: Metric names used by the default configuration (the seed's module names).
 SPEECH_SPEED = "speech_speed"  # words per minute
 SPEECH_VOLUME = "speech_volume"  # dB SPL at the laptop
@@ -35,3 +40,15 @@ SPEECH_ACCURACY = "speech_accuracy"  # recogniser confidence, 0..1
 HEAD_GAZE = "cv_headGaze"  # head pitch relative to the audience, degrees (down is negative)
 GESTURES = "cv_gestures"  # gestures per minute
 DEFAULT_METRICS = (SPEECH_SPEED, SPEECH_VOLUME, SPEECH_ACCURACY, HEAD_GAZE, GESTURES)
+#: Every metric the shipped modules write (``prezence.modules.speech.METRICS`` and
+#: ``prezence.modules.vision.METRICS``; a test keeps this list in step). A rule on another metric
+#: is allowed (your own module) but gets a "did you mean" warning, as it is most often a typo.
+KNOWN_METRICS = (
+    *DEFAULT_METRICS,
+    "speech_speed_syllables",
+    "speech_articulation",
+    "speech_loudness",
+    "speech_clarity",
+    "cv_headYaw",
+    "cv_facingAudience",
+)

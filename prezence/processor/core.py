@@ -5,6 +5,11 @@ no unseeded chance. Call :meth:`Processor.step` at every decision point (the coa
 ``decision_period_s``); samples may arrive in any batch size: the weights integrate over the
 samples' own timestamps, so the batching does not change the result.
 
+Samples stamped more than :data:`prezence.samples.MAX_AHEAD_S` after ``now`` are dropped and
+counted (``MetricState.ahead``): one bogus timestamp far in the future would otherwise make
+every later real sample look late and silence the metric for the rest of the talk. Samples older
+than the metric's newest one are dropped and counted too (``MetricState.late``).
+
 No backlog: a cue is chosen only when the robot is free (``free_since`` is not None), from the
 latest data at that moment. Nothing is queued behind a cue being performed; a problem that ended
 while the robot was busy is simply no longer a candidate.
@@ -19,7 +24,7 @@ from prezence.config.model import Config
 from prezence.processor.resolve import ConflictPolicy
 from prezence.processor.state import MetricState
 from prezence.processor.types import Candidate, Cue, Decision, Kind, MetricView
-from prezence.samples import Sample
+from prezence.samples import MAX_AHEAD_S, Sample
 
 
 class Processor:
@@ -45,7 +50,11 @@ class Processor:
             for r in config.rules
         }
         self._order = tuple(r.metric for r in config.rules)
-        self._time_marks_given: set[float] = set()
+        # A mark at or above the allocated time (a 90 s talk has no "2 min left") is never due.
+        alloc = config.time.allocated_s
+        self._time_marks_given: set[float] = {
+            m for m in config.time.warn_at_s_left if alloc is not None and m >= alloc
+        }
         self._last_overtime = -math.inf
         self._last_cue_t = -math.inf
         self._last_cue: Cue | None = None
@@ -53,15 +62,32 @@ class Processor:
         self.cues: list[Cue] = []
 
     # -- input -----------------------------------------------------------------------------
-    def ingest(self, samples: Iterable[Sample]) -> None:
-        """Take samples (any order within a batch; each metric's own order matters)."""
+    def ingest(self, samples: Iterable[Sample], *, now: float | None = None) -> None:
+        """Take samples (any order within a batch; each metric's own order matters).
+
+        Args:
+            samples: the new samples.
+            now: the talk clock; samples stamped after ``now + MAX_AHEAD_S`` are dropped
+                and counted. None takes every sample's time as it is.
+        """
         states = self._states
+        horizon = math.inf if now is None else now + MAX_AHEAD_S
         for s in samples:
             st = states.get(s.metric)
             if st is None:
                 self.unknown_samples += 1
                 continue
+            if s.t > horizon:
+                st.ahead += 1
+                continue
             st.ingest(s.t, s.value)
+
+    def counts(self) -> dict[str, dict[str, int]]:
+        """Per metric: samples used, and samples dropped as ``late`` or ``ahead`` of the clock."""
+        return {
+            m: {"used": st.samples, "late": st.late, "ahead": st.ahead}
+            for m, st in self._states.items()
+        }
 
     def state(self, metric: str) -> MetricState:
         return self._states[metric]
@@ -85,7 +111,7 @@ class Processor:
         Returns:
             The decision; its ``cue`` is set when a cue must be given now.
         """
-        self.ingest(samples)
+        self.ingest(samples, now=now)
         for st in self._states.values():
             st.advance(now)
         views = tuple(self._view(st, now) for st in self._states.values())

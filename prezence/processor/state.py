@@ -37,7 +37,8 @@ class MetricState:
     strict_side: str | None = None
     last_fired: float = -math.inf
     samples: int = 0
-    late: int = 0  # samples older than the newest one already seen (used, not rewound)
+    late: int = 0  # samples older than the newest one already seen: dropped
+    ahead: int = 0  # samples stamped too far ahead of the talk clock: dropped
 
     def advance(self, to_t: float) -> None:
         """Integrate the held value's deviation from ``integrated_to`` up to ``to_t``."""
@@ -65,10 +66,16 @@ class MetricState:
         self.weight = w
 
     def ingest(self, t: float, value: float) -> None:
-        """Take a new sample at time ``t``."""
+        """Take a new sample at time ``t``.
+
+        A sample older than the newest one already taken is counted in ``late`` and dropped:
+        the value held since then is the newer one, and an old value (a module restarted from
+        the start of its file, a file replaced and read again) must neither overwrite it nor
+        re-arm a strict rule.
+        """
         if t < self.last_sample_t:
             self.late += 1
-            t = self.last_sample_t
+            return
         self.advance(t)
         self.value = value
         self.last_sample_t = t

@@ -284,3 +284,41 @@ def test_weights_never_negative_and_decay_when_back_in_range() -> None:
     talk(p, {"speech_speed": lambda t: 200.0 if t < 20 else 160.0}, until=100)
     w = p.state("speech_speed").weight
     assert 0.0 <= w < 10.0
+
+
+def test_marks_beyond_a_short_allocation_are_never_given() -> None:
+    # A 90 s slot has no "2 min left"; "1 min left" comes when a minute is left.
+    ts = TimeSettings(allocated_s=90.0, warn_at_s_left=(120.0, 60.0), overtime_repeat_s=0.0)
+    p = make(SPEED, time=ts)
+    ds = talk(p, {"speech_speed": lambda t: 160.0}, until=100)
+    assert [(d.t, d.cue.command, d.cue.params) for d in ds] == [
+        (30.0, "timeLeft", {"minutes": 1}),
+        (90.5, "overtime", {"minutes_over": 0}),
+    ]
+
+
+def test_one_sample_stamped_far_ahead_is_dropped_and_does_not_silence_the_metric() -> None:
+    def fed(bogus: bool) -> tuple[list[tuple[float, str]], Processor]:
+        p = make(SPEED)
+        extra = [Sample("speech_speed", 5000.0, 230.0)] if bogus else []
+        p.step(0.5, [Sample("speech_speed", 0.0, 230.0), *extra], free_since=None)
+        ds = talk(p, {"speech_speed": lambda t: 230.0}, until=60)
+        return cues(ds), p
+
+    clean, _ = fed(False)
+    with_bogus, p = fed(True)
+    assert clean and with_bogus == clean  # the slowDown comes exactly when it would have
+    assert with_bogus[0][1] == "slowDown"
+    assert p.counts()["speech_speed"]["ahead"] == 1
+
+
+def test_an_old_sample_neither_overwrites_the_value_nor_rearms_a_strict_rule() -> None:
+    p = make(STRICT_CLARITY)
+    p.step(1.0, [Sample("speech_accuracy", 0.5, 0.5)], free_since=0.0)  # fires articulate
+    assert p.cues and p.cues[-1].command == "articulate"
+    p.step(40.0, [Sample("speech_accuracy", 39.0, 0.95)], free_since=0.0)
+    # A module restarted from the start of its file writes its old samples again.
+    d = p.step(41.0, [Sample("speech_accuracy", 0.5, 0.5)], free_since=0.0)
+    assert d.cue is None
+    assert p.state("speech_accuracy").value == 0.95
+    assert p.counts()["speech_accuracy"]["late"] == 1
