@@ -13,13 +13,19 @@ reached last time) and returns the samples of the *complete* lines among them. W
   Nothing in a file's content makes ``poll`` raise.
 - **missing file**: no error; ``missing`` counts each time the file is found absent (at the start
   or after it was deleted), and reading starts when it appears.
-- **truncated file** (size below the offset read so far, or the byte just before that offset is
-  no longer the one read there, i.e. the file was rewritten): reading restarts at byte 0 and
-  ``truncations`` is counted.
+- **truncated file** (size below the offset read so far, or the last bytes before that offset
+  (up to :data:`REWRITE_CHECK_BYTES`) are no longer the ones read there, i.e. the file was
+  rewritten in place): reading restarts at byte 0 and ``truncations`` is counted. A rewrite that
+  leaves those bytes and the size exactly as they were cannot be seen by any reader that does
+  not re-read the whole file; writers append, so this is an accepted blind spot.
 - **replaced file** (another inode at the path, e.g. after ``os.replace``): reading restarts at
   byte 0 of the new file and ``replaced`` is counted. The tailer does not keep files open (so a
   writer can replace one on any OS); unread bytes of the old file are therefore lost.
 - **bare ``<value>`` lines** (the seed's format): stamped with the ``now`` given to ``poll``.
+- **a time ahead of the reader's clock**, when the tailer is given ``max_ahead_s`` (the coach
+  gives :data:`prezence.samples.MAX_AHEAD_S`): a line stamped more than that after the ``now``
+  given to ``poll`` is a bad line like the others (skipped, counted as malformed, logged with
+  ``file:line``). :func:`read_stream` has no clock and keeps such lines.
 - **timestamps going backwards**: the sample is kept as written and ``out_of_order`` counts it
   (a sample whose ``t`` is below the previous sample's of the same stream). Ordering and
   staleness are the processor's business; the count is for the summary. After a truncation or
@@ -78,6 +84,8 @@ log = logging.getLogger(__name__)
 MAX_LINE_BYTES = 4096
 #: Bad lines logged as warnings per stream; the rest are counted and kept, not logged.
 MAX_LOGGED_PROBLEMS = 20
+#: How many of the bytes before the read offset are compared to find a file rewritten in place.
+REWRITE_CHECK_BYTES = 64
 
 WatchMode = Literal["auto", "inotify", "poll"]
 
@@ -141,10 +149,17 @@ class StreamTailer:
         path: the stream file (it need not exist yet).
         metric: the metric name given to the samples.
         max_problems: how many recent :class:`StreamProblem` to keep.
+        max_ahead_s: skip (as malformed) lines stamped more than this after ``poll``'s ``now``;
+            None keeps them.
     """
 
     def __init__(
-        self, path: str | os.PathLike[str], metric: str, *, max_problems: int = 100
+        self,
+        path: str | os.PathLike[str],
+        metric: str,
+        *,
+        max_problems: int = 100,
+        max_ahead_s: float | None = None,
     ) -> None:
         if not metric:
             raise ValueError("metric must be a non-empty name")
@@ -152,6 +167,7 @@ class StreamTailer:
             raise ValueError(f"max_problems must be >= 0, got {max_problems!r}")
         self.path = Path(path)
         self.metric = metric
+        self.max_ahead_s = max_ahead_s
         self._name = str(self.path)
         self._problems: deque[StreamProblem] = deque(maxlen=max_problems)
         self._logged = 0
@@ -173,7 +189,7 @@ class StreamTailer:
         self._line_no = 0  # complete lines consumed
         self._pending = b""  # bytes after the last newline
         self._skipping = False  # dropping the rest of an over-long line
-        self._last_byte = b""  # the byte at offset - 1
+        self._tail = b""  # the bytes before offset (up to REWRITE_CHECK_BYTES)
         self._last_t: float | None = None
 
     # -- public -----------------------------------------------------------------------------
@@ -277,12 +293,13 @@ class StreamTailer:
     def _read_new(self, f: Any) -> bytes:
         if self._offset == 0:
             return bytes(f.read())
-        # Read from one byte early: if that byte is not the one read there before, the file
-        # was rewritten in place (truncated, then grew past our offset between two polls).
-        f.seek(self._offset - 1)
+        # Read from a few bytes early: if they are not the ones read there before, the file was
+        # rewritten in place (truncated, then grew past our offset between two polls).
+        n = len(self._tail)
+        f.seek(self._offset - n)
         data = bytes(f.read())
-        if data[:1] == self._last_byte:
-            return data[1:]
+        if data[:n] == self._tail:
+            return data[n:]
         self._restart_truncated("file rewritten in place")
         f.seek(0)
         return bytes(f.read())
@@ -329,7 +346,7 @@ class StreamTailer:
 
     def _feed(self, data: bytes, now: float | None) -> list[Sample]:
         self._offset += len(data)
-        self._last_byte = data[-1:]
+        self._tail = (self._tail + data)[-REWRITE_CHECK_BYTES:]
         buf = self._pending + data if self._pending else data
         cut = buf.rfind(b"\n")
         if cut < 0:
@@ -343,6 +360,7 @@ class StreamTailer:
         out: list[Sample] = []
         append = out.append
         metric = self.metric
+        ahead = self.max_ahead_s
         last_t = self._last_t
         for raw in lines:
             self._line_no += 1
@@ -370,6 +388,9 @@ class StreamTailer:
                 continue
             if t is None:  # bare value: stamped by the reader
                 t = now if now is not None else (last_t if last_t is not None else 0.0)
+            elif ahead is not None and now is not None and t > now + ahead:
+                self._problem(self._line_no, f"t={t:g} is ahead of the talk clock ({now:.3f} s)")
+                continue
             if last_t is not None and t < last_t:
                 self._out_of_order += 1
                 if self._out_of_order == 1:
@@ -407,20 +428,24 @@ class StreamTailer:
 
 
 def read_stream(
-    path: str | os.PathLike[str], metric: str, *, now: float | None = None
+    path: str | os.PathLike[str],
+    metric: str,
+    *,
+    now: float | None = None,
+    problems: list[StreamProblem] | None = None,
 ) -> tuple[list[Sample], TailStats]:
     """Read a whole stream file at once (report, replay, rebuild after a crash).
 
     Same parsing as :meth:`StreamTailer.poll` (it is one poll), followed by
     :meth:`StreamTailer.finish`: an unterminated last line is ignored and counted as malformed.
-    A missing file gives no samples and ``missing == 1``. Use a :class:`StreamTailer` directly to
-    get the :class:`StreamProblem` list as well.
+    A missing file gives no samples and ``missing == 1``.
 
     Args:
         path: the stream file.
         metric: the metric name given to the samples.
         now: the time given to bare ``<value>`` lines; None gives each the ``t`` of the sample
             before it (0.0 at the start), as the time they were written is not recorded.
+        problems: if given, the skipped lines (up to 100) are appended to it.
 
     Returns:
         The samples in file order, and the counters.
@@ -428,6 +453,8 @@ def read_stream(
     tailer = StreamTailer(path, metric)
     samples = tailer._poll(None if now is None else _check_now(now))
     tailer.finish()
+    if problems is not None:
+        problems += tailer.problems()
     return samples, tailer.stats()
 
 
@@ -602,6 +629,8 @@ class MultiTailer:
             every ``poll_interval_s``) or ``"auto"`` (inotify where available).
         poll_interval_s: the polling interval where nothing notifies.
         max_problems: recent problems kept per stream.
+        max_ahead_s: lines stamped more than this after ``poll``'s ``now`` are skipped as
+            malformed (see :class:`StreamTailer`); None keeps them.
 
     Example::
 
@@ -618,6 +647,7 @@ class MultiTailer:
         watch: WatchMode = "auto",
         poll_interval_s: float = 0.005,
         max_problems: int = 100,
+        max_ahead_s: float | None = None,
     ) -> None:
         if watch not in ("auto", "inotify", "poll"):
             raise ValueError(f"watch must be 'auto', 'inotify' or 'poll', got {watch!r}")
@@ -626,7 +656,8 @@ class MultiTailer:
         if not poll_interval_s > 0 or not math.isfinite(poll_interval_s):
             raise ValueError(f"poll_interval_s must be > 0, got {poll_interval_s!r}")
         self._tailers = {
-            m: StreamTailer(p, m, max_problems=max_problems) for m, p in streams.items()
+            m: StreamTailer(p, m, max_problems=max_problems, max_ahead_s=max_ahead_s)
+            for m, p in streams.items()
         }
         self.watch = watch
         self.poll_interval_s = poll_interval_s

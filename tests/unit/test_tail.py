@@ -199,6 +199,26 @@ def test_a_file_rewritten_longer_between_polls_is_read_again(stream: Path) -> No
     assert tail.stats().truncations == 1
 
 
+def test_a_fixed_width_file_rewritten_in_place_is_read_again(stream: Path) -> None:
+    # Fixed-width lines end in the same byte ("\n"), so one byte before the offset cannot tell.
+    tail = StreamTailer(stream, M)
+    stream.write_bytes(b"5 150.0\n6 151.0\n")
+    assert values(tail.poll(6.0)) == [150.0, 151.0]
+    stream.write_bytes(b"5 160.0\n6 161.0\n7 162.0\n8 163.0\n")  # truncated, then regrew
+    assert values(tail.poll(8.0)) == [160.0, 161.0, 162.0, 163.0]
+    assert tail.stats().truncations == 1
+
+
+def test_lines_stamped_ahead_of_the_clock_are_skipped_with_file_and_line(stream: Path) -> None:
+    tail = StreamTailer(stream, M, max_ahead_s=1.0)
+    append(stream, b"1 150\n5000 230\n2.9 160\n")
+    assert values(tail.poll(2.0)) == [150.0, 160.0]  # 2.9 is within a second of the clock
+    (problem,) = tail.problems()
+    assert (problem.line, tail.stats().malformed) == (2, 1)
+    assert "ahead of the talk clock" in problem.reason
+    assert values(StreamTailer(stream, M).poll(2.0)) == [150.0, 230.0, 160.0]  # opt-in only
+
+
 def test_a_partial_line_is_dropped_when_the_file_is_truncated(stream: Path) -> None:
     tail = StreamTailer(stream, M)
     stream.write_bytes(b"1 10\n2 2")
