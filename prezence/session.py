@@ -19,6 +19,7 @@ so a crash loses nothing that was written.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -79,7 +80,7 @@ class SessionDir:
 
     def write_meta(self, meta: dict[str, Any]) -> None:
         data = {"format": SESSION_FORMAT, **meta}
-        self.meta.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+        self.meta.write_text(dumps(data, indent=2, sort_keys=True) + "\n")
 
     def read_meta(self) -> dict[str, Any]:
         if not self.meta.exists():
@@ -88,10 +89,27 @@ class SessionDir:
         return data
 
 
+def strict_json(obj: Any) -> Any:
+    """``obj`` with every non-finite float (a time warning's infinite priority, a NaN mean)
+    replaced by None, so that what is written is standard JSON that any parser reads."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: strict_json(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [strict_json(v) for v in obj]
+    return obj
+
+
+def dumps(obj: Any, **kwargs: Any) -> str:
+    """``json.dumps`` of :func:`strict_json` of ``obj`` (never ``Infinity`` or ``NaN``)."""
+    return json.dumps(strict_json(obj), allow_nan=False, **kwargs)
+
+
 def write_json(path: Path, data: Any) -> None:
     """Write JSON atomically enough for a summary: to a temp file, then rename."""
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+    tmp.write_text(dumps(data, indent=2, sort_keys=True) + "\n")
     tmp.replace(path)
 
 
@@ -103,7 +121,7 @@ class JsonlWriter:
         self._f = path.open("a", encoding="utf-8")
 
     def write(self, obj: dict[str, Any]) -> None:
-        self._f.write(json.dumps(obj, sort_keys=True, separators=(",", ":")) + "\n")
+        self._f.write(dumps(obj, sort_keys=True, separators=(",", ":")) + "\n")
         self._f.flush()
 
     def close(self) -> None:

@@ -8,13 +8,17 @@ from __future__ import annotations
 
 import bisect
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from prezence.config.model import Config, Rule
 from prezence.samples import Sample
 from prezence.session import SessionDir, read_jsonl, write_json
+
+if TYPE_CHECKING:
+    from prezence.processor import Processor
+    from prezence.streams.tail import MultiTailer, StreamProblem
 
 
 def _in_range_time(
@@ -84,6 +88,8 @@ def build_summary(
     stream_stats: Mapping[str, Mapping[str, Any]] | None = None,
     backend_stats: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
+    processor_counts: Mapping[str, Mapping[str, int]] | None = None,
+    problems: Sequence[str] = (),
 ) -> dict[str, Any]:
     """The ``summary.json`` of a talk.
 
@@ -96,6 +102,8 @@ def build_summary(
         stream_stats: tailer counters per metric (malformed, truncations…).
         backend_stats: the backend's own figures (joint-limit violations…).
         extra: anything else to record at top level (scenario, seed, wall time…).
+        processor_counts: per metric, samples the processor dropped (``late``, ``ahead``).
+        problems: skipped stream lines as ``file:line: reason`` (kept up to 100).
     """
     metrics: dict[str, Any] = {}
     stale_default = config.processor.stale_after_s
@@ -114,11 +122,15 @@ def build_summary(
                 p90=round(float(p[2]), 4),
             )
         gaps = [b.t - a.t for a, b in zip(ss, ss[1:], strict=False) if b.t - a.t > stale_s]
-        m["stale_episodes"] = len(gaps) + (1 if ss and talk_s - ss[-1].t > stale_s else 0)
+        # No sample at all is one stale episode as long as the talk: the module never reported.
+        m["stale_episodes"] = len(gaps) + (1 if not ss or talk_s - ss[-1].t > stale_s else 0)
         if truth is not None:
             m["truth_time_in_range"] = _truth_in_range_fraction(truth, rule.metric, talk_s)
         if stream_stats and rule.metric in stream_stats:
             m["stream"] = dict(stream_stats[rule.metric])
+        if processor_counts and rule.metric in processor_counts:
+            pc = processor_counts[rule.metric]
+            m["dropped"] = {"late": int(pc.get("late", 0)), "ahead": int(pc.get("ahead", 0))}
         metrics[rule.metric] = m
 
     cue_rows: list[dict[str, Any]] = []
@@ -170,10 +182,15 @@ def build_summary(
             "cues_dropped": sum(1 for c in cues if c.get("dropped")),
             "false_alarms": sum(1 for r in cue_rows if r["relevant"] is False),
             "malformed_samples": malformed,
+            "dropped_samples": sum(
+                int(pc.get("late", 0)) + int(pc.get("ahead", 0))
+                for pc in (processor_counts or {}).values()
+            ),
             "stale_episodes": sum(m["stale_episodes"] for m in metrics.values()),
             "joint_limit_violations": int((backend_stats or {}).get("joint_limit_violations", 0)),
         },
         "backend_stats": dict(backend_stats or {}),
+        "stream_problems": list(problems)[:100],
     }
     if extra:
         out.update(extra)
@@ -188,16 +205,31 @@ def summarize_session(
     truth: Sequence[Mapping[str, Any]] | None = None,
     backend_stats: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
+    live: MultiTailer | None = None,
+    processor: Processor | None = None,
 ) -> dict[str, Any]:
-    """Read a session folder's module files and cue log, write and return ``summary.json``."""
+    """Read a session folder's module files and cue log, write and return ``summary.json``.
+
+    Args:
+        live: the tailer that fed the processor during the talk: its counters (truncations,
+            replacements, lines ahead of the clock…) and skipped lines go into the summary, as
+            re-reading the final files cannot see them. None (a rebuild): from the files.
+        processor: the talk's processor: the samples it dropped (late, ahead) are counted.
+    """
     from prezence.streams.tail import read_stream
 
     samples: dict[str, list[Sample]] = {}
     stats: dict[str, dict[str, Any]] = {}
+    found: list[StreamProblem] = []
     for rule in config.rules:
-        ss, st = read_stream(session.stream(rule.stream), rule.metric)
+        ss, st = read_stream(session.stream(rule.stream), rule.metric, problems=found)
         samples[rule.metric] = ss
         stats[rule.metric] = st.to_dict()
+    if live is not None:
+        for metric, lst in live.stats().items():
+            stats[metric] = lst.to_dict()
+        found = live.problems()
+    problems = [str(p) for p in found]
     summary = build_summary(
         config,
         samples,
@@ -207,6 +239,8 @@ def summarize_session(
         stream_stats=stats,
         backend_stats=backend_stats,
         extra=extra,
+        processor_counts=processor.counts() if processor is not None else None,
+        problems=problems,
     )
     write_json(session.summary, summary)
     return summary

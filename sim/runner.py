@@ -8,7 +8,6 @@ processor, physics): the same seed gives the same decision log, byte for byte.
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from collections.abc import Callable
@@ -24,7 +23,8 @@ from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.processor import Cue, Decision, Processor, make_policy
-from prezence.session import SessionDir, read_jsonl
+from prezence.samples import MAX_AHEAD_S
+from prezence.session import SessionDir, dumps, read_jsonl
 from prezence.streams.tail import MultiTailer
 from prezence.streams.writer import StreamWriter
 from prezence.summary import summarize_session
@@ -106,7 +106,7 @@ def run_talk(
     writers = {m: StreamWriter(p) for m, p in streams.items()}
     for w in writers.values():
         w.open()
-    tailer = MultiTailer(streams)
+    tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S)
     processor = Processor(cfg, policy=make_policy(policy, seed=seed))
 
     def heard(cue: Cue) -> None:
@@ -162,13 +162,15 @@ def run_talk(
     truth = presenter.truth()
     with session.truth.open("w") as f:
         for row in truth:
-            f.write(json.dumps(row, sort_keys=True) + "\n")
+            f.write(dumps(row, sort_keys=True) + "\n")
     summary = summarize_session(
         session,
         cfg,
         talk_s=sc.duration_s,
         truth=truth,
         backend_stats=backend_stats,
+        live=tailer,
+        processor=processor,
         extra={
             "scenario": sc.name,
             "seed": seed,

@@ -76,3 +76,40 @@ def test_garbage_lines_reach_the_module_files(tmp_path: Path) -> None:
     lines = result.session.stream("cv_headGaze.txt").read_text().splitlines()
     bad = [line for line in lines if _is_bad(line)]
     assert 0.005 * len(lines) < len(bad) < 0.05 * len(lines)
+    # ... and the summary says how many there were, and where.
+    summary = result.summary
+    assert summary["metrics"]["cv_headGaze"]["stream"]["malformed"] == len(bad)
+    stream = result.session.stream("cv_headGaze.txt")
+    located = [p for p in summary["stream_problems"] if p.startswith(f"{stream}:")]
+    assert len(located) == min(len(bad), 100)
+    line_no = int(located[0].split(":")[1])
+    assert _is_bad(lines[line_no - 1])
+
+
+def test_a_module_that_never_writes_is_one_stale_episode_as_long_as_the_talk(
+    tmp_path: Path,
+) -> None:
+    from prezence.config.load import default_config
+    from prezence.session import SessionDir
+    from prezence.summary import summarize_session
+
+    session = SessionDir(tmp_path).create()
+    summary = summarize_session(session, default_config(), talk_s=60.0)
+    gaze = summary["metrics"]["cv_headGaze"]
+    assert (gaze["samples"], gaze["stale_episodes"]) == (0, 1)
+
+
+def test_every_record_is_standard_json(tmp_path: Path) -> None:
+    """Time warnings have an infinite priority; strict parsers must still read every line."""
+    import json
+
+    def refuse(name: str) -> None:
+        raise AssertionError(f"non-standard JSON constant {name}")
+
+    result = runner.run_talk("overrunning", out=tmp_path, seed=0, backend="fake")
+    s = result.session
+    assert any(c.get("kind") == "time" for c in result.cues)
+    for path in (s.decisions, s.cues, s.truth):
+        for line in path.read_text().splitlines():
+            json.loads(line, parse_constant=refuse)
+    json.loads(s.summary.read_text(), parse_constant=refuse)
