@@ -341,8 +341,11 @@ def parse_rule_line(
     if len(values) < n:
         raise where(end_col, f"{check.value} takes {n} value(s): {usage}")
     bounds = BOUNDS[check]
+    named_scale: float | None = None
     for name, t in zip(bounds, toks[2 : 2 + n], strict=True):
         cols[name] = t.col
+        if named_scale is None and t.text in room.scales:
+            named_scale = float(room.scales[t.text])
     rest = toks[2 + n :]
     for j, t in enumerate(rest):
         if j > 0 and "=" not in t.text and t.text.lower() in CHECK_WORDS:
@@ -430,7 +433,7 @@ def parse_rule_line(
         strict=strict,
         below=cmds.get("below"),
         above=cmds.get("above"),
-        scale=nums.get("scale"),
+        scale=nums.get("scale", named_scale),
         gain=nums.get("gain", 1.0),
         offset=offset,
         stream=kv.get("stream", ""),

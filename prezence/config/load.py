@@ -5,16 +5,19 @@
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
 import functools
 import logging
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from importlib import resources
 from pathlib import Path
 
-from prezence.config.lines import parse_lines
-from prezence.config.model import Config, RoomProfile
+from prezence.config.lines import SLOTS, parse_lines
+from prezence.config.model import Config, RoomProfile, Rule
 from prezence.config.tomlconf import loads_config, loads_room
 from prezence.errors import ConfigError
+from prezence.samples import KNOWN_METRICS
 
 log = logging.getLogger(__name__)
 
@@ -61,13 +64,54 @@ def load_config(path: str | Path | None = None, *, room: RoomProfile | None = No
         return loads_config(read_text(default_path()), path=default_path(), room=room)
     text = read_text(path)
     if Path(path).suffix.lower() == ".toml":
-        return loads_config(text, path=path, room=room)
-    base = default_config()
-    room = room if room is not None else base.room
-    rules = parse_lines(text, path=path, room=room)
-    return Config(
-        rules=rules, processor=base.processor, time=base.time, room=room, source=str(path)
-    )
+        config = loads_config(text, path=path, room=room)
+    else:
+        base = default_config()
+        room = room if room is not None else base.room
+        rules = parse_lines(text, path=path, room=room)
+        config = Config(
+            rules=rules, processor=base.processor, time=base.time, room=room, source=str(path)
+        )
+    rules, notes = complete_rules(config.rules)
+    for n in notes:
+        log.warning("%s", n)
+    return dataclasses.replace(config, rules=rules)
+
+
+def complete_rules(rules: Sequence[Rule]) -> tuple[tuple[Rule, ...], list[str]]:
+    """Fill in what the seed's short lines leave out, and flag likely typos.
+
+    The seed writes rules without commands (``speech_speed inRange 140 180``): such a rule on a
+    metric of the built-in configuration takes that rule's commands (for the sides its check
+    has). A rule on a metric no shipped module writes is kept (your own module may write it) but
+    noted with a "did you mean", as is a rule that has no command at all (it can never cue).
+
+    Returns:
+        The rules, completed, and one ``file:line: …`` note per questionable rule.
+    """
+    defaults = {r.metric: r for r in default_config().rules}
+    out: list[Rule] = []
+    notes: list[str] = []
+    for r in rules:
+        where = f"{r.source}: " if r.source else ""
+        if r.below is None and r.above is None and r.metric in defaults:
+            d = defaults[r.metric]
+            slots = SLOTS[r.check]
+            r = dataclasses.replace(
+                r,
+                below=d.below if "below" in slots else None,
+                above=d.above if "above" in slots else None,
+            )
+        if r.metric not in KNOWN_METRICS:
+            close = difflib.get_close_matches(r.metric, KNOWN_METRICS, n=1, cutoff=0.6)
+            hint = f"; did you mean '{close[0]}'?" if close else ""
+            notes.append(
+                f"{where}no shipped module writes '{r.metric}' (fine if your own module does){hint}"
+            )
+        if r.below is None and r.above is None:
+            notes.append(f"{where}rule on '{r.metric}' has no feedback command: it never cues")
+        out.append(r)
+    return tuple(out), notes
 
 
 def load_room(path: str | Path) -> RoomProfile:
@@ -75,23 +119,49 @@ def load_room(path: str | Path) -> RoomProfile:
     return loads_room(read_text(path), path=path)
 
 
-def config_problems(path: str | Path, *, room: RoomProfile | None = None) -> list[ConfigError]:
-    """Every problem found in one config file (empty when it is fine)."""
+def config_problems(
+    path: str | Path, *, room: RoomProfile | None = None, notes: list[str] | None = None
+) -> list[ConfigError]:
+    """Every problem found in one config file (empty when it is fine).
+
+    Args:
+        path: the file.
+        room: the room profile named values come from (default: the file's own or the
+            built-in one).
+        notes: if given, warnings that are not errors (see :func:`complete_rules`) are
+            appended to it.
+    """
     errors: list[ConfigError] = []
+    rules: Sequence[Rule] = ()
     try:
         text = read_text(path)
         if Path(path).suffix.lower() == ".toml":
-            loads_config(text, path=path, room=room, errors=errors)
+            rules = loads_config(text, path=path, room=room, errors=errors).rules
         else:
             base_room = room if room is not None else default_config().room
-            parse_lines(text, path=path, room=base_room, errors=errors)
+            rules = parse_lines(text, path=path, room=base_room, errors=errors)
+            if not rules and not errors:
+                errors.append(ConfigError("no rules", path=path))
     except ConfigError as e:  # fatal ones: unreadable, TOML syntax, format
         errors.append(e)
+    if notes is not None and not errors:
+        notes += complete_rules(rules)[1]
     return errors
 
 
-def check_config_files(paths: Iterable[str | Path]) -> list[str]:
+def check_config_files(
+    paths: Iterable[str | Path],
+    *,
+    room: RoomProfile | None = None,
+    notes: list[str] | None = None,
+) -> list[str]:
     """Validate config files without running anything (``prezence check-config FILE…``).
+
+    Args:
+        paths: config files (TOML or seed line format).
+        room: the room profile for named values (``--room``); None: each file's own or the
+            built-in room.
+        notes: if given, warnings (unknown metric, rule without command) are appended to it.
 
     Returns:
         One message per problem, each starting with ``file:line:col:`` or ``file: key:``;
@@ -99,7 +169,7 @@ def check_config_files(paths: Iterable[str | Path]) -> list[str]:
     """
     out: list[str] = []
     for p in paths:
-        problems = config_problems(p)
+        problems = config_problems(p, room=room, notes=notes)
         log.info("%s: %d problem(s)", p, len(problems))
         out += [str(e) for e in problems]
     return out

@@ -138,12 +138,16 @@ class RoomProfile:
     Attributes:
         name: a label.
         values: named values usable in rules, e.g. ``{"ANGLE": -15.0}``.
+        scales: deviation scales that go with named values, e.g. ``{"ANGLE": 10.0}``: a rule
+            whose bound is that named value and that gives no ``scale`` of its own uses it (so
+            the seed's ``cv_headGaze min ANGLE`` works although the bound is negative).
         laptop_distance_m: presenter → laptop microphone distance, where dB are measured.
         farthest_listener_m: presenter → farthest listener; None disables the estimate.
     """
 
     name: str = "default"
     values: Mapping[str, float] = field(default_factory=lambda: {"ANGLE": -15.0})
+    scales: Mapping[str, float] = field(default_factory=lambda: {"ANGLE": 10.0})
     laptop_distance_m: float = 1.0
     farthest_listener_m: float | None = None
 
@@ -163,6 +167,7 @@ class RoomProfile:
         d: dict[str, Any] = {
             "name": self.name,
             "values": dict(self.values),
+            "scales": dict(self.scales),
             "laptop_distance_m": self.laptop_distance_m,
         }
         if self.farthest_listener_m is not None:
@@ -185,7 +190,6 @@ class ProcessorSettings:
         praise_after_s: say the encouragement command after this long with every metric in
             range and no cue; 0 disables it.
         praise_command: the command used for encouragement.
-        strict_first: strict rules and time warnings win over non-strict ones.
     """
 
     threshold: float = 600.0
@@ -196,7 +200,6 @@ class ProcessorSettings:
     decision_period_s: float = 0.5
     praise_after_s: float = 150.0
     praise_command: str | None = "encourage"
-    strict_first: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in fields(self)}

@@ -4,7 +4,8 @@ Layout (every key is optional unless noted; a missing key takes the dataclass de
 
     format = 1                      # required
     rules_file = "rules.txt"        # a seed line-format file, relative to this file …
-    [room]        name, values (table NAME → number), laptop_distance_m, farthest_listener_m
+    [room]        name, values (table NAME → number), scales (table NAME → scale of the rules
+                  whose bound is that name), laptop_distance_m, farthest_listener_m
     [processor]   the fields of ProcessorSettings; praise_command = false disables praise
     [time]        the fields of TimeSettings; allocated_s = false disables time warnings
     [[rules]]     … or rules as tables: metric, check, low, high (numbers or named values as
@@ -50,7 +51,7 @@ log = logging.getLogger(__name__)
 
 KeyPath = tuple[str | int, ...]
 TOP_KEYS = ("format", "rules_file", "room", "processor", "time", "rules")
-ROOM_KEYS = ("name", "values", "laptop_distance_m", "farthest_listener_m")
+ROOM_KEYS = ("name", "values", "scales", "laptop_distance_m", "farthest_listener_m")
 RULE_KEYS = (
     "metric",
     "check",
@@ -250,7 +251,6 @@ _PROCESSOR: dict[str, Converter] = {
     "decision_period_s": _plain(_positive),
     "praise_after_s": _plain(_nonneg),
     "praise_command": _command_or_false,
-    "strict_first": _plain(_bool),
 }
 _TIME: dict[str, Converter] = {
     "allocated_s": _positive_or_false,
@@ -313,6 +313,21 @@ def _room(raw: object, ctx: _Ctx) -> RoomProfile:
             except _Bad as e:
                 ctx.report(ctx.error(("room", "values", k), str(e)))
         kwargs["values"] = good
+    if "scales" in table:
+        try:
+            scales = _table(table["scales"], "NAME = number > 0")
+        except _Bad as e:
+            ctx.report(ctx.error(("room", "scales"), str(e)))
+            scales = {}
+        good_scales: dict[str, float] = {}
+        for k, v in scales.items():
+            try:
+                if not NAME_RE.match(k):
+                    raise _Bad(f"named values are UPPER_CASE (letters, digits, '_'), not '{k}'")
+                good_scales[k] = _positive(v)
+            except _Bad as e:
+                ctx.report(ctx.error(("room", "scales", k), str(e)))
+        kwargs["scales"] = good_scales
     for k in ("laptop_distance_m", "farthest_listener_m"):
         if k in table:
             try:
@@ -352,10 +367,13 @@ def _rule(raw: object, kp: KeyPath, room: RoomProfile, ctx: _Ctx) -> Rule:
         key = "check"
         check = parse_check(_str(table["check"]))
         bounds: dict[str, float | None] = {"low": None, "high": None}
+        named_scale: float | None = None
         for key in ("low", "high"):
             v = table.get(key)
             if isinstance(v, str):
                 bounds[key] = resolve_name(v, room)
+                if named_scale is None and v in room.scales:
+                    named_scale = float(room.scales[v])
             elif v is not None:
                 bounds[key] = _num(v)
         key = "strict"
@@ -394,7 +412,7 @@ def _rule(raw: object, kp: KeyPath, room: RoomProfile, ctx: _Ctx) -> Rule:
         strict=strict,
         below=cmds["below"],
         above=cmds["above"],
-        scale=nums["scale"],
+        scale=nums["scale"] if nums["scale"] is not None else named_scale,
         gain=gain if gain is not None else 1.0,
         offset=offset,
         stream=texts["stream"],
@@ -592,8 +610,10 @@ def dumps_config(config: Config) -> str:
         out.append("rules = []")
     room = dict(d["room"])
     values = room.pop("values")
+    scales = room.pop("scales")
     out += _table_lines("[room]", room)
     out += _table_lines("[room.values]", values)
+    out += _table_lines("[room.scales]", scales)
     out += _table_lines("[processor]", d["processor"])
     out += _table_lines("[time]", d["time"])
     for r in d["rules"]:

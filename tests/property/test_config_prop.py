@@ -81,7 +81,6 @@ def configs(draw: st.DrawFn) -> Config:
         decision_period_s=draw(positive),
         praise_after_s=draw(nonneg),
         praise_command=draw(st.none() | st.sampled_from(sorted(COMMANDS))),
-        strict_first=draw(st.booleans()),
     )
     time = TimeSettings(
         allocated_s=draw(st.none() | positive),

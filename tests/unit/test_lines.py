@@ -168,13 +168,24 @@ def test_duplicate_metric_names_both_lines() -> None:
     ids=["zero-low", "negative-high", "named-negative", "straddles-zero", "zero-low-in-range"],
 )
 def test_bound_at_or_below_zero_needs_scale(line: str) -> None:
-    e = parse_error(line)
+    e = parse_error(line, RoomProfile(scales={}))  # a room that gives ANGLE no scale
     assert "scale" in str(e)
     (r,) = parse(f"{line} scale=10")
     bound = r.low if r.low is not None else r.high
     assert bound is not None
     outside = bound - 10.0 if r.low is not None else bound + 10.0
     assert r.deviation(outside) == pytest.approx(100.0)  # one scale outside = 100 %
+
+
+def test_the_seeds_gaze_line_takes_the_scale_of_its_named_value_from_the_room() -> None:
+    (r,) = parse("cv_headGaze min ANGLE")  # exactly as the seed writes it; default room
+    assert (r.low, r.scale) == (-15.0, 10.0)
+    assert r.deviation(-25.0) == pytest.approx(100.0)
+    room = RoomProfile(values={"ANGLE": -20.0}, scales={"ANGLE": 5.0})
+    (r,) = parse("cv_headGaze min ANGLE", room)
+    assert (r.low, r.scale) == (-20.0, 5.0)
+    (r,) = parse("cv_headGaze min ANGLE scale=8", room)  # the rule's own scale wins
+    assert r.scale == 8.0
 
 
 def test_at_listener_applies_the_inverse_square_estimate() -> None:

@@ -114,3 +114,44 @@ def test_readme_documents_every_key() -> None:
     keys |= {f.name for f in dataclasses.fields(ProcessorSettings)}
     keys |= {f.name for f in dataclasses.fields(TimeSettings)}
     assert keys - documented == set()
+
+
+def test_the_seeds_own_lines_load_with_the_default_commands(tmp_path: Path) -> None:
+    seed = tmp_path / "seed.txt"
+    seed.write_text(
+        "speech_speed inRange 140 180\nspeech_accuracy min 0.8 strict\ncv_headGaze min ANGLE\n"
+    )
+    assert check_config_files([seed]) == []
+    speed, clarity, gaze = load_config(seed).rules
+    assert (speed.below, speed.above) == ("speedUp", "slowDown")
+    assert (clarity.below, clarity.above, clarity.strict) == ("articulate", None, True)
+    assert (gaze.below, gaze.low, gaze.scale) == ("lookUp", -15.0, 10.0)
+
+
+def test_a_misspelt_metric_is_flagged_with_a_suggestion(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    rules = tmp_path / "rules.txt"
+    rules.write_text("speech_speed inRange 140 180\nspeech_sped max 200 slowDown\n")
+    notes: list[str] = []
+    assert check_config_files([rules], notes=notes) == []  # your own module may write it
+    (note,) = notes
+    assert note.startswith(f"{rules}:2: ") and "did you mean 'speech_speed'?" in note
+    with caplog.at_level("WARNING"):
+        load_config(rules)
+    assert "speech_sped" in caplog.text
+
+
+def test_a_rules_file_with_no_rules_is_an_error(tmp_path: Path) -> None:
+    rules = tmp_path / "rules.txt"
+    rules.write_text("# nothing yet\n")
+    (msg,) = check_config_files([rules])
+    assert msg.startswith(str(rules)) and "no rules" in msg
+
+
+def test_known_metrics_are_the_ones_the_modules_write() -> None:
+    pytest.importorskip("cv2", reason="the vision module needs OpenCV (the vision extra)")
+    from prezence.modules import speech, vision
+    from prezence.samples import KNOWN_METRICS
+
+    assert set(KNOWN_METRICS) == set(speech.METRICS) | set(vision.METRICS)

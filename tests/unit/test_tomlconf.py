@@ -218,7 +218,7 @@ def test_dumps_round_trips_awkward_values() -> None:
             ),
             Rule("cv_gestures", Check.IN_RANGE, low=2, high=12, strict=True, gain=0.25),
         ),
-        processor=ProcessorSettings(threshold=1e-3, strict_first=False),
+        processor=ProcessorSettings(threshold=1e-3, min_gap_s=0.0),
         time=TimeSettings(allocated_s=300.0, warn_at_s_left=(30.0, 90.0, 5.5)),
         room=RoomProfile(
             name='Hall "\u00e9" #1\\\n\t\x7f',
