@@ -8,7 +8,7 @@ from typing import Any
 
 
 class Kind(enum.IntEnum):
-    """Candidate classes. Lower wins first under the seed's policy (``strict_first``)."""
+    """Candidate classes. Lower wins first under the seed's policy: time, strict, weighted."""
 
     TIME = 0  # time-left warnings and overtime
     STRICT = 1  # a strict rule went out of range
