@@ -6,6 +6,7 @@
       session.json        what ran: scenario, seed, backend, config file, format version
       config.toml         the effective configuration (rebuild and replay use it)
       streams/<metric>.txt   one append-only file per module, "<t> <value>" per line
+      streams/<metric>.txt.stamps  only for bare "<value>" lines: the time the coach gave each
       decisions.jsonl     one JSON line per decision point (cue or no cue) of the processor
       cues.jsonl          one JSON line per cue the robot performed, with its outcome
       truth.jsonl         synthetic talks only: when each metric was really out of range

@@ -106,7 +106,7 @@ def run_talk(
     writers = {m: StreamWriter(p) for m, p in streams.items()}
     for w in writers.values():
         w.open()
-    tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S)
+    tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
     processor = Processor(cfg, policy=make_policy(policy, seed=seed))
 
     def heard(cue: Cue) -> None:

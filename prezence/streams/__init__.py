@@ -15,6 +15,7 @@ from prezence.streams.tail import (
     TailStats,
     inotify_available,
     read_stream,
+    stamps_path,
 )
 from prezence.streams.writer import StreamWriter, append_sample
 
@@ -30,4 +31,5 @@ __all__ = [
     "inotify_available",
     "parse_line",
     "read_stream",
+    "stamps_path",
 ]

@@ -22,6 +22,9 @@ reached last time) and returns the samples of the *complete* lines among them. W
   byte 0 of the new file and ``replaced`` is counted. The tailer does not keep files open (so a
   writer can replace one on any OS); unread bytes of the old file are therefore lost.
 - **bare ``<value>`` lines** (the seed's format): stamped with the ``now`` given to ``poll``.
+  With ``record_stamps`` (the coach sets it), each stamp is also appended as ``<line> <t>`` to
+  the sidecar file ``<stream>.stamps`` (:func:`stamps_path`), so that :func:`read_stream` gives
+  those lines the same times afterwards and the report and replay see what the coach saw.
 - **a time ahead of the reader's clock**, when the tailer is given ``max_ahead_s`` (the coach
   gives :data:`prezence.samples.MAX_AHEAD_S`): a line stamped more than that after the ``now``
   given to ``poll`` is a bad line like the others (skipped, counted as malformed, logged with
@@ -75,6 +78,7 @@ __all__ = [
     "WatchMode",
     "inotify_available",
     "read_stream",
+    "stamps_path",
 ]
 
 log = logging.getLogger(__name__)
@@ -151,6 +155,7 @@ class StreamTailer:
         max_problems: how many recent :class:`StreamProblem` to keep.
         max_ahead_s: skip (as malformed) lines stamped more than this after ``poll``'s ``now``;
             None keeps them.
+        record_stamps: append the time given to each bare-value line to :func:`stamps_path`.
     """
 
     def __init__(
@@ -160,6 +165,7 @@ class StreamTailer:
         *,
         max_problems: int = 100,
         max_ahead_s: float | None = None,
+        record_stamps: bool = False,
     ) -> None:
         if not metric:
             raise ValueError("metric must be a non-empty name")
@@ -168,6 +174,8 @@ class StreamTailer:
         self.path = Path(path)
         self.metric = metric
         self.max_ahead_s = max_ahead_s
+        self._stamps_out = stamps_path(self.path) if record_stamps else None
+        self._stamps_in: dict[int, float] = {}  # read_stream: line -> recorded stamp
         self._name = str(self.path)
         self._problems: deque[StreamProblem] = deque(maxlen=max_problems)
         self._logged = 0
@@ -310,6 +318,8 @@ class StreamTailer:
             log.info("%s: replaced by another file; reading from the start", self._name)
         elif self._absent:
             log.info("%s: appeared", self._name)
+        if self._ident is not None:
+            self._record_restart()
         self._ident = ident
         self._absent = False
         self._reset_position()
@@ -318,8 +328,17 @@ class StreamTailer:
         self._truncations += 1
         log.info("%s: %s; reading from the start", self._name, why)
         self._reset_position()
+        self._record_restart()
+
+    def _record_restart(self) -> None:
+        # Line numbers start again: stamps recorded so far belong to the old content.
+        if self._stamps_out is not None and self._stamps_out.exists():
+            with open(self._stamps_out, "a", encoding="utf-8") as f:
+                f.write("restart\n")
 
     def _on_missing(self) -> None:
+        if self._ident is not None:
+            self._record_restart()
         if self._ident is not None or not self._absent:
             self._missing += 1
             if self._ident is not None:
@@ -362,6 +381,8 @@ class StreamTailer:
         metric = self.metric
         ahead = self.max_ahead_s
         last_t = self._last_t
+        recorded = self._stamps_in
+        stamped: list[str] = []
         for raw in lines:
             self._line_no += 1
             if self._skipping:  # the end of an over-long line
@@ -387,7 +408,12 @@ class StreamTailer:
                 self._problem(self._line_no, e.reason)
                 continue
             if t is None:  # bare value: stamped by the reader
-                t = now if now is not None else (last_t if last_t is not None else 0.0)
+                if self._line_no in recorded:
+                    t = recorded[self._line_no]
+                else:
+                    t = now if now is not None else (last_t if last_t is not None else 0.0)
+                if self._stamps_out is not None:
+                    stamped.append(f"{self._line_no} {t!r}\n")
             elif ahead is not None and now is not None and t > now + ahead:
                 self._problem(self._line_no, f"t={t:g} is ahead of the talk clock ({now:.3f} s)")
                 continue
@@ -405,6 +431,12 @@ class StreamTailer:
             append(Sample(metric, t, value))
         self._last_t = last_t
         self._samples += len(out)
+        if stamped and self._stamps_out is not None:
+            try:
+                with open(self._stamps_out, "a", encoding="utf-8") as f:
+                    f.writelines(stamped)
+            except OSError as e:  # the talk goes on; only the later rebuild loses the times
+                log.warning("%s: cannot record stamps: %s", self._stamps_out, e.strerror or e)
         self._keep_pending(rest)  # after the lines: they end an over-long line being skipped
         return out
 
@@ -427,6 +459,34 @@ class StreamTailer:
                 log.warning("%s: further bad lines are counted but not logged", self._name)
 
 
+def stamps_path(path: str | os.PathLike[str]) -> Path:
+    """The sidecar of a stream file where the times given to its bare-value lines are kept."""
+    p = Path(path)
+    return p.with_name(p.name + ".stamps")
+
+
+def _read_stamps(path: Path) -> dict[int, float]:
+    """``line -> t`` from a stamps sidecar, for the file's current content (after the last
+    ``restart``); unreadable lines in it are ignored."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return {}
+    out: dict[int, float] = {}
+    for line in text.splitlines():
+        if line == "restart":
+            out.clear()
+            continue
+        parts = line.split()
+        try:
+            n, t = int(parts[0]), float(parts[1])
+        except (IndexError, ValueError):
+            continue
+        if math.isfinite(t):
+            out[n] = t
+    return out
+
+
 def read_stream(
     path: str | os.PathLike[str],
     metric: str,
@@ -443,14 +503,16 @@ def read_stream(
     Args:
         path: the stream file.
         metric: the metric name given to the samples.
-        now: the time given to bare ``<value>`` lines; None gives each the ``t`` of the sample
-            before it (0.0 at the start), as the time they were written is not recorded.
+        now: the time given to bare ``<value>`` lines that have no recorded stamp (see
+            :func:`stamps_path`); None gives each the ``t`` of the sample before it (0.0 at the
+            start).
         problems: if given, the skipped lines (up to 100) are appended to it.
 
     Returns:
         The samples in file order, and the counters.
     """
     tailer = StreamTailer(path, metric)
+    tailer._stamps_in = _read_stamps(stamps_path(path))
     samples = tailer._poll(None if now is None else _check_now(now))
     tailer.finish()
     if problems is not None:
@@ -631,6 +693,7 @@ class MultiTailer:
         max_problems: recent problems kept per stream.
         max_ahead_s: lines stamped more than this after ``poll``'s ``now`` are skipped as
             malformed (see :class:`StreamTailer`); None keeps them.
+        record_stamps: record the times given to bare-value lines (see :func:`stamps_path`).
 
     Example::
 
@@ -648,6 +711,7 @@ class MultiTailer:
         poll_interval_s: float = 0.005,
         max_problems: int = 100,
         max_ahead_s: float | None = None,
+        record_stamps: bool = False,
     ) -> None:
         if watch not in ("auto", "inotify", "poll"):
             raise ValueError(f"watch must be 'auto', 'inotify' or 'poll', got {watch!r}")
@@ -656,7 +720,13 @@ class MultiTailer:
         if not poll_interval_s > 0 or not math.isfinite(poll_interval_s):
             raise ValueError(f"poll_interval_s must be > 0, got {poll_interval_s!r}")
         self._tailers = {
-            m: StreamTailer(p, m, max_problems=max_problems, max_ahead_s=max_ahead_s)
+            m: StreamTailer(
+                p,
+                m,
+                max_problems=max_problems,
+                max_ahead_s=max_ahead_s,
+                record_stamps=record_stamps,
+            )
             for m, p in streams.items()
         }
         self.watch = watch

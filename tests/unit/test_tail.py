@@ -389,3 +389,24 @@ def test_wait_rejects_a_negative_timeout(tmp_path: Path) -> None:
 def test_an_unknown_watch_mode_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="watch must be"):
         MultiTailer({"a": tmp_path / "a.txt"}, watch="kqueue")  # type: ignore[arg-type]
+
+
+def test_bare_values_read_afterwards_get_the_times_the_live_reader_gave_them(
+    stream: Path,
+) -> None:
+    """The seed's bare ``<value>`` lines: the report and replay must see what the coach saw."""
+    from prezence.streams.tail import stamps_path
+
+    live = StreamTailer(stream, M, record_stamps=True)
+    seen: list[Sample] = []
+    for now, value in ((1.0, b"150\n"), (2.5, b"160\n170\n"), (4.0, b"3.0 180\n")):
+        append(stream, value)
+        seen += live.poll(now)
+    assert [(s.t, s.value) for s in seen] == [(1.0, 150), (2.5, 160), (2.5, 170), (3.0, 180)]
+    assert read_stream(stream, M)[0] == seen
+    # A replaced file starts its line numbers again: the old stamps no longer apply.
+    stream.unlink()
+    append(stream, b"190\n")
+    assert [s.t for s in live.poll(5.0)] == [5.0]
+    assert read_stream(stream, M)[0] == [Sample(M, 5.0, 190.0)]
+    assert stamps_path(stream).name == "speech_speed.txt.stamps"
