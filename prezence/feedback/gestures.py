@@ -28,15 +28,22 @@ import functools
 import logging
 import math
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from types import MappingProxyType
 from typing import Any
 
+import numpy as np
+
 from prezence.errors import ConfigError, LimitViolation, UnknownName
 from prezence.feedback.limits import HANDS, HIP_YAW_PITCH, JointLimits, require_finite
-from prezence.feedback.trajectory import Trajectory, min_segment_duration, segment_duration
+from prezence.feedback.trajectory import (
+    Trajectory,
+    min_segment_duration,
+    profile_time,
+    segment_duration,
+)
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +52,8 @@ GESTURES_FILE = "gestures.toml"
 DEFAULT_SPEED_FRACTION = 0.6
 #: Moves smaller than this (rad; hands: fraction) are no move at all.
 MIN_MOVE = 1e-9
+#: Spacing of the poses :func:`check_path` checks along a planned path (s).
+PATH_CHECK_DT = 0.01
 #: Mirror rule left → right arm: pitch and hand keep their value, roll and yaw change sign.
 _MIRROR_SIGN = {
     "ShoulderPitch": 1.0,
@@ -319,7 +328,9 @@ def build_trajectory(
     Raises:
         UnknownName: no such gesture.
         LimitViolation: a keyframe (or the start pose) is outside a position limit; the message
-            names the gesture, the keyframe (``keyframes[i]``) and the joint.
+            names the gesture, the keyframe (``keyframes[i]``) and the joint. Or the path
+            between keyframes leaves one (the head anti-collision range): the message names the
+            gesture, the time, the keyframe it heads to and the joint (:func:`check_path`).
         ValueError: ``speed_fraction`` outside (0, 1], or a NaN in ``start_pose`` (naming the
             joint).
     """
@@ -341,10 +352,12 @@ def build_trajectory(
         limits.check(sp, pose=current, where=f"gesture '{name}' start pose")
         current.update(sp)
     start = tuple(current[j] for j in joints)
+    still = {j: v for j, v in current.items() if j not in joints}  # what the path leaves alone
 
     speeds = [f * limits.velocity[j] for j in joints]
     times: list[float] = []
     positions: list[tuple[float, ...]] = []
+    heading: list[str] = []  # per keyframe time, the keyframe it arrives at
     t = 0.0
     prev = start
     targets = [(kf.pose, kf.hold, kf.where) for kf in frames]
@@ -362,10 +375,12 @@ def build_trajectory(
             t += dur
             times.append(t)
             positions.append(q)
+            heading.append(where)
         if hold > 0.0:
             t += hold
             times.append(t)
             positions.append(q)
+            heading.append(f"the hold at {where}")
         prev = q
     if not times:
         raise ConfigError(
@@ -373,8 +388,76 @@ def build_trajectory(
             path=GESTURES_FILE,
             key=f"gestures.{name}",
         )
-    return Trajectory(
+    traj = Trajectory(
         name=name, joints=joints, times=tuple(times), positions=tuple(positions), start=start
+    )
+    check_path(traj, limits=limits, pose=still, labels=heading)
+    return traj
+
+
+def path_check_times(
+    traj: Trajectory, *, limits: JointLimits, pose: Mapping[str, float] | None = None
+) -> np.ndarray:
+    """The times at which :func:`check_path` checks ``traj``'s pose, sorted.
+
+    Every ``PATH_CHECK_DT`` seconds, every keyframe, and, on each segment, the moments of
+    :meth:`~prezence.feedback.limits.JointLimits.critical_fractions` (where ``|HeadYaw|``
+    crosses a point of the head table), which make the check exact, not just sampled.
+    """
+    still = dict(pose or {})
+    knots_t = (0.0, *traj.times)
+    knots_q = (traj.start, *traj.positions)
+    found = set(np.arange(0.0, traj.duration, PATH_CHECK_DT).tolist()) | set(knots_t)
+    for k in range(len(traj.times)):
+        a, b = knots_q[k], knots_q[k + 1]
+        if a == b:
+            continue
+        fractions = limits.critical_fractions(
+            {**still, **dict(zip(traj.joints, a, strict=True))},
+            {**still, **dict(zip(traj.joints, b, strict=True))},
+        )
+        span = knots_t[k + 1] - knots_t[k]
+        found.update(knots_t[k] + profile_time(s, span) for s in fractions[1:-1])
+    return np.array(sorted(found))
+
+
+def check_path(
+    traj: Trajectory,
+    *,
+    limits: JointLimits,
+    pose: Mapping[str, float] | None = None,
+    labels: Sequence[str] | None = None,
+) -> None:
+    """Raise :class:`LimitViolation` if ``traj`` leaves a position limit anywhere on its path.
+
+    Keyframes within the limits do not make a path within them: the head anti-collision range
+    (HeadPitch limits that depend on HeadYaw) is not convex, so the straight move between two
+    allowed head poses can cross it. The poses at :func:`path_check_times` are checked.
+
+    Args:
+        traj: a planned trajectory.
+        limits: joint limits.
+        pose: the values of the joints ``traj`` does not move (e.g. ``HeadYaw``).
+        labels: per keyframe time of ``traj``, what it arrives at (``keyframes[2]``), for the
+            message.
+
+    Raises:
+        LimitViolation: naming the gesture, the time, the keyframe the robot is heading to and
+            the joint.
+    """
+    times = path_check_times(traj, limits=limits, pose=pose)
+    samples = np.array([traj.sample(float(t)) for t in times])
+    hit = limits.worst_violation(traj.joints, samples, pose=pose)
+    if hit is None:
+        return
+    i, problems = hit
+    t = float(times[i])
+    k = min(int(np.searchsorted(traj.times, t - 1e-12)), len(traj.times) - 1)
+    toward = labels[k] if labels is not None and k < len(labels) else f"keyframe {k}"
+    raise LimitViolation(
+        f"gesture '{traj.name}' at {t:.3f} s, on the way to {toward}: {problems[0]}; the "
+        "keyframes are within the limits but the straight path between them is not (add a "
+        "keyframe in between or move the head in two steps)"
     )
 
 
@@ -429,6 +512,7 @@ __all__ = [
     "Keyframe",
     "LimitViolation",
     "build_trajectory",
+    "check_path",
     "load_library",
     "parse_library",
     "segment_ratios",

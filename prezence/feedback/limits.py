@@ -27,7 +27,7 @@ from __future__ import annotations
 import functools
 import logging
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -202,12 +202,44 @@ class JointLimits:
     # -- coupled rules -----------------------------------------------------------------------
     def head_pitch_range(self, yaw: float) -> tuple[float, float]:
         """HeadPitch (min, max) allowed at this HeadYaw: the anti-collision table ∩ the URDF."""
+        lo, hi = self.head_pitch_ranges(np.asarray([float(yaw)]))
+        return float(lo[0]), float(hi[0])
+
+    def head_pitch_ranges(self, yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`head_pitch_range` for an array of HeadYaw values: (mins, maxes)."""
         table = np.asarray(HEAD_PITCH_TABLE)
-        a = abs(float(yaw))
-        lo = float(np.interp(a, table[:, 0], table[:, 1]))
-        hi = float(np.interp(a, table[:, 0], table[:, 2]))
+        a = np.abs(np.asarray(yaw, dtype=float))
         urdf = self["HeadPitch"]
-        return max(lo, urdf.lower), min(hi, urdf.upper)
+        lo = np.maximum(np.interp(a, table[:, 0], table[:, 1]), urdf.lower)
+        hi = np.minimum(np.interp(a, table[:, 0], table[:, 2]), urdf.upper)
+        return lo, hi
+
+    def critical_fractions(
+        self, start: Mapping[str, float], end: Mapping[str, float]
+    ) -> tuple[float, ...]:
+        """Where the straight move ``start`` → ``end`` can come closest to a position limit.
+
+        Along ``q(s) = start + s · (end − start)``, ``0 <= s <= 1``, every margin to a URDF
+        bound is linear in ``s``, and the head anti-collision range is piecewise linear in
+        ``|HeadYaw|`` with its corners at the table's yaw points. So each margin is smallest at
+        ``s = 0``, ``s = 1`` or an ``s`` where ``|HeadYaw|`` crosses a table point: checking the
+        poses at the returned fractions checks the whole move exactly. A joint missing from
+        ``end`` keeps its ``start`` value.
+
+        Example:
+            >>> load_limits().critical_fractions({"HeadYaw": 0.0}, {"HeadYaw": 1.0})
+            (0.0, 0.486074, 0.756077, 0.903033, 1.0)
+        """
+        out = {0.0, 1.0}
+        y0 = start.get("HeadYaw")
+        y1 = end.get("HeadYaw", y0)
+        if y0 is not None and y1 is not None and y1 != y0:
+            for point in (row[0] for row in HEAD_PITCH_TABLE):
+                for yaw in (point, -point):
+                    s = (yaw - y0) / (y1 - y0)
+                    if 0.0 < s < 1.0:
+                        out.add(s)
+        return tuple(sorted(out))
 
     def range(self, name: str, pose: Mapping[str, float] | None = None) -> tuple[float, float]:
         """The allowed (min, max) of ``name``; HeadPitch uses ``pose['HeadYaw']`` when given."""
@@ -282,6 +314,58 @@ class JointLimits:
                     f"[{fmt_value(name, lo)}, {fmt_value(name, hi)}]{why}"
                 )
         return problems
+
+    def worst_violation(
+        self,
+        names: Sequence[str],
+        samples: np.ndarray,
+        *,
+        pose: Mapping[str, float] | None = None,
+        tol: float = 1e-9,
+    ) -> tuple[int, list[str]] | None:
+        """The pose, of many checked at once, that breaks a position rule by the most.
+
+        Args:
+            names: the joints, one per column of ``samples``.
+            samples: poses, one per row (radians; hands: opening fraction).
+            pose: the values of joints not in ``names`` (e.g. ``HeadYaw`` for the head range).
+            tol: slack in the joint's unit.
+
+        Returns:
+            None when every row is within every rule, else the index of the row that is
+            furthest outside one and :meth:`violations`'s messages for it.
+
+        Raises:
+            ValueError: a NaN or infinite value (naming the joint).
+            UnknownName: an unknown joint.
+        """
+        q = np.asarray(samples, dtype=float).reshape(-1, len(names))
+        col = {n: i for i, n in enumerate(names)}
+        self.require_known(col)
+        for name, i in col.items():
+            if not np.isfinite(q[:, i]).all():
+                require_finite({name: float(q[~np.isfinite(q[:, i]), i][0])})
+        excess = np.zeros(len(q))
+        for name, i in col.items():
+            if name == "HeadPitch":
+                yaw = q[:, col["HeadYaw"]] if "HeadYaw" in col else None
+                if yaw is None and pose is not None and "HeadYaw" in pose:
+                    yaw = np.full(len(q), float(pose["HeadYaw"]))
+                if yaw is not None:
+                    lo, hi = self.head_pitch_ranges(yaw)
+                else:
+                    lo, hi = (np.full(len(q), v) for v in self.range(name))
+            else:
+                lo, hi = (np.full(len(q), v) for v in self.range(name))
+            excess = np.maximum(excess, np.maximum(lo - q[:, i], q[:, i] - hi))
+        left, right = HIP_YAW_PITCH
+        if left in col and right in col:
+            excess = np.maximum(excess, np.abs(q[:, col[left]] - q[:, col[right]]))
+        if not (excess > tol).any():
+            return None
+        i = int(np.argmax(excess))
+        row = {n: float(q[i, k]) for n, k in col.items()}
+        return i, self.violations(row, pose=pose, tol=tol)
 
     def check(
         self,

@@ -115,6 +115,29 @@ def profile(t: float, T: float) -> tuple[float, float, float]:
     return d / span, v / span, a / span
 
 
+def profile_time(s: float, T: float) -> float:
+    """The time at which a segment of duration ``T`` has covered the fraction ``s`` of its move.
+
+    The inverse of :func:`profile`'s position (which rises monotonically from 0 to 1), found by
+    bisection to well below a microsecond.
+
+    Example:
+        >>> round(profile_time(0.5, 1.2), 6)
+        0.6
+    """
+    if not T > 0.0:
+        raise ValueError(f"segment duration must be > 0, got {T!r}")
+    s = min(max(float(s), 0.0), 1.0)
+    lo, hi = 0.0, T
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if profile(mid, T)[0] < s:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
 def profile_peaks(T: float) -> tuple[float, float]:
     """Peak ``ds/dt`` and peak ``|d²s/dt²|`` of a segment of duration ``T`` (per unit move)."""
     r = min(RAMP_S, T / 2.0)

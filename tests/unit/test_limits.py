@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from prezence.errors import LimitViolation, UnknownName
@@ -113,3 +114,33 @@ def test_hands_are_opening_fractions(lim: JointLimits) -> None:
     assert (lim.lower["LHand"], lim.upper["LHand"]) == (0.0, 1.0)
     with pytest.raises(LimitViolation, match=r"RHand = 1\.20 \(opening\)"):
         lim.check({"RHand": 1.2})
+
+
+def test_worst_violation_finds_the_row_furthest_outside(lim: JointLimits) -> None:
+    names = ("HeadYaw", "HeadPitch", "LHand")
+    ok = [0.0, 0.0, 0.5]
+    rows = np.array([ok, [1.5, 0.25, 0.5], [1.5, 0.30, 0.5], ok])  # max HeadPitch ~0.23 at 1.5
+    assert lim.worst_violation(names, np.array([ok, ok])) is None
+    hit = lim.worst_violation(names, rows)
+    assert hit is not None
+    i, problems = hit
+    assert i == 2 and "HeadPitch" in problems[0] and "anti-collision" in problems[0]
+
+
+def test_worst_violation_uses_the_yaw_of_the_pose_given(lim: JointLimits) -> None:
+    rows = np.array([[0.45]])
+    assert lim.worst_violation(("HeadPitch",), rows, pose={"HeadYaw": 0.0}) is None
+    assert lim.worst_violation(("HeadPitch",), rows, pose={"HeadYaw": 1.5}) is not None
+
+
+def test_worst_violation_names_a_nan(lim: JointLimits) -> None:
+    with pytest.raises(ValueError, match="LElbowYaw target is nan"):
+        lim.worst_violation(("HeadYaw", "LElbowYaw"), np.array([[0.0, math.nan]]))
+
+
+def test_critical_fractions_are_where_the_yaw_crosses_the_table(lim: JointLimits) -> None:
+    assert lim.critical_fractions({"HeadPitch": 0.0}, {"HeadPitch": 0.3}) == (0.0, 1.0)
+    s = lim.critical_fractions({"HeadYaw": -1.0}, {"HeadYaw": 1.0})
+    crossed = sorted(-1.0 + 2.0 * f for f in s[1:-1])
+    expected = sorted(y for row in HEAD_PITCH_TABLE for y in {row[0], -row[0]} if abs(y) < 1.0)
+    assert crossed == pytest.approx(expected)
