@@ -4,8 +4,10 @@ For each gesture (``time_left`` at its smallest and largest parameter) the repor
 planned duration, the time-optimal minimum under the same speed and acceleration bounds, their
 ratio, the highest planned joint speed as a share of that joint's URDF limit, and the smallest
 distance to a position limit along the whole path (sampled every 5 ms, head anti-collision range
-included). The exit status is non-zero when any gesture breaks a limit or is slower than
-``MAX_RATIO`` × its minimum.
+included) and, when PyBullet is installed, the least clearance between two non-adjacent links
+of the robot along the path (:mod:`prezence.feedback.collision`, the URDF's collision shapes).
+The exit status is non-zero when any gesture breaks a limit, comes closer to itself than
+``MIN_CLEARANCE_M``, or is slower than ``MAX_RATIO`` × its minimum.
 """
 
 from __future__ import annotations
@@ -13,11 +15,13 @@ from __future__ import annotations
 import json
 import logging
 import math
+from contextlib import ExitStack
 from typing import Any
 
 import numpy as np
 
 from prezence.errors import LimitViolation, PrezenceError
+from prezence.feedback.collision import MIN_CLEARANCE_M, SelfCollisionChecker, pybullet_available
 from prezence.feedback.gestures import (
     GestureLibrary,
     build_trajectory,
@@ -81,11 +85,37 @@ def _path_margin(
 
 
 def gesture_rows(
-    speed_fraction: float, *, limits: JointLimits | None = None
+    speed_fraction: float,
+    *,
+    limits: JointLimits | None = None,
+    collisions: bool | None = None,
 ) -> list[dict[str, Any]]:
-    """One row of figures per gesture case (see the module docstring)."""
+    """One row of figures per gesture case (see the module docstring).
+
+    Args:
+        speed_fraction: fraction of the URDF velocity limits, in (0, 1].
+        limits: joint limits (default: the project's URDF).
+        collisions: measure self-clearance (needs PyBullet); None: when PyBullet is installed.
+    """
     limits = limits if limits is not None else load_limits()
     lib = load_library(limits)
+    if collisions is None:
+        collisions = pybullet_available()
+    with ExitStack() as stack:
+        checker = (
+            stack.enter_context(SelfCollisionChecker(limits=limits, library=lib))
+            if collisions
+            else None
+        )
+        return _rows(speed_fraction, limits, lib, checker)
+
+
+def _rows(
+    speed_fraction: float,
+    limits: JointLimits,
+    lib: GestureLibrary,
+    checker: SelfCollisionChecker | None,
+) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for label, name, params in _cases(lib):
         row: dict[str, Any] = {"gesture": label}
@@ -112,6 +142,18 @@ def gesture_rows(
         ratio = traj.duration / t_min if t_min > 0 else math.inf
         if ratio > MAX_RATIO:
             problems.append(f"duration {ratio:.3f} × the time-optimal minimum > {MAX_RATIO}")
+        if checker is not None:
+            clearance = checker.trajectory_clearance(traj)
+            row.update(
+                clearance_mm=round(clearance.mm, 1),
+                clearance_links=list(clearance.links),
+                clearance_at_s=clearance.time_s,
+            )
+            if clearance.distance_m < MIN_CLEARANCE_M:
+                problems.append(
+                    f"self-collision: {clearance.describe()} "
+                    f"(< {1000 * MIN_CLEARANCE_M:.0f} mm clearance)"
+                )
         row.update(
             ok=not problems,
             duration_s=round(traj.duration, 4),
@@ -131,21 +173,27 @@ def gesture_rows(
     return rows
 
 
-def check_gestures(speed_fraction: float, *, as_json: bool) -> tuple[str, int]:
+def check_gestures(
+    speed_fraction: float, *, as_json: bool, collisions: bool | None = None
+) -> tuple[str, int]:
     """The report for ``prezence gestures check`` and its exit status.
 
     Args:
         speed_fraction: fraction of the URDF velocity limits, in (0, 1].
         as_json: JSON (one object with the settings and a row per gesture) instead of a table.
+        collisions: check self-collision (needs PyBullet); None: when PyBullet is installed.
 
     Returns:
-        (text, status): status 0 when every gesture is within every limit and within
-        ``MAX_RATIO`` of its time-optimal minimum, 1 otherwise, 2 for a bad argument.
+        (text, status): status 0 when every gesture is within every limit, keeps
+        ``MIN_CLEARANCE_M`` from itself (when checked) and is within ``MAX_RATIO`` of its
+        time-optimal minimum, 1 otherwise, 2 for a bad argument.
     """
     if not 0.0 < speed_fraction <= 1.0:
         return f"error: --speed must be in (0, 1], got {speed_fraction}", 2
+    if collisions is None:
+        collisions = pybullet_available()
     try:
-        rows = gesture_rows(speed_fraction)
+        rows = gesture_rows(speed_fraction, collisions=collisions)
     except PrezenceError as e:
         return f"error: {e}", 2
     status = 0 if all(r["ok"] for r in rows) else 1
@@ -156,6 +204,11 @@ def check_gestures(speed_fraction: float, *, as_json: bool) -> tuple[str, int]:
         "blend_fraction": BLEND_FRACTION,
         "accel_bound": f"fraction x URDF velocity / {ACCEL_TIME_S:.2f} s",
         "max_ratio": MAX_RATIO,
+        "self_collision": (
+            f"URDF collision shapes, non-adjacent links, >= {1000 * MIN_CLEARANCE_M:.0f} mm"
+            if collisions
+            else 'not checked (needs pybullet: pip install "prezence[sim]")'
+        ),
     }
     if as_json:
         return json.dumps(
@@ -166,21 +219,30 @@ def check_gestures(speed_fraction: float, *, as_json: bool) -> tuple[str, int]:
         f"{RAMP_S:.2f} s ramps and {BLEND_FRACTION:.0%} blends, "
         f"acceleration bound v/{ACCEL_TIME_S:.2f} s",
         f"{'gesture':<22}{'planned':>9}{'minimum':>9}{'ratio':>7}  {'peak speed (of limit)':<27}"
-        f"{'position margin':<24}status",
+        f"{'position margin':<24}" + (f"{'self clearance':<33}" if collisions else "") + "status",
     ]
+    if not collisions:
+        lines.insert(1, f"self-collision {settings['self_collision']}")
     for r in rows:
         if "duration_s" not in r:
             lines.append(
-                f"{r['gesture']:<22}{'-':>9}{'-':>9}{'-':>7}  {'':<27}{'':<24}FAIL: {r['error']}"
+                f"{r['gesture']:<22}{'-':>9}{'-':>9}{'-':>7}  {'':<27}{'':<24}"
+                + (f"{'':<33}" if collisions else "")
+                + f"FAIL: {r['error']}"
             )
             continue
         peak = f"{r['peak_velocity_pct']:5.1f} % {r['peak_velocity_joint']}"
         margin = f"{r['margin_deg']:6.1f}° {r['margin_joint']}"
+        clear = (
+            f"{r['clearance_mm']:6.1f} mm {'-'.join(r['clearance_links'])}"
+            if "clearance_mm" in r
+            else ""
+        )
         state = "ok" if r["ok"] else f"FAIL: {r['error']}"
         lines.append(
             f"{r['gesture']:<22}{r['duration_s']:>7.2f} s{r['time_optimal_s']:>7.2f} s"
             f"{r['ratio']:>7.3f}  "
-            f"{peak:<27}{margin:<24}{state}"
+            f"{peak:<27}{margin:<24}" + (f"{clear:<33}" if collisions else "") + state
         )
     measured = [r for r in rows if "ratio" in r]
     worst = max(measured, key=lambda r: r["ratio"]) if measured else None
@@ -188,6 +250,13 @@ def check_gestures(speed_fraction: float, *, as_json: bool) -> tuple[str, int]:
     if worst is not None:
         summary += (
             f"; largest ratio {worst['ratio']:.3f} ({worst['gesture']}), bound {MAX_RATIO:.2f}"
+        )
+    cleared = [r for r in rows if "clearance_mm" in r]
+    if cleared:
+        closest = min(cleared, key=lambda r: r["clearance_mm"])
+        summary += (
+            f"; least self clearance {closest['clearance_mm']:.1f} mm ({closest['gesture']}), "
+            f"bound {1000 * MIN_CLEARANCE_M:.0f} mm"
         )
     lines.append(summary)
     return "\n".join(lines), status

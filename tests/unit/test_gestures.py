@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -149,6 +150,42 @@ def test_keyframe_outside_limits_names_gesture_keyframe_and_joint() -> None:
         build_trajectory("wave", speed_fraction=0.6, limits=LIMITS, library=lib)
 
 
+def test_a_path_that_cuts_the_head_range_names_gesture_time_and_joint() -> None:
+    # each keyframe is allowed; on the way, where |HeadYaw| passes 87°, HeadPitch may reach
+    # only 11.5° but the straight path is near 20° there
+    lib = parse_library(
+        _tiny_library(
+            "[[gestures.wave.keyframes]]\npose = { HeadYaw = 0, HeadPitch = 28 }\n"
+            "[[gestures.wave.keyframes]]\npose = { HeadYaw = 115, HeadPitch = 17 }\n"
+        ),
+        limits=LIMITS,
+    )
+    with pytest.raises(LimitViolation) as err:
+        build_trajectory("wave", speed_fraction=0.6, limits=LIMITS, library=lib)
+    msg = str(err.value)
+    assert re.match(r"gesture 'wave' at \d+\.\d{3} s, on the way to keyframes\[1\]: HeadPitch", msg)
+    assert "anti-collision" in msg and "straight path" in msg
+    t = float(msg.split(" at ", 1)[1].split(" s,", 1)[0])
+    assert t > 0.0
+
+
+def test_the_same_head_move_in_two_steps_is_planned() -> None:
+    lib = parse_library(
+        _tiny_library(
+            "[[gestures.wave.keyframes]]\npose = { HeadYaw = 0, HeadPitch = 28 }\n"
+            "[[gestures.wave.keyframes]]\npose = { HeadYaw = 0, HeadPitch = 5 }\n"
+            "[[gestures.wave.keyframes]]\npose = { HeadYaw = 115, HeadPitch = 5 }\n"
+            "[[gestures.wave.keyframes]]\npose = { HeadYaw = 115, HeadPitch = 17 }\n"
+            "[[gestures.wave.keyframes]]\npose = { HeadPitch = 5 }\n"  # the return too
+        ),
+        limits=LIMITS,
+    )
+    traj = build_trajectory("wave", speed_fraction=0.6, limits=LIMITS, library=lib)
+    for t in np.arange(0.0, traj.duration, 0.002):
+        q = dict(zip(traj.joints, traj.sample(float(t)), strict=True))
+        LIMITS.check(q, pose=dict(lib.neutral), where=f"t={t:.3f}")
+
+
 def test_keyframe_in_a_repeated_sequence_is_located() -> None:
     lib = parse_library(
         _tiny_library(
@@ -216,20 +253,21 @@ def test_sampled_velocity_is_the_derivative_of_the_sampled_position() -> None:
 
 
 def test_check_reports_every_gesture_and_passes() -> None:
-    text, status = check_gestures(0.6, as_json=False)
+    text, status = check_gestures(0.6, as_json=False, collisions=False)
     assert status == 0, text
     for name in LIBRARY.names:
         assert name in text
-    report = json.loads(check_gestures(0.6, as_json=True)[0])
+    assert "self-collision not checked" in text  # tests/sim/test_self_collision.py does
+    report = json.loads(check_gestures(0.6, as_json=True, collisions=False)[0])
     assert report["ok"] is True
     assert all(row["peak_velocity_pct"] <= 60.0 + 1e-6 for row in report["gestures"])
     assert all(row["ratio"] <= MAX_RATIO for row in report["gestures"])
 
 
 def test_check_refuses_a_bad_fraction() -> None:
-    assert check_gestures(0.0, as_json=False)[1] == 2
+    assert check_gestures(0.0, as_json=False, collisions=False)[1] == 2
 
 
 def test_check_rows_give_positive_margins() -> None:
-    rows = gesture_rows(1.0)
+    rows = gesture_rows(1.0, collisions=False)
     assert all(r["ok"] and r["margin_deg"] >= 0.0 for r in rows)

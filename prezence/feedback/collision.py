@@ -1,0 +1,263 @@
+"""Self-collision of planned gestures, measured with the URDF's own collision shapes in PyBullet.
+
+Position limits say nothing about the robot's body: two keyframes can each be within every joint
+range and still put one hand inside the other, or a forearm into the chest. A real NAO cannot
+reach such a pose (its shell stops it, or its joints stall against each other), so the gesture
+would not look as planned. :class:`SelfCollisionChecker` loads the project's URDF in a headless
+PyBullet client and measures, for a pose or along a whole planned trajectory (sampled every
+``SAMPLE_DT``), the smallest signed distance between any two links that are not **adjacent**:
+two links are adjacent when one is the other's nearest ancestor that has a collision shape
+(e.g. ``LForeArm`` and ``LBicep``, across the shapeless ``LElbow``); they touch at their joint
+by construction. ``torso`` and ``LForeArm`` are not adjacent, so a forearm in the chest counts.
+
+The shapes are the URDF's primitives (boxes, cylinders, spheres), a few millimetres larger or
+smaller than NAO's shell in places; :data:`MIN_CLEARANCE_M` is the margin a gesture keeps.
+
+PyBullet is an optional dependency (the ``sim`` extra): this module imports it only inside
+:class:`SelfCollisionChecker`; :func:`pybullet_available` says whether it can.
+
+Example:
+    >>> from prezence.feedback.gestures import build_trajectory
+    >>> from prezence.feedback.limits import load_limits
+    >>> lim = load_limits()
+    >>> with SelfCollisionChecker(limits=lim) as checker:  # doctest: +SKIP
+    ...     c = checker.trajectory_clearance(build_trajectory("summary", speed_fraction=0.6,
+    ...                                                        limits=lim))
+    >>> c.distance_m >= MIN_CLEARANCE_M  # doctest: +SKIP
+    True
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+
+from prezence.errors import BackendUnavailable
+from prezence.feedback.gestures import GestureLibrary, load_library
+from prezence.feedback.limits import JointLimits, load_limits
+from prezence.feedback.trajectory import Trajectory
+
+#: The least distance (m) two non-adjacent links of a planned gesture must keep.
+MIN_CLEARANCE_M = 0.005
+#: Time between the checked poses of a trajectory (s). The distance between two links is
+#: smooth near its minimum, so sampling misses that minimum by well under a millimetre.
+SAMPLE_DT = 0.01
+#: Pairs further apart than this (m) are not measured (the whole robot fits well within it).
+_SEARCH_M = 1.0
+#: A first, cheaper search radius (m); the full one is used only when no pair is this close.
+_NEAR_M = 0.05
+
+
+def pybullet_available() -> bool:
+    """Whether PyBullet can be imported (without importing it)."""
+    return importlib.util.find_spec("pybullet") is not None
+
+
+@dataclass(frozen=True)
+class Clearance:
+    """The closest two non-adjacent links come, in a pose or along a motion.
+
+    Attributes:
+        distance_m: the smallest signed distance between their collision shapes (m); negative
+            when the shapes overlap by that much.
+        links: the two links (URDF link names, e.g. ``l_wrist``, ``r_wrist``).
+        time_s: when along the trajectory (None for a single pose).
+    """
+
+    distance_m: float
+    links: tuple[str, str]
+    time_s: float | None = None
+
+    @property
+    def mm(self) -> float:
+        """``distance_m`` in millimetres."""
+        return 1000.0 * self.distance_m
+
+    def describe(self) -> str:
+        """E.g. ``"-18.5 mm between l_wrist and r_wrist at 1.60 s"``."""
+        when = f" at {self.time_s:.2f} s" if self.time_s is not None else ""
+        return f"{self.mm:.1f} mm between {self.links[0]} and {self.links[1]}{when}"
+
+
+class SelfCollisionChecker:
+    """A headless PyBullet client holding the NAO, for clearance queries (see the module doc).
+
+    Joints a query does not name stay at the gesture library's neutral pose. Use it as a
+    context manager, or call :meth:`close`.
+
+    Args:
+        limits: joint limits; their URDF (``limits.source``) is the one loaded.
+        library: the gesture library whose neutral pose is the base pose (default built-in).
+
+    Raises:
+        BackendUnavailable: PyBullet is not installed (names the extra to install).
+    """
+
+    def __init__(
+        self, *, limits: JointLimits | None = None, library: GestureLibrary | None = None
+    ) -> None:
+        try:
+            import pybullet
+        except ModuleNotFoundError as e:
+            raise BackendUnavailable(
+                'the self-collision check needs pybullet: pip install "prezence[sim]"'
+            ) from e
+        self._p: Any = pybullet
+        self.limits = limits if limits is not None else load_limits()
+        lib = library if library is not None else load_library(self.limits)
+        self.neutral: dict[str, float] = dict(lib.neutral)
+        p = self._p
+        cid = int(p.connect(p.DIRECT))
+        try:
+            self._robot = p.loadURDF(
+                str(self.limits.source), [0, 0, 0], useFixedBase=True, physicsClientId=cid
+            )
+        except Exception:
+            p.disconnect(cid)
+            raise
+        self._cid: int | None = cid
+        self._index: dict[str, int] = {}
+        self.link_names: dict[int, str] = {}
+        parent: dict[int, int] = {}
+        for i in range(p.getNumJoints(self._robot, physicsClientId=cid)):
+            info = p.getJointInfo(self._robot, i, physicsClientId=cid)
+            self._index[info[1].decode()] = i
+            self.link_names[i] = info[12].decode()
+            parent[i] = int(info[16])
+        shaped = {
+            i
+            for i in self.link_names
+            if p.getCollisionShapeData(self._robot, i, physicsClientId=cid)
+        }
+        adjacent: set[tuple[int, int]] = set()
+        for i in shaped:
+            j = parent[i]
+            while j != -1 and j not in shaped:
+                j = parent[j]
+            if j != -1:
+                adjacent.add((min(i, j), max(i, j)))
+        self._parent = parent
+        self._pair_ids: tuple[tuple[int, int], ...] = tuple(
+            (a, b)
+            for a in sorted(shaped)
+            for b in sorted(shaped)
+            if a < b and (a, b) not in adjacent
+        )
+        #: The link pairs measured: every two links with shapes that are not adjacent.
+        self.pairs: tuple[tuple[str, str], ...] = tuple(
+            (self.link_names[a], self.link_names[b]) for a, b in self._pair_ids
+        )
+        self._pose: dict[str, float] = {}
+        self._set(self.neutral)
+
+    # -- life cycle ------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Disconnect the PyBullet client (idempotent)."""
+        if self._cid is not None:
+            self._p.disconnect(self._cid)
+            self._cid = None
+
+    def __enter__(self) -> SelfCollisionChecker:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # -- queries ---------------------------------------------------------------------------------
+    def _client(self) -> int:
+        if self._cid is None:
+            raise RuntimeError("the self-collision checker is closed")
+        return self._cid
+
+    def _set(self, pose: Mapping[str, float]) -> None:
+        p, cid = self._p, self._client()
+        for name, value in pose.items():
+            if self._pose.get(name) != value and name in self._index:
+                p.resetJointState(self._robot, self._index[name], float(value), physicsClientId=cid)
+                self._pose[name] = value
+
+    def _closest(self, pairs: Sequence[tuple[int, int]]) -> tuple[float, tuple[str, str]]:
+        """The least distance between the link pairs given (link indices) and its pair."""
+        p, cid, robot = self._p, self._client(), self._robot
+        best, where = math.inf, ("", "")
+        for search in (_NEAR_M, _SEARCH_M):  # the near search is cheaper and nearly always hits
+            for a, b in pairs:
+                for c in p.getClosestPoints(robot, robot, search, a, b, physicsClientId=cid):
+                    if c[8] < best:
+                        best, where = float(c[8]), (self.link_names[a], self.link_names[b])
+            if best < math.inf:
+                break
+        return best, where
+
+    def _moving(self, joints: Sequence[str]) -> set[int]:
+        """Links that move when ``joints`` do (their children, and those links' descendants)."""
+        moved = {self._index[j] for j in joints if j in self._index}
+        out: set[int] = set()
+        for link in self.link_names:
+            k = link
+            while k != -1 and k not in moved:
+                k = self._parent[k]
+            if k != -1:
+                out.add(link)
+        return out
+
+    def pose_clearance(self, pose: Mapping[str, float]) -> Clearance:
+        """Clearance of one pose (radians; hands: opening fraction; other joints: neutral).
+
+        Raises:
+            UnknownName: a joint the limits do not know.
+        """
+        self.limits.require_known(pose)
+        self._set({**self.neutral, **self.limits.couple(pose)})
+        distance, links = self._closest(self._pair_ids)
+        return Clearance(distance, links)
+
+    def trajectory_clearance(
+        self,
+        traj: Trajectory,
+        *,
+        pose: Mapping[str, float] | None = None,
+        dt: float = SAMPLE_DT,
+    ) -> Clearance:
+        """The least clearance along ``traj``, sampled every ``dt`` seconds and at its end.
+
+        Args:
+            traj: a planned trajectory.
+            pose: values of joints ``traj`` does not move (default: neutral).
+            dt: time between checked poses (s).
+        """
+        if not dt > 0:
+            raise ValueError(f"dt must be > 0, got {dt!r}")
+        self._set({**self.neutral, **self.limits.couple(dict(pose or {}))})
+        moving = self._moving(traj.joints)
+        changing = [(a, b) for a, b in self._pair_ids if a in moving or b in moving]
+        fixed = [(a, b) for a, b in self._pair_ids if a not in moving and b not in moving]
+        distance, links = self._closest(fixed)  # these keep their distance all along
+        best = Clearance(distance, links, 0.0)
+        times = np.append(np.arange(0.0, traj.duration, dt), traj.duration)
+        for t in times:
+            self._set(dict(zip(traj.joints, traj.sample(float(t)).tolist(), strict=True)))
+            distance, links = self._closest(changing)
+            if distance < best.distance_m:
+                best = Clearance(distance, links, float(t))
+        return best
+
+
+__all__ = [
+    "MIN_CLEARANCE_M",
+    "SAMPLE_DT",
+    "Clearance",
+    "SelfCollisionChecker",
+    "pybullet_available",
+]
