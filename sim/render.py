@@ -3,13 +3,25 @@
 Headless: PyBullet's CPU ``ER_TINY_RENDERER`` (DIRECT mode has no OpenGL). The robot is played
 through :class:`sim.nao.NaoSim` exactly as in a talk (velocity-capped tracking of the planned
 trajectory), so the pictures show what the simulated robot did, not just the plan.
+
+Videos (the suffix picks the format, checked before anything is rendered):
+
+* ``.mp4``: H.264 (``avc1``, what browsers play) when the OpenCV build can encode it, else
+  MPEG-4 Part 2 (``mp4v``, which VLC and most desktop players play but browsers often do not);
+  the result says which (``video_codec``).
+* ``.gif``: an animated GIF through Pillow (installed with matplotlib, the ``report`` extra).
+* ``.avi``: Motion JPEG.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
-from collections.abc import Mapping, Sequence
+import os
+import sys
+import tempfile
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +43,12 @@ FRAME_SIZE = (240, 240)
 CAMERA_TARGET = (0.0, 0.0, 0.30)
 CAMERA_DISTANCE = 0.95
 CAMERA_VIEWS = ((90.0 + 15.0, -8.0), (90.0 - 60.0, -10.0))
+#: Video suffixes and the codecs tried, in order ("gif": written with Pillow, not OpenCV).
+VIDEO_CODECS: Mapping[str, tuple[str, ...]] = {
+    ".mp4": ("avc1", "mp4v"),
+    ".gif": ("gif",),
+    ".avi": ("MJPG",),
+}
 
 
 def _cv2() -> Any:
@@ -43,6 +61,36 @@ def _cv2() -> Any:
             'rendering needs OpenCV: pip install "prezence[sim]" (opencv-python-headless)'
         ) from e
     return cv2
+
+
+def check_video_path(path: Path | str) -> Path:
+    """``path`` if its suffix is a video format this module writes, else a clear error.
+
+    Raises:
+        ConfigError: an unsupported suffix (naming the ones supported).
+        BackendUnavailable: a GIF without Pillow, or a video without OpenCV.
+    """
+    from prezence.errors import BackendUnavailable, ConfigError
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in VIDEO_CODECS:
+        supported = ", ".join(VIDEO_CODECS)
+        raise ConfigError(
+            f"cannot write a video as {suffix or 'a file without a suffix'!r}: use one of "
+            f"{supported} (MP4 plays in browsers when OpenCV has H.264)",
+            path=path,
+        )
+    if suffix == ".gif":
+        try:
+            import PIL.Image  # noqa: F401
+        except ImportError as e:
+            raise BackendUnavailable(
+                'a GIF needs Pillow: pip install "prezence[report]" (or pillow), or write .mp4'
+            ) from e
+    else:
+        _cv2()
+    return path
 
 
 def _add_floor(cid: int) -> None:
@@ -148,7 +196,8 @@ def render_gesture(
     Args:
         name: gesture name (``time_left`` takes ``params={"minutes": N}``).
         out_png: contact sheet of ``frames`` labelled frames.
-        out_video: ``.mp4`` (OpenCV ``mp4v``) or ``.avi`` (MJPG); None for no video.
+        out_video: ``.mp4``, ``.gif`` or ``.avi`` (see the module docstring); None for no
+            video. Checked before rendering.
         params: gesture parameters.
         fps: video frame rate (frames are rendered at simulated times k / fps).
         speed_fraction: fraction of the URDF velocity limits.
@@ -156,9 +205,15 @@ def render_gesture(
         frames: frames on the contact sheet.
 
     Returns:
-        Figures of the run: planned and measured duration, frames written.
+        Figures of the run: planned and measured duration, frames written, the video codec.
+
+    Raises:
+        ConfigError: an unsupported video suffix (before anything is rendered).
+        BackendUnavailable: OpenCV missing, or Pillow for a GIF.
     """
     cv2 = _cv2()
+    if out_video is not None:
+        out_video = check_video_path(out_video)
     limits = load_limits()
     load_library(limits)[name]  # unknown gesture raises before any work
     traj = build_trajectory(name, params=params, speed_fraction=speed_fraction, limits=limits)
@@ -192,29 +247,95 @@ def render_gesture(
         "png": str(out_png),
     }
     if out_video is not None:
-        out_video = Path(out_video)
-        _write_video(out_video, [shots[t] for t in video_at], fps)
+        result["video_codec"] = write_video(out_video, [shots[t] for t in video_at], fps)
         result["video"] = str(out_video)
         result["video_frames"] = len(video_at)
     return result
 
 
-def _write_video(path: Path, images: Sequence[np.ndarray], fps: int) -> None:
-    cv2 = _cv2()
-    codecs = {".mp4": "mp4v", ".avi": "MJPG"}
-    codec = codecs.get(path.suffix.lower())
-    if codec is None:
-        raise ValueError(f"video must be .mp4 or .avi, not {path.suffix!r}")
+@contextlib.contextmanager
+def _stderr_to(sink: Any) -> Iterator[None]:
+    """Send file descriptor 2 to ``sink`` for a while: OpenCV and FFmpeg print their failed
+    encoder probes there directly, not through Python."""
+    sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr to quieten
+        yield
+        return
+    try:
+        os.dup2(sink.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def write_video(path: Path | str, images: Sequence[np.ndarray], fps: int) -> str:
+    """Write RGB frames as a video; the suffix picks the format (:data:`VIDEO_CODECS`).
+
+    Returns:
+        The codec used (``avc1``, ``mp4v``, ``MJPG`` or ``gif``).
+
+    Raises:
+        ConfigError: an unsupported suffix.
+        BackendUnavailable: OpenCV (or, for a GIF, Pillow) is missing.
+        OSError: no codec of the suffix could be opened, or the file cannot be written.
+    """
+    path = check_video_path(path)
+    if not images:
+        raise ValueError("no frames to write")
     path.parent.mkdir(parents=True, exist_ok=True)
+    codecs = VIDEO_CODECS[path.suffix.lower()]
+    if codecs == ("gif",):
+        _write_gif(path, images, fps)
+        return "gif"
+    cv2 = _cv2()
     h, w = images[0].shape[:2]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*codec), float(fps), (w, h))
-    if not writer.isOpened():
-        raise OSError(f"OpenCV cannot write {path} with codec {codec}")
+    tried: list[str] = []
+    for codec in codecs:
+        with tempfile.TemporaryFile(mode="w+") as noise:
+            with _stderr_to(noise):
+                writer = cv2.VideoWriter(
+                    str(path), cv2.VideoWriter_fourcc(*codec), float(fps), (w, h)
+                )
+            noise.seek(0)
+            said = noise.read().strip()
+        if writer.isOpened():
+            break
+        writer.release()
+        tried.append(codec)
+        log.info("OpenCV cannot encode %s as %s here (%s)", path.name, codec, said or "no reason")
+    else:
+        raise OSError(f"OpenCV cannot write {path} with any of {', '.join(tried)}")
+    if tried:
+        log.warning(
+            "%s: written as %s, which browsers may not play (this OpenCV has no %s encoder); "
+            "VLC plays it, or write a .gif",
+            path,
+            codec,
+            tried[0],
+        )
     try:
         for img in images:
             writer.write(cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
     finally:
         writer.release()
+    return codec
+
+
+def _write_gif(path: Path, images: Sequence[np.ndarray], fps: int) -> None:
+    from PIL import Image
+
+    frames = [Image.fromarray(np.ascontiguousarray(img)) for img in images]
+    frames[0].save(
+        path,
+        save_all=True,
+        append_images=frames[1:],
+        duration=max(20, round(1000.0 / fps)),  # ms per frame; browsers clamp below 20
+        loop=0,
+        disposal=1,
+    )
 
 
 def _main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,105 @@
+"""Gesture renders: the video suffix is checked before rendering; MP4, GIF and AVI are written."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pybullet")
+cv2 = pytest.importorskip("cv2")
+
+import sim.render as render  # noqa: E402
+from prezence.errors import BackendUnavailable, ConfigError  # noqa: E402
+
+
+def _frames(n: int = 6) -> list[np.ndarray]:
+    out = []
+    for k in range(n):
+        img = np.full((48, 64, 3), 255, dtype=np.uint8)
+        img[:, 8 * k : 8 * k + 8] = (200, 40, 20)  # a bar that moves: no two frames alike
+        out.append(img)
+    return out
+
+
+def test_an_unsupported_suffix_fails_before_anything_is_rendered(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def no_sim(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("rendering started")
+
+    monkeypatch.setattr(render, "NaoSim", no_sim)
+    with pytest.raises(ConfigError, match=r"x\.mov: .*'\.mov'.*\.mp4, \.gif, \.avi"):
+        render.render_gesture("encourage", tmp_path / "x.png", tmp_path / "x.mov")
+    with pytest.raises(ConfigError, match="without a suffix"):
+        render.render_gesture("encourage", tmp_path / "x.png", tmp_path / "x")
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_gif_is_an_animation_with_every_frame(tmp_path: Path) -> None:
+    from PIL import Image
+
+    out = tmp_path / "sub" / "clip.GIF"
+    assert render.write_video(out, _frames(), fps=25) == "gif"
+    with Image.open(out) as im:
+        assert im.n_frames == 6
+        assert im.info["duration"] == 40 and im.info["loop"] == 0
+
+
+def test_gif_without_pillow_says_what_to_install(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "PIL", None)
+    monkeypatch.setitem(sys.modules, "PIL.Image", None)
+    with pytest.raises(BackendUnavailable, match="GIF needs Pillow"):
+        render.check_video_path(tmp_path / "clip.gif")
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".avi"])
+def test_opencv_videos_hold_every_frame(tmp_path: Path, suffix: str) -> None:
+    out = tmp_path / f"clip{suffix}"
+    codec = render.write_video(out, _frames(), fps=25)
+    assert codec in render.VIDEO_CODECS[suffix]
+    cap = cv2.VideoCapture(str(out))
+    try:
+        assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 6
+    finally:
+        cap.release()
+
+
+class _Unopened:
+    """What cv2.VideoWriter gives for a codec it cannot open."""
+
+    def isOpened(self) -> bool:  # noqa: N802 (OpenCV's name)
+        return False
+
+    def release(self) -> None:
+        pass
+
+
+def test_mp4_prefers_h264_and_falls_back(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    asked: list[str] = []
+    real = cv2.VideoWriter
+
+    def writer(path: str, fourcc: int, fps: float, size: tuple[int, int]) -> Any:
+        name = "".join(chr((fourcc >> 8 * i) & 0xFF) for i in range(4))
+        asked.append(name)
+        if name == "avc1":  # as in an OpenCV build without an H.264 encoder
+            return _Unopened()
+        return real(path, fourcc, fps, size)
+
+    monkeypatch.setattr(cv2, "VideoWriter", writer)
+    assert render.write_video(tmp_path / "clip.mp4", _frames(), fps=25) == "mp4v"
+    assert asked == ["avc1", "mp4v"]
+
+
+def test_render_writes_a_sheet_and_a_gif(tmp_path: Path) -> None:
+    result = render.render_gesture(
+        "encourage", tmp_path / "e.png", tmp_path / "e.gif", fps=10, size=(96, 96)
+    )
+    assert result["video_codec"] == "gif"
+    assert (tmp_path / "e.png").stat().st_size > 0
+    assert result["video_frames"] >= 10 * result["planned_s"]
