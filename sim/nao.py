@@ -16,6 +16,11 @@ How it is simulated, and why:
 * **Trajectories** (:meth:`NaoSim.follow`) are tracked by sampling ``Trajectory.sample`` and
   ``Trajectory.velocity`` at the end of each physics step (position target plus velocity feed-
   forward), still under the velocity cap.
+* **One owner per joint.** Several trajectories may run at once (NAOqi's ``angleInterpolation``
+  gives each joint its own time list, and two calls on different joints overlap). Each joint
+  follows the last command given to it: a new trajectory or ``set_targets`` takes its joints
+  over, and the other joints keep following the trajectories they had. A trajectory that loses
+  a joint goes on with the rest and ends with ``ok=False``; one that loses them all ends at once.
 * **Coupled joints.** A HipYawPitch target goes to both hip joints (PyBullet ignores
   ``<mimic>``); HeadPitch targets are clipped to the HeadYaw-dependent anti-collision range.
 * **No self-collision** by default: the shapes are visual stand-ins and neighbouring links
@@ -34,7 +39,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -77,8 +82,13 @@ class Tracking:
         violations: samples beyond a position or velocity limit during it.
         arrived_at: first sim time from which every joint stayed within ``ARRIVAL_TOL`` of the
             final pose (None until the motion has settled).
-        finished_at: sim time the motion was declared over (arrived and at rest, or timed out).
-        ok: False if it timed out before settling.
+        finished_at: sim time the motion was declared over (arrived and at rest, timed out, or
+            every joint taken over by another command).
+        ok: False if it timed out before settling or another command took any of its joints.
+        fraction: the velocity cap of its commands, as a fraction of the URDF limits.
+        cols: per joint of the trajectory, its column in :attr:`NaoSim.joint_names` order.
+        active: per joint of the trajectory, False once another command has taken it over (its
+            speed, violations and arrival then no longer count here).
     """
 
     traj: Trajectory
@@ -90,6 +100,9 @@ class Tracking:
     arrived_at: float | None = None
     finished_at: float | None = None
     ok: bool = True
+    fraction: float = 1.0
+    cols: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int), repr=False)
+    active: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
     _inside_since: float | None = field(default=None, repr=False)
 
     @property
@@ -142,9 +155,9 @@ class NaoSim:
         self._index: dict[str, int] = {}
         self._limits: JointLimits | None = None
         self._targets: dict[str, float] = {}
-        self._track: Tracking | None = None
-        self._follow_fraction = 1.0
-        self._track_cols = np.zeros(0, dtype=int)
+        self._track: Tracking | None = None  # the last one given to follow()
+        self._tracks: list[Tracking] = []  # running, in the order follow() got them
+        self._owner: dict[str, Tracking] = {}  # joint -> the running trajectory that drives it
         self._all_idx: list[int] = []
         self._lo = self._hi = self._vcap = np.zeros(0)
         self._peak = np.zeros(0)
@@ -198,6 +211,7 @@ class NaoSim:
                 self._robot, index[name], neutral.get(name, 0.0), 0.0, physicsClientId=cid
             )
         self._targets = {}
+        self._track, self._tracks, self._owner = None, [], {}
         self._command(neutral, 1.0)
         self._t = 0.0
         self._steps = 0
@@ -252,6 +266,11 @@ class NaoSim:
         """The record of the last trajectory given to follow()."""
         return self._track
 
+    @property
+    def trackings(self) -> tuple[Tracking, ...]:
+        """The records of the trajectories still running, oldest first."""
+        return tuple(self._tracks)
+
     def _require(self) -> int:
         if self._cid is None:
             raise RuntimeError("NaoSim is not open")
@@ -268,6 +287,8 @@ class NaoSim:
     def _states(self, names: Sequence[str] | None) -> list[tuple[float, float]]:
         cid = self._require()
         idx = [self._joint_index(n) for n in (names if names is not None else self._names)]
+        if not idx:  # PyBullet answers None to an empty list
+            return []
         return [(s[0], s[1]) for s in p.getJointStates(self._robot, idx, physicsClientId=cid)]
 
     def _joint_index(self, name: str) -> int:
@@ -329,10 +350,7 @@ class NaoSim:
         for hip in ("LHipYawPitch", "RHipYawPitch"):
             if hip in clipped and hip not in frac:
                 frac[hip] = frac.get("LHipYawPitch", frac.get("RHipYawPitch", 1.0))
-        if self._track is not None and not self._track.done:
-            moved = set(clipped) & set(self._track.traj.joints)
-            if moved:
-                self._finish_track(ok=False)
+        self._take_over(clipped)
         for name, value in clipped.items():
             self._command({name: value}, frac[name])
 
@@ -364,35 +382,61 @@ class NaoSim:
 
     def follow(
         self, traj: Trajectory, *, start: float | None = None, speed_fraction: float = 1.0
-    ) -> None:
-        """Track ``traj`` from sim time ``start`` (default: now), replacing targets of its joints.
+    ) -> Tracking:
+        """Track ``traj`` from sim time ``start`` (default: now), taking its joints over.
+
+        Its joints stop following any trajectory they followed; the other joints go on with
+        theirs (see the module docstring).
 
         Args:
             traj: the trajectory (its joints must be URDF joints).
             start: sim time of its t = 0 (default: now).
             speed_fraction: the velocity cap passed with every command, as a fraction of the URDF
                 limit; the backend passes the fraction the trajectory was planned at.
+
+        Returns:
+            its record, filled in as the robot follows it (also :attr:`tracking` until the
+            next call).
         """
         self._require()
         if not 0.0 < speed_fraction <= 1.0:
             raise ValueError(f"speed fraction must be in (0, 1], got {speed_fraction!r}")
         self.limits.require_known(traj.joints)
-        if self._track is not None and not self._track.done:
-            self._finish_track(ok=False)
+        for j in traj.joints:
+            self._joint_index(j)
+        self._take_over(traj.joints)
         t0 = self._t if start is None else float(start)
-        self._track = Tracking(
+        tr = Tracking(
             traj=traj,
             start=t0,
             indices=tuple(self._index[j] for j in traj.joints),
             final=np.asarray(traj.sample(traj.duration), dtype=float),
             peak_speed=np.zeros(len(traj.joints)),
+            fraction=float(speed_fraction),
+            cols=np.array([self._names.index(j) for j in traj.joints], dtype=int),
+            active=np.ones(len(traj.joints), dtype=bool),
         )
-        self._follow_fraction = float(speed_fraction)
-        self._track_cols = np.array([self._names.index(j) for j in traj.joints], dtype=int)
+        self._track = tr
+        self._tracks.append(tr)
+        for j in traj.joints:
+            self._owner[j] = tr
+        return tr
 
     def following(self) -> bool:
         """True while a trajectory given to follow() has not reached its end."""
-        return self._track is not None and not self._track.done
+        return bool(self._tracks)
+
+    def _take_over(self, joints: Iterable[str]) -> None:
+        """Detach ``joints`` from the trajectories driving them; a trajectory left with no
+        joint ends at once. Either way it ends with ``ok=False``."""
+        for j in joints:
+            tr = self._owner.pop(j, None)
+            if tr is None:
+                continue
+            tr.active[tr.traj.joints.index(j)] = False
+            tr.ok = False
+            if not tr.active.any():
+                self._finish_track(tr, ok=False)
 
     # -- stepping -----------------------------------------------------------------------------
     def step_to(self, t: float) -> None:
@@ -406,27 +450,26 @@ class NaoSim:
             if self.skip_idle and not self.following() and self._at_rest():
                 self._t = t
                 return
-            self._apply_track(self._t + dt)
+            self._apply_tracks(self._t + dt)
             p.stepSimulation(physicsClientId=cid)
             self._steps += 1
             self._t += dt
             self._record()
 
-    def _apply_track(self, t_next: float) -> None:
-        tr = self._track
-        if tr is None or tr.done:
-            return
-        tau = t_next - tr.start
-        if tau < 0.0:
-            return
-        q = tr.traj.sample(tau)
-        v = tr.traj.velocity(tau)
-        names = tr.traj.joints
-        self._command(
-            dict(zip(names, (float(x) for x in q), strict=True)),
-            self._follow_fraction,
-            dict(zip(names, (float(x) for x in v), strict=True)),
-        )
+    def _apply_tracks(self, t_next: float) -> None:
+        for tr in self._tracks:
+            tau = t_next - tr.start
+            if tau < 0.0:
+                continue
+            q = tr.traj.sample(tau)
+            v = tr.traj.velocity(tau)
+            names = [j for j, a in zip(tr.traj.joints, tr.active, strict=True) if a]
+            keep = tr.active
+            self._command(
+                dict(zip(names, (float(x) for x in q[keep]), strict=True)),
+                tr.fraction,
+                dict(zip(names, (float(x) for x in v[keep]), strict=True)),
+            )
 
     def _record(self) -> None:
         cid = self._require()
@@ -441,13 +484,16 @@ class NaoSim:
             self._pos_violations += n_pos
             self._vel_violations += n_vel
             self._violations += n_pos + n_vel
-        tr = self._track
-        if tr is None or tr.done:
-            return
-        col = self._track_cols
-        tr.peak_speed = np.maximum(tr.peak_speed, v[col])
-        tr.violations += int(np.count_nonzero(pos_bad[col]) + np.count_nonzero(vel_bad[col]))
-        inside = bool(np.all(np.abs(q[col] - tr.final) <= ARRIVAL_TOL))
+        for tr in list(self._tracks):
+            self._record_track(tr, q, v, pos_bad | vel_bad)
+
+    def _record_track(self, tr: Tracking, q: np.ndarray, v: np.ndarray, bad: np.ndarray) -> None:
+        """Update one running trajectory's record from this step's states (all joints)."""
+        col = tr.cols[tr.active]
+        final = tr.final[tr.active]
+        np.maximum(tr.peak_speed, np.where(tr.active, v[tr.cols], 0.0), out=tr.peak_speed)
+        tr.violations += int(np.count_nonzero(bad[col]))
+        inside = bool(np.all(np.abs(q[col] - final) <= ARRIVAL_TOL))
         if not inside:
             tr._inside_since = None
         elif tr._inside_since is None:
@@ -456,24 +502,28 @@ class NaoSim:
         if self._t >= end - 1e-9:
             if inside and bool(np.all(v[col] <= REST_SPEED)):
                 tr.arrived_at = tr._inside_since
-                self._finish_track(ok=True)
+                self._finish_track(tr, ok=tr.ok)
             elif self._t >= end + SETTLE_TIMEOUT_S:
                 log.warning(
                     "%s: not settled %.1f s after its planned end", tr.traj.name, SETTLE_TIMEOUT_S
                 )
-                self._finish_track(ok=False)
+                self._finish_track(tr, ok=False)
 
-    def _finish_track(self, *, ok: bool) -> None:
-        tr = self._track
-        if tr is None or tr.done:
+    def _finish_track(self, tr: Tracking, *, ok: bool) -> None:
+        """Declare ``tr`` over; the joints it still drives hold its final pose."""
+        if tr.done:
             return
         tr.finished_at = self._t
         tr.ok = ok
+        self._tracks.remove(tr)
+        held = {}
+        for j, a, x in zip(tr.traj.joints, tr.active, tr.final, strict=True):
+            if a:
+                held[j] = float(x)
+                del self._owner[j]
         # hold the final pose with a plain capped position target
-        self._command(
-            dict(zip(tr.traj.joints, (float(x) for x in tr.final), strict=True)),
-            self._follow_fraction,
-        )
+        if held:
+            self._command(held, tr.fraction)
 
     def _at_rest(self) -> bool:
         states = self._states(None)

@@ -14,16 +14,24 @@ Semantics follow NAOqi's documentation (``reference/naoqi_api.md``):
 - ``setAngles`` retargets; speed is ``fractionMaxSpeed × the joint's velocity limit``; targets
   are clipped to the position limits; chain names (``Head``, ``LArm``, ``Body``…) expand; names,
   angles and times may be scalars or lists.
+- ``angleInterpolation`` keyframes get the same clipping as ``setAngles`` targets (joint ranges,
+  the head anti-collision table at the HeadYaw planned for that key time, one hip motor). Keys too
+  close together for a joint's velocity limit are spread out, never followed late: the motion is
+  slowed down to the limit, the call returns when it is done, and one warning per call names the
+  joint, the speed asked and the limit (:func:`plan_keyframes`).
 - A blocking motion on joints that a running one holds waits until that one ends or is killed
   (NAOqi's motion tasks and resources); ``say`` sentences queue behind each other.
 - Bad input raises; the client sees NAOqi's kind of error, a ``RuntimeError`` with a text.
 - Commands to joints whose stiffness is 0 are accepted and ignored, as on the robot. The virtual
   NAO starts awake (stiffness 1).
+- ``ALTextToSpeech.say`` logs each phrase at INFO on the ``sim.virtual_nao.speech`` logger (no
+  audio is produced), and the speech log records its start and end.
 
 Time: a server must run in real time, because its clients do. So, unlike everything else in
 Prezence (where the caller's clock drives the physics), ONE loop thread steps the model to the
 wall clock at ``rate_hz`` and completes the promises whose time has come. It is the only
-free-running loop in the project, on purpose.
+free-running loop in the project, on purpose. ``VirtualNao.start(realtime=False)`` leaves the
+clock to the caller (:meth:`VirtualNao.tick`), for tests.
 
 Run it with ``python -m sim.virtual_nao --port 0`` (prints ``listening on tcp://127.0.0.1:PORT``)
 or ``prezence sim serve``.
@@ -54,10 +62,20 @@ import qi
 
 from prezence.backends.base import estimate_speech_s
 from prezence.errors import did_you_mean
-from prezence.feedback.limits import BODY_ORDER, CHAINS, JointLimit, JointLimits, load_limits
-from prezence.feedback.trajectory import Trajectory
+from prezence.feedback.limits import (
+    BODY_ORDER,
+    CHAINS,
+    HIP_YAW_PITCH,
+    JointLimit,
+    JointLimits,
+    load_limits,
+)
+from prezence.feedback.trajectory import RAMP_S, Trajectory, profile_peaks
 
 log = logging.getLogger(__name__)
+#: Logger of the phrases said (INFO, one line per ``say``): enable it to watch the robot talk.
+SPEECH_LOGGER = "sim.virtual_nao.speech"
+say_log = logging.getLogger(SPEECH_LOGGER)
 
 # -- joints, chains, limits ----------------------------------------------------------------------
 
@@ -160,7 +178,7 @@ class Model(Protocol):
         speed_fraction: float | Sequence[float],
     ) -> None: ...
 
-    def follow(self, traj: Trajectory, *, start: float | None = None) -> None: ...
+    def follow(self, traj: Trajectory, *, start: float | None = None) -> object: ...
 
     def following(self) -> bool: ...
 
@@ -259,10 +277,10 @@ class KinematicNao:
         while self._t < t - 1e-12:
             dt = min(self._dt, t - self._t)
             self._t += dt
-            for tr, t0, idx in self._trajs.values():
+            for key, (tr, t0, idx) in self._trajs.items():
                 q = np.clip(tr.sample(self._t - t0), self._lo[idx], self._hi[idx])
                 for k, i in enumerate(idx):
-                    if self._owner.get(i) is not None:
+                    if self._owner.get(i) == key:
                         self._target[i] = q[k]
             step = np.clip(self._target - self._q, -self._speed * dt, self._speed * dt)
             self._q = self._q + step
@@ -338,7 +356,7 @@ class VirtualNao:
         *,
         model: str | Model = "pybullet",
         gui: bool = False,
-        speech_log: Path | None = None,
+        speech_log: Path | str | None = None,
         rate_hz: float = 100.0,
         limits: JointLimits | None = None,
     ) -> None:
@@ -350,7 +368,7 @@ class VirtualNao:
             make_model(model, self.specs, gui=gui) if isinstance(model, str) else model
         )
         self.rate_hz = rate_hz
-        self.speech_log = speech_log
+        self.speech_log = Path(speech_log) if speech_log is not None else None
         self.lock = threading.Lock()
         self.stiffness = {n: 1.0 for n in self.specs}
         self.commanded: dict[str, float] = {}
@@ -370,16 +388,30 @@ class VirtualNao:
         self._sim0 = 0.0
 
     # -- lifecycle ---------------------------------------------------------------------------
-    def start(self) -> None:
-        """Open the model and start the real-time loop thread."""
-        self.model.open()
-        self.commanded = dict(zip(self.specs, self.model.positions(list(self.specs)), strict=True))
+    def start(self, *, realtime: bool = True) -> None:
+        """Open the model and start the real-time loop thread.
+
+        Args:
+            realtime: False starts no thread: the caller drives the clock with :meth:`tick`
+                (deterministic tests).
+        """
         if self.speech_log is not None:
             self._log_file = open(self.speech_log, "a", encoding="utf-8", buffering=1)  # noqa: SIM115
+        try:
+            self.model.open()
+        except BaseException:
+            if self._log_file is not None:
+                self._log_file.close()
+                self._log_file = None
+            raise
+        self.commanded = dict(zip(self.specs, self.model.positions(list(self.specs)), strict=True))
         self._t0 = time.monotonic()
         self._sim0 = self.model.time
-        self._thread = threading.Thread(target=self._loop, name="virtual-nao-clock", daemon=True)
-        self._thread.start()
+        if realtime:
+            self._thread = threading.Thread(
+                target=self._loop, name="virtual-nao-clock", daemon=True
+            )
+            self._thread.start()
 
     def stop(self) -> None:
         """Stop the loop, fail pending calls, close the model and the log; safe to call twice."""
@@ -578,10 +610,6 @@ class VirtualNao:
                 )
         return out
 
-    def clip(self, name: str, value: float) -> float:
-        s = self.specs[name]
-        return min(max(value, s.lower), s.upper)
-
     def stiff(self, names: Sequence[str]) -> list[int]:
         """Indices of the joints that are powered (commands to the others are ignored)."""
         return [i for i, n in enumerate(names) if self.stiffness[n] > 0.0]
@@ -603,6 +631,128 @@ def _per_joint(values: object, n: int, what: str, method: str) -> list[list[floa
     if len(seq) != n:
         raise ValueError(f"ALMotion.{method}: {len(seq)} {what} lists for {n} joints")
     return [[_num(x, what) for x in v] if _is_seq(v) else [_num(v, what)] for v in seq]
+
+
+#: A segment counts as too fast when its peak speed exceeds the joint's limit by this share.
+SPEED_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class KeyframePlan:
+    """What ``angleInterpolation`` plays once NAO's rules are applied (:func:`plan_keyframes`).
+
+    Attributes:
+        joints: the joints moved: the call's, plus the other HipYawPitch when one was given.
+        angles: per joint, absolute angles after clipping.
+        times: per joint, key times in seconds from the start (spread out where too fast).
+        asked_s: the last key time asked.
+        duration_s: the last key time played (``asked_s`` unless the motion was slowed down).
+        capped: the segment furthest over its joint's velocity limit, as (joint, speed asked,
+            limit) in rad/s (hands: fraction/s); None when every segment is within its limit.
+    """
+
+    joints: tuple[str, ...]
+    angles: tuple[tuple[float, ...], ...]
+    times: tuple[tuple[float, ...], ...]
+    asked_s: float
+    duration_s: float
+    capped: tuple[str, float, float] | None = None
+
+
+def min_segment_time(distance: float, velocity: float) -> float:
+    """The shortest segment that moves ``distance`` with a peak speed of at most ``velocity``.
+
+    Segments follow :mod:`prezence.feedback.trajectory`'s profile, whose peak over a segment of
+    duration ``T`` is ``|distance| / (T − min(RAMP_S, T/2))``.
+
+    Example:
+        >>> round(min_segment_time(2.0, 8.0), 3)  # 0.25 s at full speed, plus one ramp
+        0.45
+    """
+    u = abs(distance) / velocity
+    return 2.0 * u if u < RAMP_S else u + RAMP_S
+
+
+def plan_keyframes(
+    limits: JointLimits,
+    joints: Sequence[str],
+    angles: Sequence[Sequence[float]],
+    times: Sequence[Sequence[float]],
+    pose: dict[str, float],
+) -> KeyframePlan:
+    """NAO's rules applied to ``angleInterpolation`` keyframes, as ``setAngles`` applies them.
+
+    * **One hip motor**: a HipYawPitch's keys go to both hips (LHipYawPitch wins when both are
+      given, as on NAO).
+    * **Limits**: every key is clipped with :meth:`JointLimits.clip` (``setAngles``' function);
+      a HeadPitch key against the anti-collision range at the HeadYaw planned for its time (the
+      call's HeadYaw keyframes, or the current HeadYaw when the call leaves it alone).
+    * **Velocity limits**: a segment whose peak speed would exceed its joint's limit is not
+      followed late: the stretch of the call's timeline under it is slowed down until it fits,
+      i.e. each key time after it moves later and every joint keeps its keys in step with the
+      others'. ``capped`` names the worst segment so the caller can warn.
+
+    Args:
+        limits: the joint limits.
+        joints: joint names.
+        angles: per joint, absolute angles, one per key time.
+        times: per joint, strictly increasing key times (seconds from the start, > 0).
+        pose: every body joint's angle now (each joint's first segment starts there).
+    """
+    keys = {j: (list(a), list(t)) for j, a, t in zip(joints, angles, times, strict=True)}
+    left, right = HIP_YAW_PITCH
+    if left in keys:
+        keys[right] = keys[left]
+    elif right in keys:
+        keys[left] = keys[right]
+    for j, (a, t) in keys.items():
+        if j != "HeadPitch":
+            keys[j] = ([limits.clip({j: x}, pose=pose)[j] for x in a], t)
+    if "HeadPitch" in keys:
+        a, t = keys["HeadPitch"]
+        yaw = [pose["HeadYaw"]] * len(t)
+        if "HeadYaw" in keys:
+            ya, yt = keys["HeadYaw"]
+            traj = Trajectory(
+                "HeadYaw", ("HeadYaw",), tuple(yt), tuple((x,) for x in ya), (pose["HeadYaw"],)
+            )
+            yaw = [float(traj.sample(tk)[0]) for tk in t]
+        keys["HeadPitch"] = (
+            [
+                limits.clip({"HeadPitch": x}, pose={**pose, "HeadYaw": y})["HeadPitch"]
+                for x, y in zip(a, yaw, strict=True)
+            ],
+            t,
+        )
+    # velocity limits: slow down the stretches of the timeline under too fast segments
+    grid = sorted({0.0, *(x for _, t in keys.values() for x in t)})
+    slot = {x: i for i, x in enumerate(grid)}
+    factor = [1.0] * (len(grid) - 1)
+    capped: tuple[str, float, float] | None = None
+    for j, (a, t) in keys.items():
+        limit = limits.velocity[j]
+        q0, t0 = pose[j], 0.0
+        for q, tk in zip(a, t, strict=True):
+            asked = abs(q - q0) * profile_peaks(tk - t0)[0]
+            if asked > limit * (1.0 + SPEED_TOL):
+                f = min_segment_time(q - q0, limit) / (tk - t0)
+                for i in range(slot[t0], slot[tk]):
+                    factor[i] = max(factor[i], f)
+                if capped is None or asked / limit > capped[1] / capped[2]:
+                    capped = (j, asked, limit)
+            q0, t0 = q, tk
+    played = [0.0]
+    for i, f in enumerate(factor):
+        played.append(played[-1] + (grid[i + 1] - grid[i]) * f)
+    when = dict(zip(grid, played, strict=True))
+    return KeyframePlan(
+        joints=tuple(keys),
+        angles=tuple(tuple(a) for a, _ in keys.values()),
+        times=tuple(tuple(when[x] for x in t) for _, t in keys.values()),
+        asked_s=grid[-1],
+        duration_s=played[-1],
+        capped=capped,
+    )
 
 
 class ALMotion:
@@ -666,7 +816,12 @@ class ALMotion:
         timeLists: object,
         isAbsolute: object,
     ) -> Any:
-        """Blocking: follow timed keyframes (seconds from the call's start)."""
+        """Blocking: follow timed keyframes (seconds from the call's start).
+
+        Keyframes are clipped like ``setAngles`` targets and slowed down where too fast for a
+        joint's velocity limit (:func:`plan_keyframes`); the call returns at the last key time
+        played, with one warning when it had to slow down.
+        """
         r = self._r
         joints = r.expand(names, "angleInterpolation")
         angles = _per_joint(angleLists, len(joints), "angle", "angleInterpolation")
@@ -681,31 +836,48 @@ class ALMotion:
                     f"ALMotion.angleInterpolation: {j}: times must increase from > 0, got {t}"
                 )
         absolute = bool(isAbsolute)
+        info: dict[str, Any] = {"joints": joints}
 
         def begin(now: float) -> float:
-            current = dict(zip(joints, r.model.positions(joints), strict=True))
-            keep = [j for j in joints if r.stiffness[j] > 0.0]
-            groups: dict[tuple[float, ...], list[int]] = {}
-            for k, j in enumerate(joints):
-                if j in keep:
-                    groups.setdefault(tuple(times[k]), []).append(k)
-            for ts, ks in groups.items():
-                names_g = tuple(joints[k] for k in ks)
-                pos = tuple(
-                    tuple(
-                        r.clip(joints[k], angles[k][i] + (0.0 if absolute else current[joints[k]]))
-                        for k in ks
-                    )
-                    for i in range(len(ts))
+            pose = dict(zip(BODY, r.model.positions(list(BODY)), strict=True))
+            stiff = [k for k, j in enumerate(joints) if r.stiffness[j] > 0.0]
+            if not stiff:
+                return max(t[-1] for t in times)
+            plan = plan_keyframes(
+                r.limits,
+                [joints[k] for k in stiff],
+                [[a + (0.0 if absolute else pose[joints[k]]) for a in angles[k]] for k in stiff],
+                [times[k] for k in stiff],
+                pose,
+            )
+            if plan.capped is not None:
+                joint, asked, limit = plan.capped
+                log.warning(
+                    "ALMotion.angleInterpolation: %s asked for %.3g rad/s, over its limit of "
+                    "%.3g rad/s; slowed down to the limit: %.2f s instead of %.2f s",
+                    joint,
+                    asked,
+                    limit,
+                    plan.duration_s,
+                    plan.asked_s,
                 )
+                info.update(asked_s=plan.asked_s, capped=joint, asked_speed=round(asked, 6))
+            info["planned_s"] = round(plan.duration_s, 6)
+            groups: dict[tuple[float, ...], list[int]] = {}
+            for k, j in enumerate(plan.joints):
+                if r.stiffness[j] > 0.0:
+                    groups.setdefault(plan.times[k], []).append(k)
+            for ts, ks in groups.items():
+                names_g = tuple(plan.joints[k] for k in ks)
+                pos = tuple(tuple(plan.angles[k][i] for k in ks) for i in range(len(ts)))
                 traj = Trajectory(
-                    "angleInterpolation", names_g, ts, pos, tuple(current[n] for n in names_g)
+                    "angleInterpolation", names_g, ts, pos, tuple(pose[n] for n in names_g)
                 )
                 r.model.follow(traj, start=now)
                 r.commanded.update(zip(names_g, pos[-1], strict=True))
-            return max(t[-1] for t in times)
+            return plan.duration_s
 
-        return r.submit("angleInterpolation", frozenset(joints), begin, info={"joints": joints})
+        return r.submit("angleInterpolation", frozenset(joints), begin, info=info)
 
     def angleInterpolationWithSpeed(
         self,
@@ -739,9 +911,12 @@ class ALMotion:
             keep = [i for i, j in enumerate(joints) if r.stiffness[j] > 0.0]
             if not keep:
                 return 0.0
-            names_k = [joints[i] for i in keep]
-            goal = [r.clip(joints[i], targets[i]) for i in keep]
-            cur = r.model.positions(names_k)
+            pose = dict(zip(BODY, r.model.positions(list(BODY)), strict=True))
+            # NAOqi clips to the ranges, applies head anti-collision and the one-motor hip rule
+            clipped = r.limits.clip({joints[i]: targets[i] for i in keep}, pose=pose)
+            names_k = [n for n in clipped if r.stiffness[n] > 0.0]
+            goal = [clipped[n] for n in names_k]
+            cur = [pose[n] for n in names_k]
             r.model.set_targets(names_k, goal, frac)
             r.commanded.update(zip(names_k, goal, strict=True))
             estimate = max(
@@ -954,6 +1129,7 @@ class ALTextToSpeech:
         r = self._r
         plain = _TTS_TAG.sub(" ", text)
         duration = estimate_speech_s(plain) * 100.0 / max(r.tts_params["speed"], 1.0)
+        say_log.info("say (%s, %.1f s): %s", language, duration, " ".join(plain.split()))
 
         def begin(now: float) -> float:
             r.memory["ALTextToSpeech/TextStarted"] = 1
@@ -1181,13 +1357,24 @@ def serve(
     port: int = 9559,
     gui: bool = False,
     *,
-    speech_log: Path | None = None,
+    speech_log: Path | str | None = None,
     model: str = "pybullet",
     rate_hz: float = 100.0,
 ) -> VirtualNaoServer:
     """Start a virtual NAO listening on ``tcp://host:port`` (port 0 picks a free one).
 
+    Args:
+        host: address to listen on.
+        port: TCP port; 0 picks a free one (see the returned server's ``url``).
+        gui: show the PyBullet window (``model="pybullet"`` only).
+        speech_log: JSONL file that records every phrase said and every motion (start and
+            end), appended to; None records nothing. The phrases are logged at INFO on
+            :data:`SPEECH_LOGGER` either way.
+        model: ``"pybullet"`` (the PyBullet NAO) or ``"kinematic"`` (no physics).
+        rate_hz: rate of the real-time clock loop.
+
     Raises:
+        ValueError: an unknown model or a port out of range.
         RuntimeError: the port is taken (libqi's "Address already in use").
     """
     if not 0 <= port <= 65535:
@@ -1230,7 +1417,12 @@ def spawn(*args: str, timeout_s: float = 60.0) -> tuple[subprocess.Popen[str], s
     lines: queue.Queue[str] = queue.Queue()
     out = proc.stdout
     assert out is not None  # noqa: S101 - stdout=PIPE
-    threading.Thread(target=lambda: [lines.put(x) for x in out], daemon=True).start()
+
+    def pump() -> None:
+        for x in out:
+            lines.put(x)
+
+    threading.Thread(target=pump, daemon=True).start()
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         try:
@@ -1272,7 +1464,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Serve until SIGTERM or Ctrl-C; prints ``listening on URL`` first (flushed)."""
+    """Serve until SIGTERM or Ctrl-C; prints ``listening on URL`` first (flushed).
+
+    The phrases said are logged on stderr (``SPEECH_LOGGER`` at INFO) unless the root logger is
+    quieter than WARNING.
+    """
     args = build_parser().parse_args(argv)
     # libqi logs to stdout; keep stdout for the "listening on" line unless asked
     qi.logging.setLevel(qi.logging.INFO if args.verbose else qi.logging.ERROR)
@@ -1282,6 +1478,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             format="%(levelname)s %(name)s: %(message)s",
             stream=sys.stderr,
         )
+    if logging.getLogger().getEffectiveLevel() <= logging.WARNING:
+        # the robot has no voice here: show what it says unless logging was made quieter
+        logging.getLogger(SPEECH_LOGGER).setLevel(logging.INFO)
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -1297,7 +1496,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             model=args.model,
             rate_hz=args.rate,
         )
-    except RuntimeError as e:
+    except (RuntimeError, OSError) as e:  # port taken; speech log not writable
         print(f"error: {e}", file=sys.stderr)
         return 2
     try:

@@ -12,7 +12,8 @@ import pybullet as p  # noqa: E402
 
 from prezence.feedback.gestures import build_trajectory, load_library  # noqa: E402
 from prezence.feedback.limits import load_limits  # noqa: E402
-from sim.nao import VELOCITY_TOL, NaoSim  # noqa: E402
+from prezence.feedback.trajectory import Trajectory  # noqa: E402
+from sim.nao import ARRIVAL_TOL, VELOCITY_TOL, NaoSim  # noqa: E402
 
 LIMITS = load_limits()
 #: measured speeds may exceed the cap by this share (Bullet's motor overshoots a step or two)
@@ -147,3 +148,93 @@ def test_close_twice_is_harmless() -> None:
     s.close()
     with pytest.raises(RuntimeError, match="not open"):
         s.positions()
+
+
+def _one_joint(joint: str, start: float, keys: list[tuple[float, float]]) -> Trajectory:
+    """A trajectory of one joint: (time, angle) keys from ``start``."""
+    return Trajectory(
+        f"{joint} keys", (joint,), tuple(t for t, _ in keys), tuple((q,) for _, q in keys), (start,)
+    )
+
+
+def _planned_arrival(traj: Trajectory) -> float:
+    """When the plan itself comes within ``ARRIVAL_TOL`` of its end pose for good (s)."""
+    final = traj.sample(traj.duration)
+    t = traj.duration
+    while t > 0.0 and max(abs(traj.sample(t - 0.001) - final)) <= ARRIVAL_TOL:
+        t -= 0.001
+    return max(t, 0.0)
+
+
+def _track_error(sim: NaoSim, plans: list[tuple[float, Trajectory]], until: float) -> float:
+    """Step to ``until``; the worst distance (rad) between a joint and its plan on the way."""
+    worst = 0.0
+    while sim.time < until - 1e-9:
+        sim.step_to(sim.time + 0.01)
+        for t0, plan in plans:
+            want = plan.sample(sim.time - t0)
+            got = sim.positions(list(plan.joints))
+            worst = max(worst, *(abs(g - w) for g, w in zip(got, want, strict=True)))
+    return worst
+
+
+def test_trajectories_with_different_time_lists_run_together(sim: NaoSim) -> None:
+    # NAOqi's reference nod: HeadPitch down/up twice over 1.2 s while HeadYaw holds 0, given as
+    # one trajectory per time list (what the virtual NAO does with angleInterpolation)
+    sim.step_to(0.5)
+    yaw0, pitch0 = sim.positions(["HeadYaw", "HeadPitch"])
+    pitch = _one_joint("HeadPitch", pitch0, [(0.3, 0.25), (0.6, 0.0), (0.9, 0.25), (1.2, 0.0)])
+    yaw = _one_joint("HeadYaw", yaw0, [(1.2, 0.0)])
+    records = [sim.follow(pitch), sim.follow(yaw)]
+    assert sim.trackings == tuple(records)
+    assert _track_error(sim, [(0.5, pitch), (0.5, yaw)], 0.5 + 1.2) < 0.02
+    sim.step_to(2.5)
+    for rec in records:
+        assert rec.done and rec.ok and rec.violations == 0
+        assert rec.measured_s == pytest.approx(_planned_arrival(rec.traj), abs=0.03 * 1.2)
+    assert not sim.following()
+
+
+def test_overlapping_trajectories_on_different_joints_both_arrive_on_time(sim: NaoSim) -> None:
+    sim.step_to(0.5)
+    yaw = _one_joint("HeadYaw", sim.positions(["HeadYaw"])[0], [(1.5, -0.8)])
+    first = sim.follow(yaw)
+    sim.step_to(0.6)
+    arm = _one_joint("LShoulderPitch", sim.positions(["LShoulderPitch"])[0], [(1.0, 0.5)])
+    second = sim.follow(arm)
+    assert _track_error(sim, [(0.5, yaw), (0.6, arm)], 2.0) < 0.02
+    sim.step_to(3.0)
+    for rec in (first, second):
+        assert rec.done and rec.ok
+        planned = rec.traj.duration
+        assert rec.measured_s == pytest.approx(_planned_arrival(rec.traj), abs=0.03 * planned)
+    assert sim.positions(["HeadYaw", "LShoulderPitch"]) == pytest.approx([-0.8, 0.5], abs=0.005)
+
+
+def test_a_command_takes_over_its_joints_only(sim: NaoSim) -> None:
+    sim.step_to(0.5)
+    yaw0, pitch0 = sim.positions(["HeadYaw", "HeadPitch"])
+    head = Trajectory("head", ("HeadYaw", "HeadPitch"), (1.5,), ((0.8, 0.3),), (yaw0, pitch0))
+    rec = sim.follow(head)
+    sim.step_to(1.0)
+    sim.set_targets(["HeadPitch"], [-0.3], 1.0)  # HeadPitch leaves the trajectory …
+    assert sim.following() and sim.trackings == (rec,)
+    yaw = _one_joint("HeadYaw", yaw0, [(1.5, 0.8)])
+    assert _track_error(sim, [(0.5, yaw)], 2.0) < 0.02
+    sim.step_to(3.0)
+    # … HeadYaw finished it on time; the record says the trajectory was not played whole
+    assert rec.done and not rec.ok
+    assert rec.measured_s == pytest.approx(_planned_arrival(yaw), abs=0.03 * 1.5)
+    assert sim.positions(["HeadYaw", "HeadPitch"]) == pytest.approx([0.8, -0.3], abs=0.005)
+
+
+def test_a_trajectory_whose_joints_are_all_taken_ends_at_once(sim: NaoSim) -> None:
+    yaw0 = sim.positions(["HeadYaw"])[0]
+    old = sim.follow(_one_joint("HeadYaw", yaw0, [(2.0, 1.0)]))
+    sim.step_to(0.5)
+    new = sim.follow(_one_joint("HeadYaw", sim.positions(["HeadYaw"])[0], [(0.5, -0.5)]))
+    assert old.done and not old.ok and old.finished_at == sim.time
+    assert sim.tracking is new and sim.trackings == (new,)
+    sim.step_to(2.0)
+    assert new.done and new.ok
+    assert sim.positions(["HeadYaw"])[0] == pytest.approx(-0.5, abs=0.005)

@@ -2,11 +2,14 @@
 
 Each assertion is about what a NAOqi client sees: joint angles, limits, errors, the order of
 blocking calls (from the server's JSONL record, in its own clock), never wall-clock durations.
+Timing is checked further down on a virtual NAO in this process whose clock the test steps.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
+import logging
 import subprocess
 import sys
 import time
@@ -14,13 +17,26 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 pytest.importorskip("pybullet")
 qi = pytest.importorskip("qi")
 
 from prezence.feedback.limits import load_limits  # noqa: E402
-from sim.virtual_nao import spawn, stop_spawned  # noqa: E402
+from prezence.feedback.trajectory import Trajectory  # noqa: E402
+from sim.virtual_nao import (  # noqa: E402
+    SPEECH_LOGGER,
+    ALMotion,
+    ALTextToSpeech,
+    KinematicNao,
+    VirtualNao,
+    min_segment_time,
+    plan_keyframes,
+    serve,
+    spawn,
+    stop_spawned,
+)
 
 REPO = Path(__file__).resolve().parents[2]
 TOL = 0.03  # rad: PyBullet's position control settles within this
@@ -216,3 +232,204 @@ def test_a_taken_port_is_an_error(robot: dict[str, Any]) -> None:
     )
     assert done.returncode == 2
     assert "Address already in use" in done.stderr
+
+
+def test_angle_interpolation_clips_keyframes_like_set_angles(robot: dict[str, Any]) -> None:
+    motion = robot["motion"]
+    lim = load_limits()
+    # head anti-collision: HeadPitch 0.5 is not allowed at HeadYaw 2.0
+    motion.angleInterpolation(["HeadYaw", "HeadPitch"], [[2.0], [0.5]], [[0.8], [0.8]], True)
+    pitch_max = lim.head_pitch_range(2.0)[1]
+    assert motion.getAngles("HeadPitch", False)[0] == pytest.approx(pitch_max, abs=1e-6)
+    assert motion.getAngles("HeadPitch", True)[0] == pytest.approx(pitch_max, abs=TOL)
+    motion.angleInterpolation("Head", [0.0, 0.0], [0.5, 0.5], True)
+    # one motor for both hips
+    motion.angleInterpolation("LHipYawPitch", [-0.3], [0.6], True)
+    assert motion.getAngles(["LHipYawPitch", "RHipYawPitch"], True) == pytest.approx(
+        [-0.3, -0.3], abs=TOL
+    )
+    motion.angleInterpolation("LHipYawPitch", [0.0], [0.6], True)
+
+
+# -- in this process, on a clock the test drives: timing in simulated seconds --------------------
+
+DT = 0.01
+
+
+@pytest.fixture(params=["pybullet", "kinematic"])
+def manual(request: pytest.FixtureRequest) -> Iterator[VirtualNao]:
+    """A virtual NAO without its real-time thread: the test steps it with ``tick``."""
+    nao = VirtualNao(model=request.param)
+    nao.start(realtime=False)
+    nao.tick(0.5)  # settle
+    yield nao
+    nao.stop()
+
+
+def run(nao: VirtualNao, seconds: float, joints: list[str]) -> list[tuple[float, list[float]]]:
+    """Step ``seconds`` in ``DT`` ticks; the joints' angles after each tick."""
+    out = []
+    end = nao.now + seconds
+    while nao.now < end - 1e-9:
+        nao.tick(nao.now + DT)
+        out.append((nao.now, nao.model.positions(joints)))
+    return out
+
+
+def ended_at(nao: VirtualNao, fut: Any, within: float) -> float:
+    """Step until ``fut`` is finished; the simulated time it finished."""
+    end = nao.now + within
+    while not fut.isFinished():
+        assert nao.now < end, "the call did not return"
+        nao.tick(nao.now + DT)
+    return nao.now
+
+
+def arrival(samples: list[tuple[float, float]], final: float, tol: float = 0.01) -> float:
+    """When the samples come within ``tol`` of ``final`` for good."""
+    return max((t for t, q in samples if abs(q - final) > tol), default=samples[0][0])
+
+
+def one_joint_plan(start: float, final: float, duration: float) -> Trajectory:
+    return Trajectory("plan", ("j",), (duration,), ((final,),), (start,))
+
+
+def test_reference_nod_follows_each_joints_time_list(manual: VirtualNao) -> None:
+    motion = ALMotion(manual)
+    t0 = manual.now
+    fut = motion.angleInterpolation(
+        ["HeadPitch", "HeadYaw"],
+        [[0.25, 0.0, 0.25, 0.0], [0.0]],
+        [[0.3, 0.6, 0.9, 1.2], [1.2]],
+        True,
+    )
+    samples = dict(run(manual, 1.2, ["HeadPitch", "HeadYaw"]))
+    for key_t, want in ((0.3, 0.25), (0.6, 0.0), (0.9, 0.25), (1.2, 0.0)):
+        t = min(samples, key=lambda s: abs(s - (t0 + key_t)))
+        assert samples[t][0] == pytest.approx(want, abs=TOL)
+    assert all(abs(yaw) < TOL for _, yaw in samples.values())
+    assert ended_at(manual, fut, 0.1) == pytest.approx(t0 + 1.2, abs=DT + 1e-9)
+
+
+def test_overlapping_calls_on_other_joints_both_arrive_on_time(manual: VirtualNao) -> None:
+    motion = ALMotion(manual)
+    t0 = manual.now
+    yaw0 = manual.model.positions(["HeadYaw"])[0]
+    first = motion.angleInterpolation("HeadYaw", [-0.8], [1.5], True)
+    head = run(manual, 0.1, ["HeadYaw", "LShoulderPitch"])
+    arm0 = manual.model.positions(["LShoulderPitch"])[0]
+    second = motion.angleInterpolation("LShoulderPitch", [0.5], [1.0], True)
+    samples = head + run(manual, 2.0, ["HeadYaw", "LShoulderPitch"])
+    for k, (start, q0, final, duration, fut) in enumerate(
+        [(t0, yaw0, -0.8, 1.5, first), (t0 + 0.1, arm0, 0.5, 1.0, second)]
+    ):
+        plan = one_joint_plan(q0, final, duration)
+        want = arrival([(t, float(plan.sample(t)[0])) for t in np.arange(0, 2, 0.001)], final)
+        got = arrival([(t - start, q[k]) for t, q in samples if t >= start], final)
+        assert got == pytest.approx(want, abs=0.03 * duration)
+        assert fut.isFinished()
+
+
+def test_keyframes_are_clipped_like_set_angles_targets(manual: VirtualNao) -> None:
+    motion = ALMotion(manual)
+    lim = load_limits()
+    motion.angleInterpolation(["HeadYaw", "HeadPitch"], [[2.0], [0.5]], [[0.8], [0.8]], True)
+    run(manual, 1.0, [])
+    assert motion.getAngles("HeadPitch", False)[0] == pytest.approx(
+        lim.head_pitch_range(2.0)[1], abs=1e-6
+    )
+    assert motion.getAngles("HeadPitch", True)[0] <= lim.head_pitch_range(2.0)[1] + TOL
+    # HeadYaw left out of the call: its current angle sets the HeadPitch range
+    motion.angleInterpolation("HeadPitch", [-0.6], [0.5], True)
+    run(manual, 0.7, [])
+    assert motion.getAngles("HeadPitch", True)[0] == pytest.approx(
+        lim.head_pitch_range(2.0)[0], abs=TOL
+    )
+    motion.angleInterpolation("RHipYawPitch", [-0.3, 0.2], [0.5, 1.0], True)
+    hips = run(manual, 1.2, ["LHipYawPitch", "RHipYawPitch"])
+    assert all(left == pytest.approx(right, abs=TOL) for _, (left, right) in hips)
+    assert hips[-1][1] == pytest.approx([0.2, 0.2], abs=TOL)
+
+
+def test_too_fast_keyframes_are_slowed_down_to_the_velocity_limit(
+    manual: VirtualNao, caplog: pytest.LogCaptureFixture
+) -> None:
+    motion = ALMotion(manual)
+    limit = load_limits().velocity["HeadYaw"]
+    yaw0 = manual.model.positions(["HeadYaw"])[0]
+    t0 = manual.now
+    with caplog.at_level(logging.WARNING, logger="sim.virtual_nao"):
+        fut = motion.angleInterpolation("HeadYaw", [2.0], [0.1], True)
+    (warning,) = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert "HeadYaw asked for" in warning and f"over its limit of {limit:.3g} rad/s" in warning
+    samples = [(t0, yaw0), *((t, q[0]) for t, q in run(manual, 0.1, ["HeadYaw"]))]
+    end = ended_at(manual, fut, 2.0)
+    assert end - t0 == pytest.approx(min_segment_time(2.0 - yaw0, limit), abs=DT + 1e-9)
+    # it returns when the joint is there, and the joint never went faster than its limit
+    assert motion.getAngles("HeadYaw", True)[0] == pytest.approx(2.0, abs=TOL)
+    samples += [(t, q[0]) for t, q in run(manual, 0.2, ["HeadYaw"])]
+    speeds = [abs(b - a) / (tb - ta) for (ta, a), (tb, b) in itertools.pairwise(samples)]
+    assert max(speeds) <= limit * 1.05
+
+
+def test_plan_keyframes_slows_down_only_the_stretch_that_is_too_fast() -> None:
+    lim = load_limits()
+    pose = dict.fromkeys(lim.names, 0.0)
+    plan = plan_keyframes(
+        lim, ["HeadYaw", "HeadPitch"], [[1.0], [0.1, 0.0]], [[0.1], [0.1, 1.1]], pose
+    )
+    slow = min_segment_time(1.0, lim.velocity["HeadYaw"])
+    # the shared key moves to where HeadYaw can be; the 1 s segment after it keeps its length
+    assert [len(ts) for ts in plan.times] == [1, 2]
+    assert [*plan.times[0], *plan.times[1]] == pytest.approx([slow, slow, slow + 1.0])
+    assert (plan.asked_s, plan.duration_s) == pytest.approx((1.1, slow + 1.0))
+    assert plan.capped is not None and plan.capped[0] == "HeadYaw"
+    assert plan.capped[1:] == pytest.approx((1.0 / 0.05, lim.velocity["HeadYaw"]))
+    fine = plan_keyframes(lim, ["HeadYaw"], [[0.5]], [[1.0]], pose)
+    assert fine.times == ((1.0,),) and fine.capped is None
+
+
+def test_each_phrase_said_is_logged(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    nao = VirtualNao(model="kinematic", speech_log=tmp_path / "said.jsonl")
+    nao.start(realtime=False)
+    try:
+        tts = ALTextToSpeech(nao)
+        with caplog.at_level(logging.INFO, logger=SPEECH_LOGGER):
+            first = tts.say1("Good pace.")
+            second = tts.say2("Look up at your audience.", "English")
+        ended_at(nao, second, 10.0)
+        assert first.isFinished()
+    finally:
+        nao.stop()
+    said = [r.getMessage() for r in caplog.records if r.name == SPEECH_LOGGER]
+    assert len(said) == 2
+    assert said[0].endswith("Good pace.") and said[1].endswith("Look up at your audience.")
+    recs = [r for r in records(tmp_path / "said.jsonl") if r["call"] == "say"]
+    assert [(r["event"], r["text"]) for r in recs] == [
+        ("start", "Good pace."),
+        ("end", "Good pace."),
+        ("start", "Look up at your audience."),
+        ("end", "Look up at your audience."),
+    ]
+
+
+def test_serve_takes_the_model_and_the_speech_log(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    log_path = tmp_path / "said.jsonl"
+    with (
+        caplog.at_level(logging.INFO, logger=SPEECH_LOGGER),
+        serve("127.0.0.1", 0, model="kinematic", speech_log=log_path) as server,
+    ):
+        assert isinstance(server.robot.model, KinematicNao)
+        session = qi.Session()
+        session.connect(server.url)
+        try:
+            session.service("ALTextToSpeech").say("Slow down.")
+        finally:
+            session.close()
+    assert any(r.getMessage().endswith("Slow down.") for r in caplog.records)
+    assert [r["event"] for r in records(log_path) if r.get("text") == "Slow down."] == [
+        "start",
+        "end",
+    ]
