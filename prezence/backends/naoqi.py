@@ -8,7 +8,7 @@ libqi has no timeouts of its own (a hung host or a frozen robot leaves a call ru
 ever), so every remote call here has a deadline:
 
 - connecting: ``connect_timeout_s``; setting up (services, wake-up): ``call_timeout_s`` per call
-  (``wake_timeout_s`` for ``wakeUp``, which moves the robot);
+  (``wake_timeout_s`` for ``wakeUp`` and the move to the neutral pose, which move the robot);
 - a gesture or phrase: its planned duration plus ``motion_margin_s`` (phrases: twice the
   planned duration, since the robot's voice rate is not ours); past it the motion fails, the
   call is cancelled and the robot's task killed;
@@ -26,11 +26,21 @@ background (a worker thread, so ``advance`` never blocks), with exponential back
 What the backend changes on the robot at :meth:`open`: it turns off the autonomous abilities
 that move joints (``BackgroundMovement``, ``BasicAwareness``, ``ListeningMovement``,
 ``SpeakingMovement`` through ``ALAutonomousLife``, or pauses ``ALBasicAwareness`` on older
-NAOqi), calls ``ALMotion.wakeUp()`` (stiffness on, standing), and disables breathing and the
-idle posture. Each of these is skipped, with a log line, where the robot lacks it. At
-:meth:`close` the abilities it turned off are turned back on. **Stiffness policy:** the
-backend never sets stiffness to 0 on a standing robot (it would fall); stiffness stays on at
-close unless ``rest_on_close=True``, which calls ``ALMotion.rest()`` (crouch, then motors off).
+NAOqi), calls ``ALMotion.wakeUp()`` (stiffness on, standing), disables breathing and the
+idle posture, and then moves the head and arms to the gesture library's neutral pose (the pose
+every gesture is planned from; ``angleInterpolationWithSpeed`` at ``neutral_speed_fraction``,
+waiting up to ``wake_timeout_s``), so the first gesture starts where its timing assumed. The
+legs stay as ``wakeUp`` stood them: no gesture moves them and balance is the robot's. Each of the
+optional steps is skipped, with a log line, where the robot lacks it (wakeUp and the move to
+neutral are required). At :meth:`close` the abilities it turned off are turned back on.
+**Stiffness policy:** the backend never sets stiffness to 0 on a standing robot (it would fall);
+stiffness stays on at close unless ``rest_on_close=True``, which calls ``ALMotion.rest()``
+(crouch, then motors off).
+
+**Too fast.** A gesture whose planned peak speed of some joint (exact, from the trajectory's
+profile) exceeds the robot's own velocity limit (``ALMotion.getLimits``) by more than
+``TOO_FAST_TOLERANCE`` is logged and counted as ``too_fast`` in :meth:`stats`; it is sent as it
+is (NAOqi does not document what it does with it).
 
 Time: the ``now`` passed to :meth:`play`/:meth:`say`/:meth:`advance` stamps the motions; the
 deadlines and latencies use the host's monotonic clock, because the robot keeps real time
@@ -64,6 +74,13 @@ AUTONOMOUS_ABILITIES = (
 #: Eye colour while a cue runs, and at rest (0x00RRGGBB, as ALLeds.fadeRGB takes it).
 CUE_RGB = 0x00FF8C00
 IDLE_RGB = 0x00FFFFFF
+#: A planned peak speed up to this fraction over the robot's limit is not too fast (the robot
+#: reports its limits as 32-bit floats; the planner works at exactly 100 % of the URDF's).
+TOO_FAST_TOLERANCE = 0.01
+#: Default share of the velocity limits for the move to the neutral pose at open: slow and safe.
+NEUTRAL_SPEED_FRACTION = 0.2
+#: The chains moved to the library's neutral pose at open (the legs are left standing).
+NEUTRAL_CHAINS = ("Head", "LArm", "RArm")
 #: Error texts with which libqi reports a dead connection.
 _LOST_MARKERS = (
     "Session closed",
@@ -129,10 +146,10 @@ class NaoqiBackend(Backend):
         url: the robot, ``tcp://HOST:9559`` (``HOST`` or ``HOST:PORT`` work too).
         connect_timeout_s: how long connecting may take before the robot counts as unreachable.
         call_timeout_s: deadline for short calls (set-up, heartbeat, kills).
-        wake_timeout_s: deadline for ``wakeUp`` (the robot may stand up first).
-        speed_fraction: fraction of each joint's velocity limit (the robot's ``getLimits``) a
-            gesture may demand; faster segments are logged and counted as ``too_fast`` (NAOqi
-            does not document what it does with them), never changed.
+        wake_timeout_s: deadline for ``wakeUp`` (the robot may stand up first) and for the move
+            to the neutral pose.
+        neutral_speed_fraction: fraction of the velocity limits for the move to the neutral
+            pose at open, in (0, 1].
         leds: colour the eyes while a cue runs (needs ALLeds; skipped if the robot lacks it).
         motion_margin_s: slack added to a motion's planned duration before it fails.
         heartbeat_s: seconds between liveness checks while connected.
@@ -150,7 +167,7 @@ class NaoqiBackend(Backend):
         connect_timeout_s: float = 5.0,
         call_timeout_s: float = 2.0,
         wake_timeout_s: float = 15.0,
-        speed_fraction: float = 1.0,
+        neutral_speed_fraction: float = NEUTRAL_SPEED_FRACTION,
         leds: bool = False,
         motion_margin_s: float = 1.0,
         heartbeat_s: float = 1.0,
@@ -172,15 +189,17 @@ class NaoqiBackend(Backend):
                 raise ValueError(f"{key} must be > 0, got {value!r}")
         if not motion_margin_s >= 0:
             raise ValueError(f"motion_margin_s must be >= 0, got {motion_margin_s!r}")
-        if not 0 < speed_fraction <= 1:
-            raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
+        if not 0 < neutral_speed_fraction <= 1:
+            raise ValueError(
+                f"neutral_speed_fraction must be in (0, 1], got {neutral_speed_fraction!r}"
+            )
         if not reconnect_max_s >= reconnect_initial_s:
             raise ValueError("reconnect_max_s must be >= reconnect_initial_s")
         self.url = url.strip()
         self.connect_timeout_s = float(connect_timeout_s)
         self.call_timeout_s = float(call_timeout_s)
         self.wake_timeout_s = float(wake_timeout_s)
-        self.speed_fraction = float(speed_fraction)
+        self.neutral_speed_fraction = float(neutral_speed_fraction)
         self.leds = leds
         self.motion_margin_s = float(motion_margin_s)
         self.heartbeat_s = float(heartbeat_s)
@@ -342,7 +361,23 @@ class NaoqiBackend(Backend):
         joints = tuple(str(n) for n in names)
         self._check_body(joints)
         velocity = {n: float(lim[2]) for n, lim in zip(joints, limits, strict=False)}
+        self._go_neutral(motion)
         return _Link(session, motion, tts, leds, joints, velocity, lost, reason, restore)
+
+    def _go_neutral(self, motion: Any) -> None:
+        """Move head and arms to the library's neutral pose, slowly, and wait until there."""
+        names, angles = neutral_targets()
+        started = time.monotonic()
+        self._wait(
+            motion.angleInterpolationWithSpeed(
+                names, angles, self.neutral_speed_fraction, _async=True
+            ),
+            "moving to the neutral pose (ALMotion.angleInterpolationWithSpeed)",
+            self.wake_timeout_s,
+        )
+        log.info(
+            "at the neutral pose (%d joints) after %.2f s", len(names), time.monotonic() - started
+        )
 
     def _check_body(self, joints: tuple[str, ...]) -> None:
         """The robot must have every head and arm joint of the project's NAO model."""
@@ -417,26 +452,28 @@ class NaoqiBackend(Backend):
             self._aside.append(link.leds.fadeRGB("FaceLeds", CUE_RGB, 0.1, _async=True))
 
     def _check_speed(self, traj: Trajectory, link: _Link) -> None:
-        """Count segments whose mean speed already exceeds speed_fraction × the robot's limit."""
-        prev_t, prev = 0.0, traj.start
-        for t, pos in zip(traj.times, traj.positions, strict=True):
-            for k, j in enumerate(traj.joints):
-                limit = self.speed_fraction * link.velocity.get(j, float("inf"))
-                speed = abs(pos[k] - prev[k]) / (t - prev_t)
-                if speed > limit:
-                    self._counts["too_fast"] += 1
-                    log.warning(
-                        "gesture %r: %s needs %.2f rad/s before %.2f s, over %.2f rad/s "
-                        "(%.0f%% of the robot's limit); NAOqi may slow or clip it",
-                        traj.name,
-                        j,
-                        speed,
-                        t,
-                        limit,
-                        100 * self.speed_fraction,
-                    )
-                    return
-            prev_t, prev = t, pos
+        """Count the gesture as ``too_fast`` when a joint's planned peak speed exceeds the
+        robot's own velocity limit by more than ``TOO_FAST_TOLERANCE`` (logged, not changed)."""
+        over = [
+            (float(peak) / link.velocity[j], j, float(peak))
+            for j, peak in zip(traj.joints, traj.peak_velocities(), strict=True)
+            if link.velocity.get(j, 0.0) > 0.0
+            and peak > link.velocity[j] * (1.0 + TOO_FAST_TOLERANCE)
+        ]
+        if not over:
+            return
+        self._counts["too_fast"] += 1
+        ratio, j, peak = max(over)
+        log.warning(
+            "gesture %r: %s planned at %.2f rad/s, %.0f%% of the robot's limit %.2f rad/s "
+            "(%d joint(s) over); NAOqi may slow or clip it",
+            traj.name,
+            j,
+            peak,
+            100 * ratio,
+            link.velocity[j],
+            len(over),
+        )
 
     # -- polling -------------------------------------------------------------------------------
     def _advance(self, now: float) -> None:
@@ -612,3 +649,18 @@ class NaoqiBackend(Backend):
         finally:
             close = link.session.close(_async=True)
             close.wait(int(self.call_timeout_s * 1000))
+
+
+def neutral_targets() -> tuple[list[str], list[float]]:
+    """The library's neutral pose for the head and arm joints: (names, angles), NAOqi order.
+
+    The pose :func:`~prezence.feedback.gestures.build_trajectory` plans every gesture from
+    (hands: opening fraction, as ``ALMotion`` takes them).
+    """
+    from prezence.feedback.gestures import load_library
+    from prezence.feedback.limits import load_limits
+
+    limits = load_limits()
+    neutral = load_library(limits).neutral
+    names = [n for c in NEUTRAL_CHAINS for n in limits.chains[c]]
+    return names, [float(neutral[n]) for n in names]

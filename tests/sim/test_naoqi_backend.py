@@ -18,10 +18,12 @@ import pytest
 pytest.importorskip("pybullet")
 qi = pytest.importorskip("qi")
 
-from prezence.backends.naoqi import NaoqiBackend  # noqa: E402
+from prezence.backends.naoqi import TOO_FAST_TOLERANCE, NaoqiBackend, neutral_targets  # noqa: E402
 from prezence.backends.registry import make_backend  # noqa: E402
 from prezence.clock import MonotonicClock  # noqa: E402
 from prezence.errors import BackendUnavailable, UnknownName  # noqa: E402
+from prezence.feedback.gestures import build_trajectory  # noqa: E402
+from prezence.feedback.limits import load_limits  # noqa: E402
 from prezence.feedback.trajectory import Trajectory  # noqa: E402
 from sim.virtual_nao import spawn, stop_spawned  # noqa: E402
 
@@ -84,6 +86,50 @@ def test_plays_a_gesture_and_says_a_phrase(server: tuple[subprocess.Popen[str], 
         assert read_angles(url, list(NOD.joints)) == pytest.approx(NOD.positions[-1], abs=TOL)
         stats = backend.stats()
     assert stats["connects"] == 1 and stats["failed"] == 0 and stats["dropped"] == 0
+
+
+def test_open_moves_head_and_arms_to_the_library_neutral_pose(
+    server: tuple[subprocess.Popen[str], str],
+) -> None:
+    _, url = server
+    names, neutral = neutral_targets()
+    assert names[:2] == ["HeadYaw", "HeadPitch"] and "RHand" in names and len(names) == 14
+    session = qi.Session()  # leave the robot somewhere else, as a plain script might
+    session.connect(url)
+    try:
+        motion = session.service("ALMotion")
+        motion.wakeUp()
+        motion.angleInterpolationWithSpeed(
+            ["HeadYaw", "LShoulderPitch", "RElbowRoll"], [0.6, 0.3, 1.2], 1.0
+        )
+    finally:
+        session.close()
+    assert read_angles(url, names) != pytest.approx(neutral, abs=TOL)
+    with NaoqiBackend(url=url) as backend:
+        assert backend.connected
+        assert read_angles(url, names) == pytest.approx(neutral, abs=TOL)
+
+
+def test_too_fast_counts_gestures_over_the_robots_own_velocity_limits(
+    server: tuple[subprocess.Popen[str], str],
+) -> None:
+    limits = load_limits()
+    yaw_limit = limits.velocity["HeadYaw"]
+    # the library at 100 % of the URDF limits: some joint peaks exactly at its limit
+    full = build_trajectory("encourage", speed_fraction=1.0, limits=limits)
+    ratios = full.peak_velocities() / [limits.velocity[j] for j in full.joints]
+    assert max(ratios) == pytest.approx(1.0)
+    # 0.2 s segments: a 0.2 s ramp each way, so the peak is twice the mean speed
+    under = Trajectory("under", ("HeadYaw",), (0.2,), ((0.8,),), (0.0,))  # 8.0 rad/s peak
+    over = Trajectory("over", ("HeadYaw",), (0.2,), ((1.0,),), (0.0,))  # 10 rad/s; mean 5
+    assert under.peak_velocities()[0] < yaw_limit < over.peak_velocities()[0]
+    assert over.peak_velocities()[0] > yaw_limit * (1 + TOO_FAST_TOLERANCE)
+    clock = MonotonicClock()
+    with NaoqiBackend(url=server[1]) as backend:
+        for traj, expected in ((full, 0), (under, 0), (over, 1)):
+            backend.play(traj, now=clock.now())
+            assert backend.wait_idle(10.0, clock.now)
+            assert backend.stats()["too_fast"] == expected, traj.name
 
 
 def test_unknown_joint_is_refused_before_sending(server: tuple[subprocess.Popen[str], str]) -> None:
