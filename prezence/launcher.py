@@ -2,10 +2,27 @@
 
 Each input module is a separate process that writes its stream files into the session folder;
 the coach tails those files (waking on file changes, not polling slowly), decides, and has the
-robot perform cues. Modules are supervised: one that exits with an error, or writes nothing for
-``hang_after_s``, is reported and restarted with exponential backoff while its metrics go stale
-(the processor excludes them meanwhile); the talk goes on. Ctrl-C, or the allocated time plus a
-grace period, stops everything cleanly and writes the summary.
+robot perform cues. Modules are supervised: one that exits with an error is reported and
+restarted with exponential backoff while its metrics go stale (the processor excludes them
+meanwhile); the talk goes on. Ctrl-C, or the allocated time plus a grace period, stops
+everything cleanly, writes the summary and (with ``report=True``) the report, and the robot
+says the post-talk summary.
+
+Hang detection is per module and only for a module whose :class:`ModuleSpec` sets
+``hang_after_s``: it is killed and restarted when, while its process runs, it shows no sign of
+life for that long. Signs of life, each looked at by that module's own table of file states:
+
+- one of *its* stream files (``streams/<metric>.txt`` of its ``metrics``; every ``*.txt`` in
+  ``streams/`` when it declares none) grew or was touched (size or modification time changed);
+- its log, ``SESSION/<name>.log`` (its stdout and stderr), grew;
+- its heartbeat file, ``SESSION/streams/.<name>.alive``, was touched. Its path is in the
+  module's environment as :data:`HEARTBEAT_ENV`; a module that can go quiet for a long time
+  touches it, say, every second to show it is alive.
+
+The vision module writes every second and is restarted after :data:`DEFAULT_HANG_S` without
+a sign of life; so is the speech module when it writes its voice-activity stream in silence too
+(:data:`SPEECH_HEARTBEAT_METRIC`). A speech module that writes nothing while the presenter
+pauses has no hang limit: a crash still restarts it, a pause does not.
 """
 
 from __future__ import annotations
@@ -35,6 +52,26 @@ from prezence.summary import summarize_session
 
 log = logging.getLogger(__name__)
 
+#: The environment variable that holds a module's heartbeat file (see the module docstring).
+HEARTBEAT_ENV = "PREZENCE_HEARTBEAT"
+#: Hang limit of the vision module and of ``--module`` modules, seconds.
+DEFAULT_HANG_S = 20.0
+#: Modules are looked at (exit status, signs of life) at most this often, seconds.
+SUPERVISE_PERIOD_S = 0.2
+
+#: A stream the speech module writes every hop, in silence too (its heartbeat). A speech
+#: module whose ``METRICS`` has it can be watched for hangs; one that writes nothing while the
+#: presenter pauses cannot.
+SPEECH_HEARTBEAT_METRIC = "speech_activity"
+#: The metrics the vision module writes: ``prezence.modules.vision.METRICS``, written out here
+#: because that module needs OpenCV to import (a test checks they agree).
+VISION_METRICS: tuple[str, ...] = (
+    "cv_headGaze",
+    "cv_headYaw",
+    "cv_facingAudience",
+    "cv_gestures",
+)
+
 
 @dataclass
 class ModuleSpec:
@@ -46,22 +83,84 @@ class ModuleSpec:
 
     name: str
     argv: list[str]
+    #: The metrics it writes (``streams/<metric>.txt``); empty: unknown, any stream file counts
+    #: as its sign of life.
     metrics: tuple[str, ...] = ()
     #: True when the input is a file: a clean exit then means "input finished", not a crash.
     finite: bool = False
+    #: Kill and restart it after this many seconds without a sign of life while it runs;
+    #: None: never (only an exit restarts it).
+    hang_after_s: float | None = None
+
+    def __post_init__(self) -> None:
+        if not self.name or "/" in self.name or self.name.startswith("."):
+            raise ValueError(f"module name {self.name!r}: want a plain name such as 'speech'")
+        if self.hang_after_s is not None and not self.hang_after_s > 0:
+            raise ValueError(f"module {self.name}: hang_after_s must be > 0 or None")
 
     @classmethod
-    def parse(cls, text: str) -> ModuleSpec:
-        """``NAME=COMMAND LINE`` (shell words): ``pace=python pace.py --out {session}``."""
-        name, sep, cmd = text.partition("=")
+    def parse(cls, text: str, *, hang_after_s: float | None = DEFAULT_HANG_S) -> ModuleSpec:
+        """``NAME[:METRIC,...]=COMMAND LINE`` (shell words), as ``--module`` takes it.
+
+        Naming the metrics makes hang detection look at those stream files only.
+
+        Example:
+            >>> s = ModuleSpec.parse("pace:speech_speed=python pace.py --out {session}")
+            >>> s.name, s.metrics, s.argv[-2:], s.hang_after_s
+            ('pace', ('speech_speed',), ['--out', '{session}'], 20.0)
+        """
+        head, sep, cmd = text.partition("=")
+        name, _, metrics = head.partition(":")
         if not sep or not name.strip() or not cmd.strip():
-            raise ValueError(f"--module wants NAME=COMMAND, got {text!r}")
-        return cls(name.strip(), shlex.split(cmd))
+            raise ValueError(
+                f"--module wants NAME=COMMAND or NAME:METRIC,...=COMMAND, got {text!r}"
+            )
+        try:
+            argv = shlex.split(cmd)
+        except ValueError as e:
+            raise ValueError(f"--module {name.strip()}: {e} in {cmd!r}") from None
+        ms = tuple(m.strip() for m in metrics.split(",") if m.strip())
+        return cls(name.strip(), argv, metrics=ms, hang_after_s=hang_after_s)
+
+
+def speech_module(audio: str, extra: Sequence[str] = ()) -> ModuleSpec:
+    """The speech module on ``audio`` (``mic`` or a file played as if live), ``extra`` appended.
+
+    Its metrics are the module's own ``METRICS``. It is watched for hangs
+    (:data:`DEFAULT_HANG_S`) only when it writes :data:`SPEECH_HEARTBEAT_METRIC` in silence
+    too; otherwise a pause would look like a hang, and only an exit restarts it.
+    """
+    from prezence.modules.speech import METRICS
+
+    file_in = audio != "mic"
+    argv = [sys.executable, "-m", "prezence.modules.speech", "--audio", audio]
+    argv += ["--out", "{session}", "--t0", "{t0}"] + (["--realtime"] if file_in else [])
+    return ModuleSpec(
+        "speech",
+        argv + list(extra),
+        metrics=tuple(METRICS),
+        finite=file_in,
+        hang_after_s=DEFAULT_HANG_S if SPEECH_HEARTBEAT_METRIC in METRICS else None,
+    )
+
+
+def vision_module(video: str, extra: Sequence[str] = ()) -> ModuleSpec:
+    """The vision module on ``video`` (``cam``, ``cam:N`` or a file played as if live)."""
+    file_in = not video.startswith("cam")
+    argv = [sys.executable, "-m", "prezence.modules.vision", "--video", video]
+    argv += ["--out", "{session}", "--t0", "{t0}"] + (["--realtime"] if file_in else [])
+    return ModuleSpec(
+        "vision",
+        argv + list(extra),
+        metrics=VISION_METRICS,
+        finite=file_in,
+        hang_after_s=DEFAULT_HANG_S,
+    )
 
 
 @dataclass
 class ModuleProcess:
-    """One supervised module process."""
+    """One supervised module process, with its own log and its own view of its files."""
 
     spec: ModuleSpec
     session: Path
@@ -75,6 +174,19 @@ class ModuleProcess:
     next_start: float = 0.0
     finished: bool = False
     started_at: float = 0.0
+    #: When it last showed a sign of life (talk seconds).
+    last_life: float = 0.0
+    #: (size, mtime_ns) of each file it was last seen with: this module's own table.
+    seen: dict[Path, tuple[int, int]] = field(default_factory=dict)
+
+    @property
+    def heartbeat(self) -> Path:
+        """``SESSION/streams/.<name>.alive``: touched by a module to show it is alive."""
+        return self.session / "streams" / f".{self.spec.name}.alive"
+
+    @property
+    def log_path(self) -> Path:
+        return Path(self.log_file.name)
 
     def argv(self) -> list[str]:
         return [
@@ -83,18 +195,54 @@ class ModuleProcess:
         ]
 
     def start(self, now: float) -> None:
+        self.heartbeat.parent.mkdir(parents=True, exist_ok=True)
         self.proc = subprocess.Popen(
             self.argv(),
             stdout=self.log_file,
             stderr=subprocess.STDOUT,
             stdin=subprocess.DEVNULL,
             text=True,
+            env={**os.environ, HEARTBEAT_ENV: str(self.heartbeat)},
             start_new_session=True,  # Ctrl-C in the terminal reaches the launcher only
         )
         self.started_at = now
+        self.last_life = now
         log.info("module %s started (pid %d)", self.spec.name, self.proc.pid)
 
-    def check(self, now: float, *, hung: bool) -> str | None:
+    def watched(self) -> list[Path]:
+        """The files whose change shows this module is alive (see the module docstring)."""
+        streams = self.session / "streams"
+        if self.spec.metrics:
+            files = [streams / f"{m}.txt" for m in self.spec.metrics]
+        else:
+            # stream files only: not the heartbeats of others, nor the coach's .stamps sidecars
+            files = sorted(f for f in streams.glob("*.txt") if not f.name.startswith("."))
+        return [*files, self.heartbeat, self.log_path]
+
+    def alive_since_last_look(self) -> bool:
+        """Whether any watched file changed since this module's last look (updates its table)."""
+        changed = False
+        for path in self.watched():
+            try:
+                st = path.stat()
+            except FileNotFoundError:
+                continue
+            state = (st.st_size, st.st_mtime_ns)
+            if self.seen.get(path) != state:
+                self.seen[path] = state
+                changed = True
+        return changed
+
+    def hung(self, now: float) -> bool:
+        """Look at its files; True when it runs, has a hang limit and showed no life for it."""
+        if self.alive_since_last_look():
+            self.last_life = now
+        limit = self.spec.hang_after_s
+        if self.proc is None or limit is None:
+            return False
+        return now - max(self.last_life, self.started_at) > limit
+
+    def check(self, now: float) -> str | None:
         """Restart after a crash or a hang; returns an event line for the live view, or None."""
         if self.finished:
             return None
@@ -103,6 +251,7 @@ class ModuleProcess:
                 self.start(now)
                 return f"module {self.spec.name} restarted (attempt {self.restarts})"
             return None
+        hung = self.hung(now)
         rc = self.proc.poll()
         if rc is None and not hung:
             return None
@@ -110,7 +259,11 @@ class ModuleProcess:
             self.finished = True
             self.proc = None
             return f"module {self.spec.name} finished its input"
-        why = f"exited with status {rc}" if rc is not None else "wrote nothing (hung); killed"
+        why = (
+            f"exited with status {rc}"
+            if rc is not None
+            else f"showed no sign of life for {self.spec.hang_after_s:g} s (hung); killed"
+        )
         if rc is None:
             self._kill()
         self.crashes.append({"t": round(now, 3), "why": why})
@@ -148,9 +301,13 @@ class ModuleProcess:
 
 @dataclass
 class UpResult:
+    """What a live talk leaves: its folder, its summary, the supervision events, the report."""
+
     session: SessionDir
     summary: dict[str, Any]
     events: list[str]
+    #: ``report/report.html``, when the report was written.
+    report: Path | None = None
 
 
 class LiveView:
@@ -201,54 +358,82 @@ def up(
     modules: Sequence[ModuleSpec],
     backend: Backend,
     policy: str = "weighted",
+    seed: int = 0,
     speed_fraction: float = 0.6,
     grace_s: float = 30.0,
     duration_s: float | None = None,
-    hang_after_s: float = 20.0,
     view: LiveView | None = None,
     stop: Callable[[], bool] | None = None,
+    report: bool = False,
 ) -> UpResult:
     """Run a live talk until Ctrl-C, ``duration_s``, or the allocated time plus ``grace_s``.
+
+    After the talk the cue in progress finishes; with ``report`` the robot then says the
+    post-talk summary (time used, the two things to work on first) with its summary gesture,
+    and ``SESSION/report/`` is written. The robot's last moves are paced to the wall clock,
+    except on the ``fake`` backend, which only keeps time and has nothing to watch.
 
     Args:
         config: rules and settings (its allocated time ends the talk, plus ``grace_s``).
         session_dir: the session folder (created).
-        modules: input modules to start and supervise.
+        modules: input modules to start and supervise (names must differ: each has its own
+            log, ``SESSION/<name>.log``, and heartbeat file).
         backend: an unopened robot backend.
         policy: conflict policy name.
+        seed: for policies that use chance.
         speed_fraction: gesture speed.
         grace_s: time after the allocated time before the talk is stopped.
         duration_s: stop after this long regardless (tests, fixed-length rehearsals).
-        hang_after_s: a module whose files do not change for this long is restarted.
         view: the live terminal view (None: log only).
         stop: polled every loop; True ends the talk (tests, embedding).
+        report: say the post-talk summary and write the report.
+
+    Raises:
+        ValueError: two modules have the same name.
     """
+    names = [m.name for m in modules]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"two modules are called {', '.join(dup)}: give each its own name")
     session = SessionDir(Path(session_dir)).create()
     session.config.write_text(dumps_config(config))
     streams = {r.metric: session.stream(r.stream) for r in config.rules}
     tailer = MultiTailer(streams)
     clock = MonotonicClock()
     t0_epoch = time.time()
-    session.write_meta(
-        {"kind": "live", "t0_epoch": t0_epoch, "policy": policy, "backend": backend.name}
-    )
-    logs = (session.root / "modules.log").open("a", encoding="utf-8")
-    procs = [ModuleProcess(m, session.root, t0_epoch, logs) for m in modules]
-    processor = Processor(config, policy=make_policy(policy))
+    meta: dict[str, Any] = {
+        "kind": "live",
+        "t0_epoch": t0_epoch,
+        "policy": policy,
+        "backend": backend.name,
+    }
+    session.write_meta(meta)
+    logs = [(session.root / f"{m.name}.log").open("a", encoding="utf-8") for m in modules]
+    procs = [
+        ModuleProcess(m, session.root, t0_epoch, f) for m, f in zip(modules, logs, strict=True)
+    ]
+    processor = Processor(config, policy=make_policy(policy, seed=seed))
     events: list[str] = []
     end_at = duration_s
     if end_at is None and config.time.allocated_s is not None:
         end_at = config.time.allocated_s + grace_s
     dt = config.processor.decision_period_s
     interrupted = False
+
+    def pace(t: float) -> None:
+        time.sleep(max(0.0, t - clock.now()))
+
+    paced = None if backend.name == "fake" else pace
     backend.open()
     coach = Coach(processor, backend, session, planner=default_planner(speed_fraction))
-    last_change = {m.spec.name: 0.0 for m in procs}
-    sizes: dict[str, int] = {}
+    talk_s = 0.0
+    post: dict[str, Any] | None = None
+    ended = False  # the talk ended as planned or by Ctrl-C, not by an error
     try:
         for p in procs:
             p.start(0.0)
         next_tick = 0.0
+        next_look = 0.0
         while True:
             now = clock.now()
             if (end_at is not None and now >= end_at) or (stop is not None and stop()):
@@ -261,36 +446,35 @@ def up(
             next_tick = now + dt
             if view is not None:
                 view.decision(d)
+            if now < next_look:
+                continue
+            next_look = now + SUPERVISE_PERIOD_S
             for p in procs:
-                changed = _module_wrote(p, streams, sizes)
-                if changed or p.proc is None:
-                    last_change[p.spec.name] = now
-                hung = (
-                    p.proc is not None
-                    and hang_after_s > 0
-                    and now - max(last_change[p.spec.name], p.started_at) > hang_after_s
-                )
-                ev = p.check(now, hung=hung)
+                ev = p.check(now)
                 if ev:
                     events.append(f"{now:.1f} {ev}")
                     if view is not None:
                         view.event(now, ev)
+        ended = True
     except KeyboardInterrupt:
-        interrupted = True
+        interrupted = ended = True
         log.info("stopped by Ctrl-C")
     finally:
         for p in procs:
             p.stop()
-        now = clock.now()
+        talk_s = clock.now()
         try:
-            coach.tick(now, tailer.poll(now))
-            coach.drain(now, step_s=0.05, limit_s=10.0)
+            coach.tick(talk_s, tailer.poll(talk_s))
+            end = coach.drain(talk_s, step_s=0.05, limit_s=10.0, pace=paced)
+            session.write_meta({**meta, "talk_s": round(talk_s, 3)})
+            if report and ended:
+                post = _post_talk(coach, session, config, end, pace=paced)
         finally:
             coach.close()
             tailer.close()
             backend.close()
-            logs.close()
-    talk_s = clock.now()
+            for f in logs:
+                f.close()
     summary = summarize_session(
         session,
         config,
@@ -303,24 +487,35 @@ def up(
             "decisions": coach.decisions,
             "interrupted": interrupted,
             "modules": {p.spec.name: {"restarts": p.restarts, "crashes": p.crashes} for p in procs},
+            **({"post_talk": post} if post is not None else {}),
         },
     )
-    return UpResult(session, summary, events)
+    page = None
+    if report:
+        from prezence.report.build import write_report
+
+        page = write_report(session.root, config=config)
+    return UpResult(session, summary, events, page)
 
 
-def _module_wrote(p: ModuleProcess, streams: dict[str, Path], sizes: dict[str, int]) -> bool:
-    """Whether any stream of this module grew since the last look (hang detection)."""
-    metrics = p.spec.metrics or tuple(streams)
-    grew = False
-    for m in metrics:
-        path = streams.get(m)
-        if path is None:
-            continue
-        try:
-            size = path.stat().st_size
-        except FileNotFoundError:
-            continue
-        if size != sizes.get(m):
-            sizes[m] = size
-            grew = True
-    return grew
+def _post_talk(
+    coach: Coach,
+    session: SessionDir,
+    config: Config,
+    now: float,
+    *,
+    pace: Callable[[float], None] | None,
+) -> dict[str, Any] | None:
+    """The robot says the post-talk summary (as a headless talk's robot does); its record.
+
+    A second Ctrl-C skips it (None); the report is still written.
+    """
+    from prezence.report.build import build_report
+    from prezence.report.speech import summary_phrase
+
+    phrase = summary_phrase(build_report(session.root, config=config))
+    try:
+        return coach.post_talk(phrase, now, step_s=0.05, pace=pace)
+    except KeyboardInterrupt:
+        log.info("post-talk summary skipped (Ctrl-C)")
+        return None

@@ -9,10 +9,19 @@ import pytest
 
 from prezence.backends.fake import FakeBackend
 from prezence.config.model import Check, Config, ProcessorSettings, Rule, TimeSettings
-from prezence.launcher import ModuleSpec, up
+from prezence.launcher import (
+    DEFAULT_HANG_S,
+    SPEECH_HEARTBEAT_METRIC,
+    VISION_METRICS,
+    ModuleSpec,
+    speech_module,
+    up,
+    vision_module,
+)
 from prezence.session import read_jsonl
 
 PACE = Path(__file__).with_name("pace_module.py")
+BEAT = Path(__file__).with_name("beat_module.py")
 
 CONFIG = Config(
     rules=(Rule("speech_speed", Check.IN_RANGE, 140, 180, below="speedUp", above="slowDown"),),
@@ -28,15 +37,114 @@ def pace(*extra: str) -> ModuleSpec:
     return ModuleSpec("pace", argv, metrics=("speech_speed",))
 
 
+def beat(name: str, *extra: str, hang_after_s: float | None = 1.0) -> ModuleSpec:
+    argv = [sys.executable, str(BEAT), "--out", "{session}", "--t0", "{t0}", *extra]
+    metrics = (extra[extra.index("--metric") + 1],) if "--metric" in extra else ()
+    return ModuleSpec(name, argv, metrics=metrics, hang_after_s=hang_after_s)
+
+
 @pytest.mark.slow
 def test_up_runs_modules_and_coaches_live(tmp_path: Path) -> None:
     result = up(
-        CONFIG, session_dir=tmp_path / "s", modules=[pace()], backend=FakeBackend(), duration_s=4.0
+        CONFIG,
+        session_dir=tmp_path / "s",
+        modules=[pace()],
+        backend=FakeBackend(time_scale=0.01),  # the spoken summary ends at once
+        duration_s=4.0,
+        report=True,
     )
     cues = read_jsonl(tmp_path / "s" / "cues.jsonl")
     assert [c["command"] for c in cues] == ["slowDown"]
     assert result.summary["metrics"]["speech_speed"]["samples"] >= 10
     assert result.summary["modules"]["pace"]["restarts"] == 0
+    # after the talk: the robot says the summary, and the report is written
+    post = result.summary["post_talk"]
+    assert post["ok"] and post["phrase"].startswith("You spoke for")
+    assert "slow down" in post["phrase"]
+    assert result.report == tmp_path / "s" / "report" / "report.html"
+    assert result.report.exists()
+    spoken = (tmp_path / "s" / "report" / "spoken.txt").read_text().strip()
+    assert spoken == post["phrase"]
+
+
+@pytest.mark.slow
+def test_two_healthy_modules_writing_different_streams_are_never_restarted(
+    tmp_path: Path,
+) -> None:
+    # Each module is judged by its own files: one module's look must not use up the other's
+    # growth (with a shared table the second always looked silent and was killed).
+    speech = beat("speech", "--metric", "speech_speed", hang_after_s=1.0)
+    vision = beat("vision", "--metric", "cv_gestures", "--value", "6", hang_after_s=1.0)
+    result = up(
+        CONFIG,
+        session_dir=tmp_path / "s",
+        modules=[speech, vision],
+        backend=FakeBackend(),
+        duration_s=3.5,  # more than three hang limits
+    )
+    assert result.summary["modules"] == {
+        "speech": {"restarts": 0, "crashes": []},
+        "vision": {"restarts": 0, "crashes": []},
+    }
+    assert not result.events
+    for metric in ("speech_speed", "cv_gestures"):
+        lines = (tmp_path / "s" / "streams" / f"{metric}.txt").read_text().splitlines()
+        assert len(lines) >= 25  # both wrote all along
+
+
+@pytest.mark.slow
+def test_only_a_module_with_a_hang_limit_and_no_sign_of_life_is_restarted(
+    tmp_path: Path,
+) -> None:
+    modules = [
+        beat("writer", "--metric", "speech_speed"),
+        # no sample, but touches its heartbeat file
+        beat("pausing", "--heartbeat-only", "--metric", "speech_volume"),
+        beat("quiet", "--silent", hang_after_s=None),  # no hang limit: never killed for it
+        beat("stuck", "--silent", "--metric", "cv_gestures"),  # hung: writes nothing
+    ]
+    result = up(
+        CONFIG, session_dir=tmp_path / "s", modules=modules, backend=FakeBackend(), duration_s=3.0
+    )
+    mods = result.summary["modules"]
+    assert {n: m["restarts"] for n, m in mods.items() if n != "stuck"} == {
+        "writer": 0,
+        "pausing": 0,
+        "quiet": 0,
+    }
+    assert mods["stuck"]["restarts"] >= 1
+    assert "no sign of life for 1 s (hung); killed" in mods["stuck"]["crashes"][0]["why"]
+    assert 1.0 < mods["stuck"]["crashes"][0]["t"] < 1.8
+    assert (tmp_path / "s" / "streams" / ".pausing.alive").exists()
+    assert (tmp_path / "s" / "stuck.log").exists()  # one log per module
+
+
+def test_built_in_module_specs() -> None:
+    from prezence.modules import speech as speech_mod
+
+    speech = speech_module("talk.wav", ["--window", "5"])
+    assert speech.argv[-2:] == ["--window", "5"] and "--realtime" in speech.argv
+    assert speech.finite and speech.metrics == speech_mod.METRICS
+    # watched for hangs only if it writes in pauses too; else a pause would look like a hang
+    beats = SPEECH_HEARTBEAT_METRIC in speech_mod.METRICS
+    assert speech.hang_after_s == (DEFAULT_HANG_S if beats else None)
+    mic = speech_module("mic")
+    assert not mic.finite and "--realtime" not in mic.argv
+    vision = vision_module("cam:1", ["--audience-yaw", "12"])
+    assert vision.argv[-2:] == ["--audience-yaw", "12"] and not vision.finite
+    assert vision.metrics == VISION_METRICS and vision.hang_after_s == DEFAULT_HANG_S
+
+
+def test_vision_metric_list_matches_the_module() -> None:
+    pytest.importorskip("cv2")
+    from prezence.modules import vision
+
+    assert vision.METRICS == VISION_METRICS
+
+
+def test_two_modules_of_the_same_name_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="two modules are called pace"):
+        up(CONFIG, session_dir=tmp_path / "s", modules=[pace(), pace()], backend=FakeBackend())
 
 
 @pytest.mark.slow
@@ -64,5 +172,12 @@ def test_crashed_module_is_restarted_and_the_talk_completes(tmp_path: Path) -> N
 def test_module_spec_parse() -> None:
     spec = ModuleSpec.parse("pace=python pace.py --out {session}")
     assert spec.name == "pace" and spec.argv == ["python", "pace.py", "--out", "{session}"]
+    assert spec.metrics == () and spec.hang_after_s == DEFAULT_HANG_S
+    spec = ModuleSpec.parse("pace:speech_speed,speech_volume=python pace.py")
+    assert spec.name == "pace" and spec.metrics == ("speech_speed", "speech_volume")
     with pytest.raises(ValueError, match="NAME=COMMAND"):
         ModuleSpec.parse("no command here")
+    with pytest.raises(ValueError, match="No closing quotation"):
+        ModuleSpec.parse("pace=python 'pace.py")
+    with pytest.raises(ValueError, match="plain name"):
+        ModuleSpec.parse("../x=python pace.py")
