@@ -12,10 +12,13 @@ import logging
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from prezence import __version__
 from prezence.errors import PrezenceError
+
+if TYPE_CHECKING:
+    from prezence.config.model import Config
 
 log = logging.getLogger(__name__)
 
@@ -113,12 +116,63 @@ def _backend_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     return kw
 
 
-def cmd_run(args: argparse.Namespace) -> int:
+def parse_seconds(text: str) -> float:
+    """A length of time from the command line: ``36``, ``36s``, ``10m``, ``10min``, ``9:30``.
+
+    A bare number is seconds.
+
+    Example:
+        >>> [parse_seconds(x) for x in ("36", "36s", "10m", "9:30", "1.5min")]
+        [36.0, 36.0, 600.0, 570.0, 90.0]
+    """
+    t = text.strip().lower()
+    try:
+        if ":" in t:
+            m, _, sec = t.partition(":")
+            value = 60.0 * int(m) + float(sec)
+        elif t.endswith("min"):
+            value = 60.0 * float(t[:-3])
+        elif t.endswith("m"):
+            value = 60.0 * float(t[:-1])
+        elif t.endswith("s"):
+            value = float(t[:-1])
+        else:
+            value = float(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a length of time (seconds, or 10m, 9:30)"
+        ) from None
+    if not value > 0 or value != value or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: the time must be > 0")
+    return value
+
+
+def _load_config(args: argparse.Namespace) -> Config | None:
+    """The ``--config`` rules with ``--room``'s named values (the built-in rules when only
+    ``--room`` is given); None when neither is given: the command then uses its own rules (a
+    scenario's, a recording's, the built-in ones).
+    """
+    from prezence.config.load import load_config, load_room
+
+    room = load_room(args.room) if args.room else None
+    if args.config is None and room is None:
+        return None
+    return load_config(args.config, room=room)
+
+
+def _config_or_default(args: argparse.Namespace) -> Config:
+    """:func:`_load_config`, or the built-in configuration."""
     from prezence.config.load import load_config
+
+    config = _load_config(args)
+    return config if config is not None else load_config(None)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
     from sim.runner import run_talk
     from sim.scenario import check_expectations
 
-    config = load_config(args.config) if args.config else None
+    config = _load_config(args)
     out = Path(args.out) if args.out else Path("sessions") / f"{Path(args.scenario).stem}"
     result = run_talk(
         args.scenario,
@@ -166,106 +220,168 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from prezence.config.load import load_config
     from prezence.replay import replay
 
+    if args.room and not args.config:
+        raise PrezenceError(
+            "--room gives named values to --config rules; give --config too (the recording's "
+            "config.toml holds numbers only)"
+        )
     src = Path(args.session)
     out = Path(args.out) if args.out else src.parent / f"{src.name}-replay-{args.policy}"
     result = replay(
         src,
         out=out,
-        config=load_config(args.config) if args.config else None,
+        config=_load_config(args),
         policy=args.policy,
         backend=args.backend,
         backend_kwargs=_backend_kwargs(args),
         speed_fraction=args.speed,
-        seed=args.seed or 0,
+        seed=args.seed,
+        allocated_s=args.allocated,
+        realtime=args.realtime,
+        report=not args.no_report,
     )
-    if args.json:
-        print(json.dumps(result.summary, indent=2, sort_keys=True))
-    else:
-        print(format_timeline(result.summary))
-        print(f"session folder: {result.session.root}")
+    _finish_session(result.session.root, result.summary, args, report=result.report)
     return 0
 
 
 def cmd_rehearse(args: argparse.Namespace) -> int:
-    from prezence.config.load import load_config
-    from prezence.rehearse import rehearse
+    from prezence.rehearse import module_args, rehearse
 
     rec = Path(args.recording)
     out = Path(args.out) if args.out else Path("sessions") / f"rehearsal-{rec.stem}"
     result = rehearse(
         rec,
         out=out,
-        config=load_config(args.config) if args.config else None,
+        config=_config_or_default(args),
         policy=args.policy,
         backend=args.backend,
         backend_kwargs=_backend_kwargs(args),
         speed_fraction=args.speed,
+        module_args={
+            "speech": module_args("--speech-args", "speech", args.speech_args),
+            "vision": module_args("--vision-args", "vision", args.vision_args),
+        },
+        seed=args.seed,
+        allocated_s=args.allocated,
+        realtime=args.realtime,
+        report=not args.no_report,
     )
-    _finish_session(result.session.root, result.summary, args)
+    _finish_session(result.session.root, result.summary, args, report=result.report)
     return 0
 
 
 def cmd_up(args: argparse.Namespace) -> int:
     from prezence.backends.registry import make_backend
-    from prezence.config.load import load_config
-    from prezence.launcher import LiveView, ModuleSpec, up
+    from prezence.launcher import LiveView, ModuleSpec, speech_module, up, vision_module
+    from prezence.rehearse import module_args
 
-    config = load_config(args.config) if args.config else load_config(None)
+    config = _config_or_default(args)
     if args.allocated is not None:
-        config = config.with_allocated(args.allocated * 60.0)
+        config = config.with_allocated(args.allocated)
     specs: list[ModuleSpec] = []
-    py = sys.executable
     if args.audio:
-        file_in = args.audio != "mic"
-        argv = [py, "-m", "prezence.modules.speech", "--audio", args.audio]
-        argv += ["--out", "{session}", "--t0", "{t0}"] + (["--realtime"] if file_in else [])
-        specs.append(ModuleSpec("speech", argv, finite=file_in))
+        specs.append(
+            speech_module(args.audio, module_args("--speech-args", "speech", args.speech_args))
+        )
+    elif args.speech_args:
+        raise PrezenceError("--speech-args without --audio: the speech module is not started")
     if args.video:
-        file_in = not args.video.startswith("cam")
-        argv = [py, "-m", "prezence.modules.vision", "--video", args.video]
-        argv += ["--out", "{session}", "--t0", "{t0}"] + (["--realtime"] if file_in else [])
-        specs.append(ModuleSpec("vision", argv, finite=file_in))
-    specs += [ModuleSpec.parse(m) for m in args.module or []]
+        specs.append(
+            vision_module(args.video, module_args("--vision-args", "vision", args.vision_args))
+        )
+    elif args.vision_args:
+        raise PrezenceError("--vision-args without --video: the vision module is not started")
+    try:
+        specs += [ModuleSpec.parse(m) for m in args.module or []]
+    except ValueError as e:
+        raise PrezenceError(str(e)) from None
     if not specs:
         raise PrezenceError("nothing to listen to: give --audio, --video or --module")
     out = Path(args.out) if args.out else Path("sessions") / "live"
     backend = make_backend(args.backend, **_backend_kwargs(args))
-    result = up(
-        config,
-        session_dir=out,
-        modules=specs,
-        backend=backend,
-        policy=args.policy,
-        speed_fraction=args.speed,
-        grace_s=args.grace,
-        duration_s=args.duration,
-        view=None if args.quiet else LiveView(config),
-    )
-    _finish_session(result.session.root, result.summary, args)
+    try:
+        result = up(
+            config,
+            session_dir=out,
+            modules=specs,
+            backend=backend,
+            policy=args.policy,
+            seed=args.seed,
+            speed_fraction=args.speed,
+            grace_s=args.grace,
+            duration_s=args.duration,
+            view=None if args.quiet else LiveView(config),
+            report=not args.no_report,
+        )
+    except ValueError as e:  # two modules of the same name
+        raise PrezenceError(str(e)) from None
+    _finish_session(result.session.root, result.summary, args, report=result.report)
     return 0
 
 
-def _finish_session(root: Path, summary: dict[str, Any], args: argparse.Namespace) -> None:
+def _finish_session(
+    root: Path, summary: dict[str, Any], args: argparse.Namespace, *, report: Path | None
+) -> None:
+    """Print what a session left: the timeline (or summary.json), notes, its folder, its report."""
     if getattr(args, "json", False):
         print(json.dumps(summary, indent=2, sort_keys=True))
         return
     print(format_timeline(summary))
+    if summary.get("truth_dropped"):
+        print(
+            f"note: the recording's ground truth is not used ({summary['truth_dropped']}); "
+            "cues are judged by these rules on the recorded values"
+        )
+    post = summary.get("post_talk")
+    if post:
+        print(f'robot: "{post["phrase"]}"')
     print(f"session folder: {root}")
+    if report is not None:
+        print(f"report: {report}")
 
 
 def cmd_check_config(args: argparse.Namespace) -> int:
-    from prezence.config.load import check_config_files
+    from prezence.config.load import check_config_files, load_room
+    from prezence.errors import ConfigError
 
-    problems = check_config_files([Path(p) for p in args.files])
+    files = [Path(p) for p in args.files]
+    room = None
+    problems: list[str] = []
+    if args.room:
+        try:
+            room = load_room(args.room)
+        except ConfigError as e:
+            problems.append(str(e))
+    if not problems:
+        problems = check_config_files(files, room=room)
+        for f in files:
+            if _is_room_file(f):
+                problems = [p for p in problems if not p.startswith(f"{f}:")]
+                problems.append(
+                    f"{f}: a room file has no rules to check; give it as --room {f} to check "
+                    "the rules that use its named values"
+                )
     for p in problems:
         print(p, file=sys.stderr)
     if not problems:
-        for f in args.files:
-            print(f"{f}: ok")
+        for f in files:
+            print(f"{f}: ok" + (f" (room {args.room})" if args.room else ""))
     return 1 if problems else 0
+
+
+def _is_room_file(path: Path) -> bool:
+    """A TOML file with a ``[room]`` table and no rules."""
+    import tomllib
+
+    if path.suffix.lower() != ".toml":
+        return False
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    return "room" in doc and "rules" not in doc and "rules_file" not in doc
 
 
 def cmd_gestures_check(args: argparse.Namespace) -> int:
@@ -296,18 +412,56 @@ def cmd_sim_serve(args: argparse.Namespace) -> int:
     return int(serve_main(argv) or 0)
 
 
-def _add_run_args(p: argparse.ArgumentParser) -> None:
+def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
+    """The options of every command that coaches: robot, rules, policy, output."""
     p.add_argument("--backend", default="fake", help="fake | sim | naoqi (default: fake)")
     p.add_argument("--robot", help="NAOqi URL for --backend naoqi, e.g. tcp://127.0.0.1:9559")
     p.add_argument("--gui", action="store_true", help="sim backend: open a PyBullet window")
-    p.add_argument("--out", help="session folder (default: sessions/<scenario>)")
-    p.add_argument("--seed", type=int, default=None, help="presenter seed (default: scenario's)")
+    p.add_argument("--out", help=f"session folder (default: {out_help})")
     p.add_argument("--config", help="rules: a TOML config or a seed-format rules file")
+    p.add_argument(
+        "--room", metavar="FILE", help="room profile TOML: the named values the rules use"
+    )
     p.add_argument("--policy", default="weighted", help="conflict policy (default: weighted)")
     p.add_argument("--speed", type=float, default=0.6, help="gesture speed fraction (0..1]")
-    p.add_argument("--realtime", action="store_true", help="pace to the wall clock")
     p.add_argument("--json", action="store_true", help="print summary.json instead")
     p.add_argument("--no-report", action="store_true", help="skip the post-talk report")
+
+
+def _add_run_args(p: argparse.ArgumentParser) -> None:
+    _add_robot_args(p, out_help="sessions/<scenario>")
+    p.add_argument("--seed", type=int, default=None, help="presenter seed (default: scenario's)")
+    p.add_argument("--realtime", action="store_true", help="pace to the wall clock")
+
+
+def _add_recorded_args(p: argparse.ArgumentParser) -> None:
+    """``replay`` and ``rehearse``: the coach runs over recorded streams."""
+    p.add_argument("--seed", type=int, default=0, help="seed of policies that use chance")
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="coach at the recording's pace on the wall clock (always on with --backend naoqi)",
+    )
+    _add_allocated(p)
+
+
+def _add_allocated(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--allocated",
+        type=parse_seconds,
+        metavar="SECONDS",
+        help="time allocated to the talk: seconds, or 10m, 9:30 (default: the config's)",
+    )
+
+
+def _add_module_args(p: argparse.ArgumentParser) -> None:
+    for module in ("speech", "vision"):
+        p.add_argument(
+            f"--{module}-args",
+            metavar="ARGS",
+            help=f"options added to the {module} module's command line, quoted (python -m "
+            f"prezence.modules.{module} -h lists them)",
+        )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -318,42 +472,71 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0)
     parser.add_argument("-q", "--quiet", action="store_true")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    # -v/-q also after the subcommand (prezence run demo -q): own names, merged in main()
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument(
+        "-v",
+        "--verbose",
+        dest="sub_verbose",
+        action="count",
+        default=argparse.SUPPRESS,
+        help="more logging (repeatable)",
+    )
+    common.add_argument(
+        "-q",
+        "--quiet",
+        dest="sub_quiet",
+        action="store_true",
+        default=argparse.SUPPRESS,
+        help="warnings only, no progress or live view",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("run", help="run a synthetic talk headless")
+    def add(parent: Any, name: str, **kw: Any) -> argparse.ArgumentParser:
+        q: argparse.ArgumentParser = parent.add_parser(name, parents=[common], **kw)
+        return q
+
+    p = add(sub, "run", help="run a synthetic talk headless")
     p.add_argument("scenario", help="scenario name (see scenarios/) or a path to a TOML")
     _add_run_args(p)
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("demo", help=f"run the '{DEMO_SCENARIO}' talk headless")
+    p = add(sub, "demo", help=f"run the '{DEMO_SCENARIO}' talk headless")
     _add_run_args(p)
     p.set_defaults(func=cmd_run, scenario=DEMO_SCENARIO)
 
-    p = sub.add_parser("replay", help="re-run the processor over a recorded session's streams")
+    p = add(sub, "replay", help="re-run the processor over a recorded session's streams")
     p.add_argument("session", help="a session folder (or any folder with stream files)")
-    _add_run_args(p)
+    _add_robot_args(p, out_help="<session>-replay-<policy>")
+    _add_recorded_args(p)
     p.set_defaults(func=cmd_replay)
 
-    p = sub.add_parser("up", help="live rehearsal: input modules + processor + robot")
+    p = add(sub, "up", help="live rehearsal: input modules + processor + robot")
     p.add_argument("--audio", help="mic, or an audio/video file played as if live")
     p.add_argument("--video", help="cam, cam:N, or a video file played as if live")
     p.add_argument(
         "--module",
         action="append",
-        help="extra module NAME=COMMAND ({session} and {t0} are filled in); repeatable",
+        metavar="NAME[:METRIC,...]=COMMAND",
+        help="extra module ({session} and {t0} are filled in; naming its metrics makes hang "
+        "detection exact); repeatable",
     )
-    p.add_argument("--allocated", type=float, help="minutes allocated (default: config)")
+    _add_module_args(p)
+    _add_allocated(p)
     p.add_argument("--grace", type=float, default=30.0, help="seconds after the allocated time")
-    p.add_argument("--duration", type=float, help="stop after this many seconds")
-    _add_run_args(p)
+    p.add_argument("--duration", type=parse_seconds, help="stop after this long (seconds)")
+    p.add_argument("--seed", type=int, default=0, help="seed of policies that use chance")
+    _add_robot_args(p, out_help="sessions/live")
     p.set_defaults(func=cmd_up)
 
-    p = sub.add_parser("rehearse", help="coach a recorded rehearsal (audio or video file)")
+    p = add(sub, "rehearse", help="coach a recorded rehearsal (audio or video file)")
     p.add_argument("recording")
-    _add_run_args(p)
+    _add_module_args(p)
+    _add_robot_args(p, out_help="sessions/rehearsal-<recording>")
+    _add_recorded_args(p)
     p.set_defaults(func=cmd_rehearse)
 
-    p = sub.add_parser("report", help="(re)build the report of a session folder")
+    p = add(sub, "report", help="(re)build the report of a session folder")
     p.add_argument("session")
     p.add_argument("--config", help="judge by this config instead of the folder's")
     p.set_defaults(func=cmd_report)
@@ -365,26 +548,29 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_evaluate, rest=[])
 
-    p = sub.add_parser("check-config", help="validate config or rules files")
+    p = add(sub, "check-config", help="validate config or rules files")
     p.add_argument("files", nargs="+")
+    p.add_argument(
+        "--room", metavar="FILE", help="room profile TOML whose named values the rules use"
+    )
     p.set_defaults(func=cmd_check_config)
 
-    g = sub.add_parser("gestures", help="check or render the gesture library")
+    g = add(sub, "gestures", help="check or render the gesture library")
     gs = g.add_subparsers(dest="gcommand", required=True)
-    p = gs.add_parser("check", help="timing and limit table for every gesture")
+    p = add(gs, "check", help="timing and limit table for every gesture")
     p.add_argument("--json", action="store_true")
     p.add_argument("--speed", type=float, default=0.6, help="speed fraction (default 0.6)")
     p.set_defaults(func=cmd_gestures_check)
-    p = gs.add_parser("render", help="contact sheet PNG and video of one gesture")
+    p = add(gs, "render", help="contact sheet PNG and video of one gesture")
     p.add_argument("name")
     p.add_argument("--out", required=True, help="PNG contact sheet")
     p.add_argument("--video", help="MP4 or GIF (default: next to --out, .mp4)")
     p.add_argument("--minutes", type=int, help="time_left: minutes to show")
     p.set_defaults(func=cmd_gestures_render)
 
-    s = sub.add_parser("sim", help="the simulated NAO")
+    s = add(sub, "sim", help="the simulated NAO")
     ss = s.add_subparsers(dest="scommand", required=True)
-    p = ss.add_parser("serve", help="serve a virtual NAO over the NAOqi protocol")
+    p = add(ss, "serve", help="serve a virtual NAO over the NAOqi protocol")
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=int, default=9559)
     p.add_argument("--gui", action="store_true")
@@ -399,6 +585,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.rest = extra
     elif extra:
         parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    args.verbose += getattr(args, "sub_verbose", 0)
+    args.quiet = args.quiet or getattr(args, "sub_quiet", False)
     level = logging.WARNING - 10 * args.verbose + (20 if args.quiet else 0)
     logging.basicConfig(
         level=max(logging.DEBUG, level), format="%(levelname)s %(name)s: %(message)s"

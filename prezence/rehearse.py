@@ -8,9 +8,13 @@ over those files on the recording's clock, exactly as it does on a live talk's f
 
 from __future__ import annotations
 
+import argparse
+import importlib
 import logging
+import shlex
 import subprocess
 import sys
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,10 +31,79 @@ AUDIO_EXT = {".wav", ".flac", ".mp3", ".ogg", ".m4a"}
 VIDEO_EXT = {".mp4", ".mov", ".mkv", ".avi", ".webm"}
 
 
+#: The input each built-in module needs on its command line (to check extra settings).
+_MODULE_INPUT = {"speech": "--audio", "vision": "--video"}
+
+
+def module_args(option: str, module: str, text: str | None) -> list[str]:
+    """The shell words of ``--speech-args "…"``, checked with the module's own parser.
+
+    Each word must be an option of ``python -m prezence.modules.<module>`` with a valid value,
+    so that a typo stops the command at once rather than every module run. When the module
+    cannot be imported here (its extra is not installed) the words are only split.
+
+    Args:
+        option: the command-line option, for messages (``--speech-args``).
+        module: ``speech`` or ``vision``.
+        text: the option's value (None or empty: no words).
+
+    Raises:
+        PrezenceError: unbalanced quotes, an unknown option or a bad value; the message names
+            the option and the word.
+
+    Example:
+        >>> module_args("--speech-args", "speech", "--window 5 --calibration-db 93")
+        ['--window', '5', '--calibration-db', '93']
+    """
+    if not text:
+        return []
+    try:
+        words = shlex.split(text)
+    except ValueError as e:
+        raise PrezenceError(f"{option} {text!r}: {e}") from None
+    try:
+        mod = importlib.import_module(f"prezence.modules.{module}")
+    except ImportError as e:
+        log.debug("%s not checked: %s", option, e)
+        return words
+    parser: argparse.ArgumentParser = mod.build_parser()
+    parser.exit_on_error = False
+    usage = f"python -m prezence.modules.{module} -h lists them"
+    try:
+        _, rest = parser.parse_known_args([_MODULE_INPUT[module], "x", "--out", "x", *words])
+    except argparse.ArgumentError as e:
+        raise PrezenceError(f"{option}: {e} ({usage})") from None
+    except SystemExit:  # -h, or an error argparse reports itself
+        raise PrezenceError(
+            f"{option} {text!r}: not valid for the {module} module ({usage})"
+        ) from None
+    if rest:
+        raise PrezenceError(f"{option}: the {module} module has no option {rest[0]!r} ({usage})")
+    for w in words:
+        if w in ("--audio", "--video", "--out", "--t0", "--realtime"):
+            raise PrezenceError(f"{option}: {w} is set by prezence itself; leave it out")
+    return words
+
+
 def module_commands(
-    recording: Path, session: Path, *, realtime: bool = False
+    recording: Path,
+    session: Path,
+    *,
+    realtime: bool = False,
+    extra: Mapping[str, Sequence[str]] | None = None,
 ) -> dict[str, list[str]]:
-    """The module command lines for a recording: speech for audio, speech and vision for video."""
+    """The module command lines for a recording: speech for audio, speech and vision for video.
+
+    Args:
+        recording: the audio or video file.
+        session: the session folder the modules write into.
+        realtime: have the modules read the file at real-time pace.
+        extra: per module name, words appended to its command line (``--window 5``).
+
+    Raises:
+        ConfigError: the file's extension is not one of a recording, or ``extra`` names a
+            module that does not run on it (vision settings for an audio file).
+    """
     ext = recording.suffix.lower()
     if ext not in AUDIO_EXT | VIDEO_EXT:
         known = ", ".join(sorted(AUDIO_EXT | VIDEO_EXT))
@@ -63,6 +136,15 @@ def module_commands(
             "-q",
             *pace,
         ]
+    for name, words in (extra or {}).items():
+        if not words:
+            continue
+        if name not in cmds:
+            raise ConfigError(
+                f"settings for the {name} module, which does not run on an audio recording",
+                path=recording,
+            )
+        cmds[name] += list(words)
     return cmds
 
 
@@ -76,8 +158,28 @@ def rehearse(
     backend_kwargs: dict[str, Any] | None = None,
     speed_fraction: float = 0.6,
     modules: dict[str, list[str]] | None = None,
+    module_args: Mapping[str, Sequence[str]] | None = None,
+    seed: int = 0,
+    allocated_s: float | None = None,
+    realtime: bool = False,
+    report: bool = False,
 ) -> ReplayResult:
     """Analyse ``recording`` with the input modules, then coach over the result.
+
+    Args:
+        recording: an audio or video file.
+        out: the session folder (created).
+        config: rules and settings (None: the built-in configuration).
+        policy: conflict policy name.
+        backend: robot backend name; ``backend_kwargs`` go to its constructor.
+        speed_fraction: gesture speed.
+        modules: the module command lines (None: :func:`module_commands`).
+        module_args: per module name, words appended to its command line.
+        seed: for policies that use chance.
+        allocated_s: the time allocated, seconds (None keeps the config's); a 36 s clip is
+            then not judged against ten minutes.
+        realtime: coach at the recording's pace on the wall clock (a real robot).
+        report: write ``out/report/`` afterwards.
 
     Raises:
         ConfigError: the recording is missing or of an unknown kind.
@@ -87,9 +189,13 @@ def rehearse(
     if not recording.is_file():
         raise ConfigError("no such recording", path=recording)
     config = config or load_config(None)
+    if allocated_s is not None:
+        config = config.with_allocated(allocated_s)
+    cmds = (
+        modules if modules is not None else module_commands(recording, Path(out), extra=module_args)
+    )
     session = SessionDir(Path(out)).create()
     session.config.write_text(dumps_config(config))
-    cmds = modules if modules is not None else module_commands(recording, session.root)
     procs = {
         name: subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         for name, argv in cmds.items()
@@ -125,5 +231,8 @@ def rehearse(
         backend=backend,
         backend_kwargs=backend_kwargs,
         speed_fraction=speed_fraction,
+        seed=seed,
+        realtime=realtime,
+        report=report,
         extra={"kind": "rehearsal", "recording": str(recording), "module_failures": failures},
     )

@@ -10,6 +10,7 @@ loop is open.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import shutil
 import time
@@ -34,25 +35,61 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class ReplayResult:
+    """What a replay or a rehearsal leaves: its folder, its cues, its summary, the report."""
+
     session: SessionDir
     cues: list[dict[str, Any]]
     summary: dict[str, Any]
+    #: ``report/report.html``, when the report was written.
+    report: Path | None = None
 
 
-def find_streams(src: Path, config: Config) -> dict[str, Path]:
-    """The stream file of each rule: ``src/streams/<file>`` or ``src/<file>``."""
+def locate_streams(src: Path, config: Config) -> dict[str, Path]:
+    """The stream file of each rule that has one: ``src/streams/<file>``, else ``src/<file>``.
+
+    The one stream discovery of replays, rehearsals and reports; rules without a file are
+    left out.
+    """
     found: dict[str, Path] = {}
     for rule in config.rules:
         for cand in (src / "streams" / rule.stream, src / rule.stream):
             if cand.is_file():
                 found[rule.metric] = cand
                 break
-    if not found:
-        names = ", ".join(r.stream for r in config.rules)
-        raise ConfigError(
-            f"no stream files found (looked for {names} in streams/ and the folder)", path=src
-        )
     return found
+
+
+def no_streams_error(src: Path, config: Config) -> ConfigError:
+    """The error for a folder in which :func:`locate_streams` finds nothing."""
+    names = ", ".join(r.stream for r in config.rules)
+    return ConfigError(
+        f"no stream files found (looked for {names} in streams/ and the folder)", path=src
+    )
+
+
+def find_streams(src: Path, config: Config) -> dict[str, Path]:
+    """:func:`locate_streams`, but at least one file must be there.
+
+    Raises:
+        ConfigError: no rule has a stream file in ``src`` (the message names the files).
+    """
+    found = locate_streams(src, config)
+    if not found:
+        raise no_streams_error(src, config)
+    return found
+
+
+def same_bands(a: Config, b: Config) -> bool:
+    """Whether ``a`` and ``b`` judge every metric alike: same metrics, checks, bounds, offsets.
+
+    Ground truth (the out-of-range stretches of a synthetic talk) holds only under the bands it
+    was computed with; commands, weights and processor settings do not change it.
+    """
+
+    def bands(c: Config) -> dict[str, tuple[Any, ...]]:
+        return {r.metric: (r.check, r.low, r.high, r.offset) for r in c.rules}
+
+    return bands(a) == bands(b)
 
 
 def replay(
@@ -65,17 +102,31 @@ def replay(
     backend_kwargs: dict[str, Any] | None = None,
     speed_fraction: float = 0.6,
     seed: int = 0,
+    allocated_s: float | None = None,
+    realtime: bool = False,
+    report: bool = False,
 ) -> ReplayResult:
     """Re-run the processor over the recorded streams in ``src``; write a new session in ``out``.
+
+    The recording's ground truth (``truth.jsonl``, synthetic talks only) is carried over when
+    the rules judge every metric as the recorded ``config.toml`` does; with other bands it
+    would call right cues false alarms, so it is dropped (a warning says so, and the summary's
+    ``truth_dropped`` says why) and each cue is judged by the new rules on the recorded values.
 
     Args:
         src: a session folder (or any folder holding stream files).
         out: where the new decisions, cues and summary go (must differ from ``src``).
         config: rules and settings; None uses ``src/config.toml`` if present, else the default.
         policy: the conflict policy to try.
-        backend: robot backend (``fake`` or ``sim``).
+        backend: robot backend (``fake``, ``sim`` or ``naoqi``).
         speed_fraction: gesture speed.
         seed: for policies that use chance.
+        allocated_s: the time allocated, seconds (None keeps the config's).
+        realtime: pace the replay to the wall clock (a real robot moves in real time).
+        report: write ``out/report/`` (HTML, plots, JSON) after the replay.
+
+    Raises:
+        ConfigError: ``out`` is ``src``, ``src`` holds no stream file, or a config is invalid.
     """
     src = Path(src)
     out = Path(out)
@@ -84,10 +135,11 @@ def replay(
             "--out must be another folder: replay never overwrites a recording", path=out
         )
     src_session = SessionDir(src)
+    recorded = load_config(src_session.config) if src_session.config.exists() else None
     if config is None:
-        config = (
-            load_config(src_session.config) if src_session.config.exists() else load_config(None)
-        )
+        config = recorded if recorded is not None else load_config(None)
+    if allocated_s is not None:
+        config = config.with_allocated(allocated_s)
     meta = src_session.read_meta()
     paths = find_streams(src, config)
     samples = load_samples(paths)
@@ -108,10 +160,27 @@ def replay(
         }
     )
     truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
-    extra = {
+    extra: dict[str, Any] = {
         "replay_of": str(src),
         **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
     }
+    if truth is not None and (recorded is None or not same_bands(config, recorded)):
+        why = (
+            "the rules' bands differ from the recording's"
+            if recorded is not None
+            else f"{src_session.config} is missing, so the rules it holds for cannot be checked"
+        )
+        log.warning(
+            "%s: ground truth not used (%s); cues are judged by the new rules on the "
+            "recorded values",
+            src_session.truth,
+            why,
+        )
+        extra["truth_dropped"] = why
+        truth = None
+    else:
+        with contextlib.suppress(OSError):
+            shutil.copyfile(src_session.truth, session.truth)
     return process_recorded(
         session,
         config,
@@ -123,6 +192,8 @@ def replay(
         backend_kwargs=backend_kwargs,
         speed_fraction=speed_fraction,
         seed=seed,
+        realtime=realtime,
+        report=report,
         extra=extra,
     )
 
@@ -151,17 +222,30 @@ def process_recorded(
     backend_kwargs: dict[str, Any] | None = None,
     speed_fraction: float = 0.6,
     seed: int = 0,
+    realtime: bool = False,
+    report: bool = False,
     extra: dict[str, Any] | None = None,
 ) -> ReplayResult:
     """Run the coach over recorded samples on their own clock; write decisions, cues, summary.
 
     Decision points fall every ``decision_period_s`` and each sees the samples stamped up to it,
     exactly as in a live or headless talk.
+
+    Args:
+        realtime: sleep before each decision point until the wall clock gets there (always
+            on for the ``naoqi`` backend: a real robot moves in real time).
+        report: write ``SESSION/report/`` afterwards (see
+            :func:`prezence.report.build.write_report`).
     """
     bk = make_backend(backend, **(backend_kwargs or {}))
     processor = Processor(config, policy=make_policy(policy, seed=seed))
     dt = config.processor.decision_period_s
     wall0 = time.perf_counter()
+
+    def pace(t: float) -> None:
+        time.sleep(max(0.0, t - (time.perf_counter() - wall0)))
+
+    paced = pace if realtime or bk.name == "naoqi" else None
     bk.open()
     coach = Coach(processor, bk, session, planner=default_planner(speed_fraction))
     try:
@@ -172,9 +256,11 @@ def process_recorded(
             j = i
             while j < len(samples) and samples[j].t <= now:
                 j += 1
+            if paced is not None:
+                paced(now)
             coach.tick(now, samples[i:j])
             i = j
-        end = coach.drain(n * dt, step_s=dt)
+        end = coach.drain(n * dt, step_s=dt, pace=paced)
         backend_stats = bk.stats()
     finally:
         coach.close()
@@ -194,4 +280,9 @@ def process_recorded(
             **(extra or {}),
         },
     )
-    return ReplayResult(session, read_jsonl(session.cues), summary)
+    page = None
+    if report:
+        from prezence.report.build import write_report
+
+        page = write_report(session.root, config=config)
+    return ReplayResult(session, read_jsonl(session.cues), summary, page)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -23,16 +24,38 @@ FAST = HERE / "material" / "rate_225.flac"  # 225 wpm, festival voice, 17.6 s
 GESTURES = HERE / "material_video" / "gestures.mp4"
 
 
-def test_rehearse_a_recording_gives_a_session_and_a_report(tmp_path: Path) -> None:
-    result = rehearse(FAST, out=tmp_path / "s")
-    m = result.summary["metrics"]["speech_speed"]
-    assert m["samples"] >= 5
+def test_rehearse_a_recording_gives_a_session_and_a_report(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "s"
+    argv = ["rehearse", str(FAST), "--out", str(out), "--allocated", "20"]
+    assert main([*argv, "--speech-args", "--hop 2 --calibration-db 93"]) == 0
+    printed = capsys.readouterr().out
+    # the report comes from the rehearse command itself
+    page = out / "report" / "report.html"
+    assert f"report: {page}" in printed and page.exists()
+    report = json.loads((out / "report" / "report.json").read_text())
+    assert report["time"]["allocated_s"] == 20.0  # --allocated: the clip is not judged vs 10 min
+    assert report["metrics"]["speech_speed"]["samples"] >= 5
+    assert (out / "report" / "spoken.txt").read_text().startswith("You used ")
+    summary = json.loads((out / "summary.json").read_text())
+    m = summary["metrics"]["speech_speed"]
     assert 200.0 < m["p50"] < 250.0  # the recording's own pace, measured by the module
-    assert len(read_jsonl(tmp_path / "s" / "decisions.jsonl")) == int(
-        round(result.summary["talk_s"] / 0.5)
+    assert len(read_jsonl(out / "decisions.jsonl")) == int(round(summary["talk_s"] / 0.5))
+    # --speech-args reached the module: one sample every 2 s
+    lines = (out / "streams" / "speech_speed.txt").read_text().splitlines()
+    ts = [float(ln.split()[0]) for ln in lines]
+    gaps = [round(b - a, 3) for a, b in zip(ts, ts[1:], strict=False)]
+    assert gaps[:-1] == [2.0] * (len(gaps) - 1) and gaps[-1] <= 2.0  # the last window is short
+
+
+def test_rehearse_checks_module_settings_before_running(tmp_path: Path) -> None:
+    assert (
+        main(["rehearse", str(FAST), "--out", str(tmp_path / "s"), "--speech-args=--wndow 5"]) == 2
     )
-    assert main(["report", str(tmp_path / "s")]) == 0
-    assert (tmp_path / "s" / "report" / "report.html").exists()
+    assert not (tmp_path / "s").exists()
+    with pytest.raises(ConfigError, match="vision module, which does not run on an audio"):
+        rehearse(FAST, out=tmp_path / "s", module_args={"vision": ["--fps", "5"]})
 
 
 def test_rehearse_refuses_what_is_not_a_recording(tmp_path: Path) -> None:
@@ -59,4 +82,10 @@ def test_up_with_file_inputs_runs_a_short_live_talk(
     assert (streams / "cv_gestures.txt").read_text().strip()  # and the vision module
     decisions = read_jsonl(out / "decisions.jsonl")
     assert decisions and decisions[-1]["t"] >= 18.0
-    assert "session folder" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "session folder" in printed
+    assert 'robot: "You used ' in printed  # the post-talk summary (about 20 s of 10 minutes)
+    assert (out / "report" / "report.html").exists()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["modules"]["speech"]["restarts"] == 0  # its pauses are not hangs
+    assert summary["modules"]["vision"]["restarts"] == 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -58,3 +59,66 @@ def test_replay_cli_on_plain_stream_files(
     assert main(["replay", str(src), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "slowDown" in out
+
+
+def test_replay_under_other_bands_drops_the_ground_truth(
+    demo_session: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a narrower pace band: cues right under it were out of range for the recorded truth,
+    # which would have called them false alarms
+    rules = tmp_path / "narrow.txt"
+    rules.write_text("speech_speed inRange 150 160 speedUp slowDown\n")
+    out = tmp_path / "narrow"
+    assert main(["replay", str(demo_session), "--out", str(out), "--config", str(rules)]) == 0
+    assert "ground truth is not used" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert "bands differ" in summary["truth_dropped"]
+    assert summary["counts"]["cues"] >= 1 and summary["counts"]["false_alarms"] == 0
+    assert "truth_time_in_range" not in summary["metrics"]["speech_speed"]
+    assert not (out / "truth.jsonl").exists()
+
+
+def test_replay_under_the_same_bands_keeps_the_ground_truth(
+    demo_session: Path, tmp_path: Path
+) -> None:
+    result = replay(demo_session, out=tmp_path / "r", policy="recent", report=True)
+    assert "truth_dropped" not in result.summary
+    assert "truth_time_in_range" in result.summary["metrics"]["speech_speed"]
+    assert (tmp_path / "r" / "truth.jsonl").read_bytes() == (
+        demo_session / "truth.jsonl"
+    ).read_bytes()
+    assert result.report is not None
+    assert json.loads((tmp_path / "r" / "report" / "report.json").read_text())["has_truth"]
+
+
+def test_replay_cli_writes_the_report_with_the_time_allocated(tmp_path: Path) -> None:
+    src = tmp_path / "rec"
+    src.mkdir()
+    (src / "speech_speed.txt").write_text("".join(f"{t} 160.0\n" for t in range(37)))
+    out = tmp_path / "out"
+    assert main(["replay", str(src), "--out", str(out), "--allocated", "36", "-q"]) == 0
+    report = json.loads((out / "report" / "report.json").read_text())
+    assert report["time"]["allocated_s"] == 36.0
+    assert (out / "report" / "spoken.txt").read_text().startswith("You used 36 seconds of 36")
+    out2 = tmp_path / "out2"
+    assert main(["replay", str(src), "--out", str(out2), "--no-report"]) == 0
+    assert not (out2 / "report").exists()
+
+
+def test_replay_room_needs_rules(demo_session: Path, tmp_path: Path) -> None:
+    room = tmp_path / "room.toml"
+    room.write_text('format = 1\n[room]\nname = "hall"\n')
+    argv = ["replay", str(demo_session), "--out", str(tmp_path / "r"), "--room", str(room)]
+    assert main(argv) == 2
+
+
+def test_replay_in_real_time_follows_the_wall_clock(tmp_path: Path) -> None:
+    src = tmp_path / "rec"
+    src.mkdir()
+    (src / "speech_speed.txt").write_text("".join(f"{t / 2} 160.0\n" for t in range(5)))
+    fast = replay(src, out=tmp_path / "fast")
+    paced = replay(src, out=tmp_path / "paced", realtime=True)
+    assert fast.summary["wall_s"] < 1.0 <= 2.0 - 0.1 <= paced.summary["wall_s"] < 3.0
+    assert (tmp_path / "fast" / "decisions.jsonl").read_bytes() == (
+        tmp_path / "paced" / "decisions.jsonl"
+    ).read_bytes()

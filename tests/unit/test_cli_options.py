@@ -1,0 +1,107 @@
+"""Command-line options shared by the commands: -q/-v anywhere, --room, --allocated."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pytest
+
+from prezence.cli import build_parser, main, parse_seconds
+
+ROOM = 'format = 1\n[room]\nname = "hall"\n[room.values]\nFAST = 170\n'
+RULES = "speech_speed inRange 140 FAST speedUp slowDown\n"
+
+
+@pytest.fixture
+def rules_and_room(tmp_path: Path) -> tuple[Path, Path]:
+    rules, room = tmp_path / "my_rules.txt", tmp_path / "room.toml"
+    rules.write_text(RULES)
+    room.write_text(ROOM)
+    return rules, room
+
+
+def test_quiet_and_verbose_work_after_the_subcommand() -> None:
+    args = build_parser().parse_args(["run", "demo", "-q"])
+    assert args.sub_quiet and not args.quiet
+    args = build_parser().parse_args(["-v", "replay", "x", "-vv"])
+    assert args.verbose == 1 and args.sub_verbose == 2
+    args = build_parser().parse_args(["gestures", "check"])
+    assert not hasattr(args, "sub_quiet")  # absent unless given: main() merges them
+
+
+def test_run_accepts_q_after_the_scenario(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "s"
+    assert main(["run", "short_talk", "-q", "--no-report", "--out", str(out)]) == 0
+    assert "session folder" in capsys.readouterr().out
+
+
+def test_check_config_with_a_room(
+    rules_and_room: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    rules, room = rules_and_room
+    assert main(["check-config", str(rules), "--room", str(room)]) == 0
+    assert f"{rules}: ok" in capsys.readouterr().out
+    # without the room, the named value is unknown: the error names file, line and column
+    assert main(["check-config", str(rules)]) == 1
+    assert f"{rules}:1:" in capsys.readouterr().err
+
+
+def test_check_config_says_a_room_file_goes_to_room(
+    rules_and_room: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    rules, room = rules_and_room
+    assert main(["check-config", str(rules), str(room)]) == 1
+    assert f"give it as --room {room}" in capsys.readouterr().err
+
+
+def test_check_config_with_a_broken_room_names_it(
+    rules_and_room: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    rules, room = rules_and_room
+    room.write_text('[room]\nname = "hall"\n')
+    assert main(["check-config", str(rules), "--room", str(room)]) == 1
+    assert str(room) in capsys.readouterr().err
+
+
+def test_run_with_rules_that_use_a_room(rules_and_room: tuple[Path, Path], tmp_path: Path) -> None:
+    rules, room = rules_and_room
+    out = tmp_path / "s"
+    argv = ["run", "short_talk", "--config", str(rules), "--room", str(room), "--out", str(out)]
+    assert main([*argv, "-q", "--no-report"]) == 0
+    assert "high = 170" in (out / "config.toml").read_text()
+
+
+@pytest.mark.parametrize(
+    ("text", "seconds"), [("36", 36.0), ("36s", 36.0), ("10m", 600.0), ("9:30", 570.0)]
+)
+def test_parse_seconds(text: str, seconds: float) -> None:
+    assert parse_seconds(text) == seconds
+
+
+@pytest.mark.parametrize("text", ["ten", "0", "-5", "1:xx", "nan"])
+def test_parse_seconds_refuses(text: str) -> None:
+    with pytest.raises(argparse.ArgumentTypeError):
+        parse_seconds(text)
+
+
+def test_every_coaching_command_takes_the_new_options() -> None:
+    p = build_parser()
+    for argv in (
+        ["up", "--audio", "mic", "--speech-args=--window 5", "--vision-args", "--fps 5"],
+        ["rehearse", "talk.mp4", "--speech-args", "--window 5", "--seed", "2", "--realtime"],
+        ["replay", "sessions/demo", "--realtime", "--seed", "1"],
+    ):
+        args = p.parse_args([*argv, "--allocated", "36", "--room", "room.toml"])
+        assert args.allocated == 36.0 and args.room == "room.toml"
+    with pytest.raises(SystemExit):  # a live talk is always real time: no such flag
+        p.parse_args(["up", "--audio", "mic", "--realtime"])
+
+
+def test_up_refuses_module_settings_for_a_module_it_does_not_start(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["up", "--audio", "mic", "--vision-args=--fps 5"]) == 2
+    assert "--vision-args without --video" in capsys.readouterr().err
