@@ -1,7 +1,8 @@
 """Rebuild a talk's post-speech report from its session folder alone.
 
-The report reads only what the talk wrote as it went: the module files (``streams/*.txt``), the
-cue records (``cues.jsonl``), the effective configuration (``config.toml``) and ``session.json``;
+The report reads only what the talk wrote as it went: the module files (``streams/*.txt``, or
+at the folder's root: replay's discovery, :func:`prezence.replay.locate_streams`), the cue
+records (``cues.jsonl``), the effective configuration (``config.toml``) and ``session.json``;
 ``truth.jsonl`` is used when a synthetic talk finished and left one. It never needs the
 processor's memory, so it works after a crash: a torn last line is ignored, a stream that stops
 early ends the record there, and missing files give empty sections rather than errors.
@@ -290,7 +291,8 @@ def build_report(session_dir: str | Path, *, config: Config | None = None) -> di
         ``complete`` (False when the record stops before the planned end) and ``streams``.
 
     Raises:
-        ConfigError: the folder does not exist, or its ``config.toml`` is invalid.
+        ConfigError: the folder does not exist, its ``config.toml`` is invalid, or it is not a
+            session folder (no ``session.json`` nor ``cues.jsonl``) and holds no stream file.
     """
     return _rebuild(session_dir, config)[0]
 
@@ -303,12 +305,17 @@ def _rebuild(
         raise ConfigError("no such session folder", path=session.root)
     meta = _read_meta(session)
     cfg = config if config is not None else _load_session_config(session)
+    from prezence.replay import locate_streams, no_streams_error
     from prezence.streams.tail import read_stream
 
+    paths = locate_streams(session.root, cfg)
+    if not paths and not (session.meta.exists() or session.cues.exists()):
+        # not a session folder, and no stream file either: nothing to report on
+        raise no_streams_error(session.root, cfg)
     streams: dict[str, list[Sample]] = {}
     stats: dict[str, dict[str, Any]] = {}
     for rule in cfg.rules:
-        samples, st = read_stream(session.stream(rule.stream), rule.metric)
+        samples, st = read_stream(paths.get(rule.metric, session.stream(rule.stream)), rule.metric)
         streams[rule.metric] = sorted(samples, key=lambda s: s.t)
         stats[rule.metric] = st.to_dict()
     cues = read_jsonl(session.cues)
@@ -407,7 +414,8 @@ def write_report(session_dir: str | Path, *, config: Config | None = None) -> Pa
 
     Writes ``report.html`` (self-contained), ``report.json``, ``summary.txt`` (the terminal
     summary), ``spoken.txt`` (what the robot says) and, with matplotlib installed, the plots as
-    ``summary.png`` and ``timeline_<metric>.png``. Without matplotlib the page has tables only.
+    ``summary.png`` and ``timeline_<metric>.png`` (for each metric with data; the page says "no
+    data" for the others). Without matplotlib the page has tables only.
 
     Returns:
         The path of ``report.html``.
@@ -431,6 +439,8 @@ def write_report(session_dir: str | Path, *, config: Config | None = None) -> Pa
         images["summary"] = plots.summary_png(report)
         allocated = report["time"].get("allocated_s")
         for metric, m in report["metrics"].items():
+            if not streams[metric]:
+                continue  # no data: the page says so instead of an empty plot
             about = [c for c in report["cues"] if c.get("metric") == metric]
             images[f"timeline_{metric}"] = plots.timeline_png(
                 m, streams[metric], about, talk_s=float(report["talk_s"]), allocated_s=allocated

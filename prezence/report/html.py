@@ -36,6 +36,7 @@ img { width: 100%; height: auto; background: #fff; border-radius: 6px; display: 
       margin: 8px 0 14px; box-shadow: 0 1px 2px rgba(0,0,0,.08); }
 .yes { color: #2e7d32; font-weight: 600; } .no { color: #c62828; }
 .reason { color: #7a828e; font-size: 12px; }
+.nodata { color: #7a828e; }
 .said { font-style: italic; color: #37474f; }
 footer { color: #5f6773; font-size: 12px; margin-top: 36px; }
 """
@@ -180,9 +181,14 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         "<th>longest out</th><th>samples</th></tr>"
     )
     for m in report["metrics"].values():
+        tir = (
+            _pct(m.get("time_in_range"))
+            if m.get("samples")
+            else '<span class="nodata">no data</span>'
+        )
         out.append(
             f'<tr><td class="l">{_e(m.get("label"))}</td><td class="l">{_e(_band(m))}</td>'
-            f"<td>{_pct(m.get('time_in_range'))}</td><td>{_num(m.get('mean'))}</td>"
+            f"<td>{tir}</td><td>{_num(m.get('mean'))}</td>"
             f"<td>{_num(m.get('p10'))}</td><td>{_num(m.get('p50'))}</td>"
             f"<td>{_num(m.get('p90'))}</td>"
             f"<td>{m.get('longest_out_of_range_s', 0.0):.0f} s</td><td>{m.get('samples', 0)}</td>"
@@ -198,7 +204,14 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             "Blue lines: the robot's cues about that metric.</p>"
         )
         for k, png in timelines:
-            out.append(_img(png, f"{report['metrics'][k].get('label')} over the talk"))
+            m = report["metrics"][k]
+            if png:
+                out.append(_img(png, f"{m.get('label')} over the talk"))
+            elif not m.get("samples"):
+                out.append(
+                    f'<p class="nodata"><b>{_e(m.get("label"))}</b>: no data (its module wrote '
+                    "no sample during the talk)</p>"
+                )
 
     out.append("<h2>Cues</h2>")
     cues = report.get("cues") or []

@@ -36,11 +36,30 @@ def _png(fig: Any) -> bytes:
     return buf.getvalue()
 
 
+#: Candidate spacings of the time axis's ticks, seconds.
+TICK_STEPS_S = (1.0, 2.0, 5.0, 10.0, 15.0, 30.0, 60.0, 120.0, 300.0, 600.0, 900.0, 1800.0)
+#: The time axis gets at most this many intervals between ticks.
+MAX_TICKS = 10
+
+
+def tick_step(talk_s: float) -> float:
+    """Tick spacing for a talk of ``talk_s`` seconds: the smallest of :data:`TICK_STEPS_S`
+    that gives at most :data:`MAX_TICKS` intervals (so a 36 s clip is not labelled "0:00" only).
+
+    Example:
+        >>> [tick_step(t) for t in (8, 36, 95, 600, 1500, 3600)]
+        [1.0, 5.0, 10.0, 60.0, 300.0, 600.0]
+    """
+    for step in TICK_STEPS_S:
+        if talk_s / step <= MAX_TICKS:
+            return step
+    return TICK_STEPS_S[-1]
+
+
 def _minutes_axis(ax: Any, talk_s: float) -> None:
     from matplotlib.ticker import FuncFormatter, MultipleLocator
 
-    step = 60.0 if talk_s <= 1200 else 120.0 if talk_s <= 2400 else 300.0
-    ax.xaxis.set_major_locator(MultipleLocator(step))
+    ax.xaxis.set_major_locator(MultipleLocator(tick_step(talk_s)))
     ax.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{int(x // 60)}:{int(x % 60):02d}"))
     ax.set_xlim(0.0, max(talk_s, 1.0))
 
@@ -140,6 +159,8 @@ def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
 
     metrics = list(report["metrics"].values())
     labels = [str(m.get("label")) for m in metrics]
+    # A metric without data has no bar, and says so: 0% would read as "always out of range".
+    measured = [m.get("time_in_range") is not None for m in metrics]
     tir = [100.0 * (m.get("time_in_range") or 0.0) for m in metrics]
     talk_min = max(float(report["talk_s"]) / 60.0, 1e-9)
     dev = [
@@ -150,17 +171,17 @@ def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
     a1, a2 = fig.subplots(1, 2, sharey=True)
     y = list(range(len(metrics)))
     colours = [GOOD if x >= 90 else "#f9a825" if x >= 70 else BAD for x in tir]
-    a1.barh(y, tir, color=colours)
-    for yi, x in zip(y, tir, strict=True):
-        inside = x > 15
+    a1.barh(y, [x if ok else 0.0 for x, ok in zip(tir, measured, strict=True)], color=colours)
+    for yi, x, ok in zip(y, tir, measured, strict=True):
+        inside = ok and x > 15
         a1.text(
             x - 1.5 if inside else x + 1.5,
             yi,
-            f"{x:.0f}%",
+            f"{x:.0f}%" if ok else "no data",
             va="center",
             fontsize=9,
             ha="right" if inside else "left",
-            color="white" if inside else "black",
+            color="white" if inside else "black" if ok else NEUTRAL,
         )
     a1.set_xlim(0, 100)
     a1.set_yticks(y, labels)
@@ -169,8 +190,15 @@ def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
     a2.barh(y, dev, color=BAD)
     top = max(dev, default=0.0) or 1.0
     a2.set_xlim(0, 1.15 * top)
-    for yi, x in zip(y, dev, strict=True):
-        a2.text(x + 0.01 * top, yi, f"{x:.0f}", va="center", fontsize=9)
+    for yi, x, ok in zip(y, dev, measured, strict=True):
+        a2.text(
+            x + 0.01 * top,
+            yi,
+            f"{x:.0f}" if ok else "no data",
+            va="center",
+            fontsize=9,
+            color="black" if ok else NEUTRAL,
+        )
     a2.set_title("deviation per minute of talk (%·s/min)", loc="left", fontsize=10)
     for a in (a1, a2):
         a.grid(axis="x", alpha=0.3)

@@ -26,12 +26,27 @@ def _spoken_minutes(s: float) -> str:
     return f"{whole} and a half {unit}" if half != whole else f"{whole} {unit}"
 
 
+def _spoken_exact(s: float) -> str:
+    """Seconds to the second: ``"9 minutes 48 seconds"``, ``"10 minutes"``, ``"1 minute"``."""
+    m, sec = divmod(int(round(max(0.0, s))), 60)
+    parts = [f"{m} minute{'' if m == 1 else 's'}"] if m else []
+    if sec or not m:
+        parts.append(f"{sec} second{'' if sec == 1 else 's'}")
+    return " ".join(parts)
+
+
 def time_sentence(report: Mapping[str, Any]) -> str:
     """One sentence on time used vs allocated.
+
+    Lengths are said to the half minute; when that would make the two sound equal while the
+    talk was over or under, both are said to the second, so the words never contradict the
+    percentage.
 
     Example:
         >>> time_sentence({"time": {"used_s": 630.0, "allocated_s": 600.0, "over_under_pct": 5.0}})
         'You used 10 and a half minutes of 10 minutes, 5% over.'
+        >>> time_sentence({"time": {"used_s": 588.0, "allocated_s": 600.0, "over_under_pct": -2.0}})
+        'You used 9 minutes 48 seconds of 10 minutes, 2% under.'
         >>> time_sentence({"time": {"used_s": 300.0, "allocated_s": None}})
         'You spoke for 5 minutes.'
     """
@@ -40,10 +55,15 @@ def time_sentence(report: Mapping[str, Any]) -> str:
     alloc = t.get("allocated_s")
     if not alloc:
         return f"You spoke for {_spoken_minutes(used)}."
+    alloc = float(alloc)
     pct = float(t.get("over_under_pct", 0.0))
     side = "over" if pct > 0 else "under"
-    how = "right on time" if abs(pct) < 1.0 else f"{abs(pct):.0f}% {side}"
-    return f"You used {_spoken_minutes(used)} of {_spoken_minutes(float(alloc))}, {how}."
+    on_time = abs(pct) < 1.0
+    how = "right on time" if on_time else f"{abs(pct):.0f}% {side}"
+    said_used, said_alloc = _spoken_minutes(used), _spoken_minutes(alloc)
+    if said_used == said_alloc and not on_time:
+        said_used, said_alloc = _spoken_exact(used), _spoken_exact(alloc)
+    return f"You used {said_used} of {said_alloc}, {how}."
 
 
 def summary_phrase(report: Mapping[str, Any]) -> str:
@@ -111,8 +131,9 @@ def format_text(report: Mapping[str, Any]) -> str:
         f"  {'metric':<12} {'in range':>8} {'mean':>7} {'p10':>7} {'p90':>7} {'longest out':>12}"
     )
     for name, m in report["metrics"].items():
+        tir = _pct(m.get("time_in_range")) if m.get("samples") else "no data"
         lines.append(
-            f"  {m.get('label', name):<12} {_pct(m.get('time_in_range')):>8} "
+            f"  {m.get('label', name):<12} {tir:>8} "
             f"{_num(m.get('mean')):>7} {_num(m.get('p10')):>7} {_num(m.get('p90')):>7} "
             f"{m.get('longest_out_of_range_s', 0.0):>10.0f} s"
         )

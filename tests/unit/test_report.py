@@ -229,3 +229,73 @@ def test_without_matplotlib_the_page_has_tables_only(
     html = write_report(session.root).read_text()
     assert "<img" not in html and "<table>" in html
     assert not list(session.report.glob("*.png"))
+
+
+def test_a_metric_without_data_says_no_data_instead_of_an_empty_plot(tmp_path: Path) -> None:
+    session = make_session(tmp_path / "t")
+    session.stream("cv_headGaze.txt").unlink()  # the vision module never wrote
+    report = build_report(session.root)
+    assert report["metrics"]["cv_headGaze"]["time_in_range"] is None
+    page = write_report(session.root)
+    html = page.read_text()
+    assert "no data" in html
+    assert "no data" in (session.report / "summary.txt").read_text()
+    if (session.report / "summary.png").exists():  # with matplotlib
+        assert not (session.report / "timeline_cv_headGaze.png").exists()
+        assert (session.report / "timeline_speech_speed.png").exists()
+
+
+def test_summary_chart_draws_no_bar_for_a_metric_without_data() -> None:
+    pytest.importorskip("matplotlib")
+    from prezence.report import plots
+
+    report = {
+        "talk_s": 36.0,
+        "metrics": {
+            "a": {"label": "pace", "time_in_range": 0.5, "deviation_s": {"above": 30.0}},
+            "b": {"label": "gaze", "time_in_range": None, "deviation_s": {}},
+        },
+    }
+    assert plots.summary_png(report)[:4] == b"\x89PNG"
+
+
+def test_time_axis_ticks_follow_the_talk_length() -> None:
+    from prezence.report.plots import tick_step
+
+    assert tick_step(36.0) == 5.0  # a 36 s clip: 0:00, 0:05 … 0:35, not "0:00" only
+    assert tick_step(600.0) == 60.0
+    assert 3 <= 36.0 / tick_step(36.0) <= 10 and 3 <= 3000 / tick_step(3000.0) <= 10
+
+
+def test_report_finds_stream_files_at_the_folder_root(tmp_path: Path) -> None:
+    # files another tool wrote, as replay takes them: no streams/ folder, no session.json
+    src = tmp_path / "rec"
+    src.mkdir()
+    (src / "speech_speed.txt").write_text("".join(f"{t} 200.0\n" for t in range(60)))
+    report = build_report(src)
+    assert report["metrics"]["speech_speed"]["samples"] == 60
+    assert report["priorities"][0]["advice"] == "slow down"
+
+
+def test_report_of_a_folder_without_streams_or_session_says_so(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="no stream files found"):
+        build_report(tmp_path)
+
+
+@pytest.mark.parametrize(
+    ("used", "allocated", "pct", "said"),
+    [
+        (588.0, 600.0, -2.0, "You used 9 minutes 48 seconds of 10 minutes, 2% under."),
+        (612.0, 600.0, 2.0, "You used 10 minutes 12 seconds of 10 minutes, 2% over."),
+        (597.0, 600.0, -0.5, "You used 10 minutes of 10 minutes, right on time."),
+        (540.0, 600.0, -10.0, "You used 9 minutes of 10 minutes, 10% under."),
+        (33.0, 36.0, -8.3, "You used 33 seconds of 36 seconds, 8% under."),
+    ],
+)
+def test_time_sentence_words_agree_with_the_percentage(
+    used: float, allocated: float, pct: float, said: str
+) -> None:
+    from prezence.report.speech import time_sentence
+
+    t = {"used_s": used, "allocated_s": allocated, "over_under_pct": pct}
+    assert time_sentence({"time": t}) == said
