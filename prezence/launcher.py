@@ -46,6 +46,7 @@ from prezence.coach import Coach, default_planner
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.processor import Decision, Processor, make_policy
+from prezence.samples import MAX_AHEAD_S
 from prezence.session import SessionDir
 from prezence.streams.tail import MultiTailer
 from prezence.summary import summarize_session
@@ -398,7 +399,7 @@ def up(
     session = SessionDir(Path(session_dir)).create()
     session.config.write_text(dumps_config(config))
     streams = {r.metric: session.stream(r.stream) for r in config.rules}
-    tailer = MultiTailer(streams)
+    tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
     clock = MonotonicClock()
     t0_epoch = time.time()
     meta: dict[str, Any] = {
@@ -480,6 +481,8 @@ def up(
         config,
         talk_s=talk_s,
         backend_stats=backend.stats(),
+        live=tailer,
+        processor=processor,
         extra={
             "kind": "live",
             "policy": policy,

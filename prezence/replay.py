@@ -271,6 +271,7 @@ def process_recorded(
         talk_s=talk_s,
         truth=truth,
         backend_stats=backend_stats,
+        processor=processor,
         extra={
             "policy": policy,
             "backend": bk.name,

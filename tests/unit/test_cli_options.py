@@ -105,3 +105,25 @@ def test_up_refuses_module_settings_for_a_module_it_does_not_start(
 ) -> None:
     assert main(["up", "--audio", "mic", "--vision-args=--fps 5"]) == 2
     assert "--vision-args without --video" in capsys.readouterr().err
+
+
+def test_run_fails_with_its_own_status_when_the_scenario_expectations_are_missed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The fast talker must get slowDown; rules that never ask for it miss the expectation.
+    rules = tmp_path / "lenient.txt"
+    rules.write_text("speech_speed inRange 100 400 speedUp slowDown\n")
+    argv = ["run", "fast_talker", "-q", "--no-report", "--out", str(tmp_path / "s")]
+    assert main([*argv, "--config", str(rules)]) == 3
+    assert "expectations NOT met" in capsys.readouterr().out
+    assert main(argv) == 0
+
+
+def test_check_config_warns_about_a_misspelt_metric(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rules = tmp_path / "rules.txt"
+    rules.write_text("speech_sped inRange 140 180\n")
+    assert main(["check-config", str(rules)]) == 0  # a module of your own may write it
+    err = capsys.readouterr().err
+    assert f"warning: {rules}:1: " in err and "did you mean 'speech_speed'?" in err
