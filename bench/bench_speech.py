@@ -1,43 +1,81 @@
 """Speech module cost and accuracy on the shipped test audio: prints figures, asserts nothing.
 
-For each file of tests/modules/material: CPU seconds per audio minute (``time.process_time``,
-one core) of the whole analysis (endpointer, pocketsphinx, syllables, volume, LUFS, windows),
-the real-time factor (CPU s per audio s; the module's target is <= 0.25), recognised words and
-wpm against the manifest's truth, and the whole-file clarity. The decoder's one-off start-up
-cost is measured separately. ``--defaults`` runs pocketsphinx with its own default search
-settings instead of the module's, for comparison.
+Three parts (``--part``, all by default):
+
+``files``
+    For each file of tests/modules/material: CPU seconds per audio minute (``time.process_time``,
+    one core) of the whole analysis (endpointer, pocketsphinx, syllables, volume, LUFS, windows),
+    the real-time factor (CPU s per audio s; the module's target is <= 0.25), recognised words
+    and wpm against the manifest's truth, and the whole-file clarity. The decoder's one-off
+    start-up cost is measured separately. ``--defaults`` runs pocketsphinx with its own default
+    search settings instead of the module's, for comparison.
+``windows``
+    The speech_speed stream, window by window, on ~2 minute talks at 130 / 175 / 225 wpm made
+    from the shipped rate files: ``talk`` = the text's sentences in a seeded random order per
+    round (:func:`make_test_audio.long_talk`), ``loop`` = the file repeated (whose period a
+    window can line up with). For each: p10 / p50 / p90 of window wpm / truth, the share of
+    windows within +-10 % of the truth and, at 175 wpm, inside the default rule's 140-180 band;
+    ``before`` = a plain 10 s window (the module's old default), ``after`` = the defaults.
+``clarity``
+    The speech_accuracy stream on the clean talks and on the 175 wpm talk with seeded white noise
+    at SNR 20 / 10 / 0 dB (as tools/make_test_audio.py makes snr_*.flac): percentiles and the
+    share of windows under candidate thresholds of the rule ``speech_accuracy min X``.
 
 Usage::
 
-    python bench/bench_speech.py [--defaults] [--repeat 1]
+    python bench/bench_speech.py [--part files|windows|clarity ...] [--defaults] [--repeat 1]
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
+import math
+import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
 from prezence.modules import speech
 from prezence.modules.audio_io import read_file
+from prezence.samples import Sample
 
-MATERIAL = Path(__file__).resolve().parent.parent / "tests" / "modules" / "material"
+Stream = Callable[[str, str, str], list[tuple[float, float]]]
+
+ROOT = Path(__file__).resolve().parent.parent
+MATERIAL = ROOT / "tests" / "modules" / "material"
+RATES = (130, 175, 225)
+SNRS = (20, 10, 0)
+#: The default rule's band (prezence/config/defaults/default.toml).
+BAND = (140.0, 180.0)
+THRESHOLDS = (0.8, 0.7, 0.65, 0.6, 0.55)
+#: ``before``: the module's old default, a plain 10 s window (pauses counted in full).
+SETTINGS: dict[str, speech.SpeechOptions] = {
+    "before": speech.SpeechOptions(window_s=10.0, word_window_s=10.0, max_pause_s=10.0),
+    "after": speech.SpeechOptions(),
+}
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Print one line per file and a total."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--defaults", action="store_true", help="pocketsphinx's default search")
-    ap.add_argument("--repeat", type=int, default=1, help="runs per file (the best is kept)")
-    args = ap.parse_args(argv)
-    if args.defaults:
-        speech.DECODER_CONFIG = {}
+def make_test_audio() -> ModuleType:
+    """tools/make_test_audio.py as a module (for :func:`long_talk` and :func:`with_noise`)."""
+    path = ROOT / "tools" / "make_test_audio.py"
+    spec = importlib.util.spec_from_file_location("make_test_audio", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault(spec.name, mod)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def part_files(args: argparse.Namespace) -> None:
+    """CPU cost and whole-file figures per shipped file."""
     manifest = json.loads((MATERIAL / "manifest.json").read_text())["files"]
     opts = speech.SpeechOptions()
-    whole = speech.SpeechOptions(window_s=600.0)
+    whole = speech.SpeechOptions(window_s=600.0, word_window_s=600.0)
 
     t = time.process_time()
     speech.SpeechAnalyser(opts)  # imports scipy/pyloudnorm and loads the model once
@@ -79,6 +117,111 @@ def main(argv: list[str] | None = None) -> int:
         f"{tot_cpu / tot_audio * 60:.2f} CPU s per audio minute, RTF {tot_cpu / tot_audio:.3f} "
         f"(headroom on one core: {tot_audio / tot_cpu:.1f}x real time)"
     )
+
+
+def talks(mta: ModuleType) -> dict[str, tuple[np.ndarray, float]]:
+    """The ~2 minute talks: ``talk_175``, ``loop_175``…: samples and true wpm."""
+    out: dict[str, tuple[np.ndarray, float]] = {}
+    for rate in RATES:
+        x = read_file(MATERIAL / f"rate_{rate}.flac")
+        y, words = mta.long_talk(x, min_s=120.0)
+        out[f"talk_{rate}"] = (y, words / (len(y) / 16000) * 60.0)
+        loop = np.tile(x, math.ceil(120.0 * 16000 / len(x)))
+        n_words = mta.count_words(mta.TEXT) * (len(loop) // len(x))
+        out[f"loop_{rate}"] = (loop, n_words / (len(loop) / 16000) * 60.0)
+    return out
+
+
+def ratios(values: list[float], truth: float) -> str:
+    r = np.asarray(values) / truth
+    p10, p50, p90 = np.percentile(r, [10, 50, 90])
+    within = np.mean(np.abs(r - 1.0) <= 0.1) * 100
+    return f"{len(r):>4}{p10:>7.3f}{p50:>7.3f}{p90:>7.3f}{within:>7.0f}%"
+
+
+def part_windows(truths: dict[str, float], cached: Stream) -> None:
+    """Per-window speech_speed against the truth, before and after."""
+    print(
+        "speech_speed per window / truth (shuffled-sentence talk and plain loop, ~2 min each); "
+        "'from 30 s': windows ending at t >= 30 s"
+    )
+    print(
+        f"{'talk':<10}{'truth':>7}{'setting':>8}{'n':>5}{'p10':>7}{'p50':>7}{'p90':>7}"
+        f"{'±10%':>8}{'in 140-180':>12}{'from 30 s: ±10%':>17}{'in band':>9}"
+    )
+    for name, truth in truths.items():
+        for setting in SETTINGS:
+            got = cached(name, setting, speech.SPEECH_SPEED)
+            vals = [v for _, v in got]
+            late = [v for t, v in got if t >= 30.0]
+            band = np.mean([BAND[0] <= v <= BAND[1] for v in vals]) * 100
+            late_band = np.mean([BAND[0] <= v <= BAND[1] for v in late]) * 100
+            late_within = np.mean([abs(v / truth - 1) <= 0.1 for v in late]) * 100
+            band_s = f"{band:>11.0f}%" if abs(truth - 175) < 1 else f"{'-':>12}"
+            late_s = f"{late_band:>8.0f}%" if abs(truth - 175) < 1 else f"{'-':>9}"
+            print(
+                f"{name:<10}{truth:>7.1f}{setting:>8}{ratios(vals, truth)}{band_s}"
+                f"{late_within:>16.0f}%{late_s}"
+            )
+
+
+def part_clarity(cached: Stream) -> None:
+    """speech_accuracy distributions, clean against noisy."""
+    print("speech_accuracy per window (talks of ~2 min; noise: white, SNR against active speech)")
+    heads = "".join(f"{f'<{x:g}':>7}" for x in THRESHOLDS)
+    print(
+        f"{'talk':<14}{'setting':>8}{'n':>5}{'min':>7}{'p5':>7}{'p10':>7}{'p50':>7}{'p90':>7}"
+        f"{'max':>7}{heads}"
+    )
+    names = [f"talk_{r}" for r in RATES] + [f"talk_175_snr{s}" for s in SNRS]
+    for name in names:
+        for setting in SETTINGS:
+            a = np.array([v for _, v in cached(name, setting, speech.SPEECH_ACCURACY)])
+            pct = "".join(f"{v:>7.3f}" for v in np.percentile(a, [0, 5, 10, 50, 90]))
+            under = "".join(f"{np.mean(a < x) * 100:>6.0f}%" for x in THRESHOLDS)
+            print(f"{name:<14}{setting:>8}{len(a):>5}{pct}{a.max():>7.3f}{under}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the figures of the chosen parts."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "--part", nargs="+", choices=("files", "windows", "clarity"), default=None, help="(all)"
+    )
+    ap.add_argument("--defaults", action="store_true", help="pocketsphinx's default search")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per file (the best is kept)")
+    args = ap.parse_args(argv)
+    parts = args.part or ["files", "windows", "clarity"]
+    if args.defaults:
+        speech.DECODER_CONFIG = {}
+    mta = make_test_audio()
+    made = talks(mta) if "windows" in parts or "clarity" in parts else {}
+    audio = {k: v for k, (v, _) in made.items()}
+    results: dict[tuple[str, str], list[Sample]] = {}
+
+    def samples_of(name: str) -> np.ndarray:
+        if name not in audio:  # talk_175_snr10: talk_175 with seeded noise
+            base, snr = name.split("_snr")
+            noisy = mta.with_noise(audio[base], float(snr), np.random.default_rng(int(snr)))
+            audio[name] = np.clip(np.round(noisy), -32768, 32767).astype(np.int16)
+        return audio[name]
+
+    def cached(name: str, setting: str, metric: str) -> list[tuple[float, float]]:
+        key = (name, setting)
+        if key not in results:
+            x = samples_of(name)
+            blocks = [x[i : i + 1600] for i in range(0, len(x), 1600)]
+            results[key], _ = speech.analyse(blocks, SETTINGS[setting], loudness=False)
+        return [(s.t, s.value) for s in results[key] if s.metric == metric]
+
+    for part in parts:
+        if part == "files":
+            part_files(args)
+        elif part == "windows":
+            part_windows({k: truth for k, (_, truth) in made.items()}, cached)
+        else:
+            part_clarity(cached)
+        print()
     load = Path("/proc/loadavg")
     if load.exists():
         print(

@@ -13,6 +13,11 @@ What it writes (16 kHz mono 16-bit FLAC), with the truth in ``manifest.json``:
 - ``snr_20``, ``snr_10``, ``snr_0``: the first ~14 s of ``rate_175`` plus seeded white noise at
   that SNR against the power of the active speech, for the clarity test.
 
+:func:`long_talk` builds a ~2 minute talk from a shipped ``rate_*`` file at test time (nothing is
+written): its sentences, cut at their pauses, in a seeded random order per round. The speech
+module's per-window test and bench use it; unlike the file looped, it has no period that a
+window length could line up with.
+
 Usage::
 
     python tools/make_test_audio.py [--out tests/modules/material]
@@ -22,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -94,13 +100,22 @@ def _write(path: Path, x: np.ndarray) -> None:
     )
 
 
-def _active_power(x: np.ndarray) -> float:
+def active_power(x: np.ndarray) -> float:
     """Mean power of 30 ms frames within 30 dB of the loudest 5 % (speech, not pauses)."""
     n = len(x) // 480
-    frames = x[: n * 480].reshape(n, 480)
+    frames = np.asarray(x[: n * 480], dtype=np.float64).reshape(n, 480)
     p = np.mean(frames**2, axis=1) + 1e-12
     db = 10 * np.log10(p)
     return float(np.mean(p[db >= np.percentile(db, 95) - 30.0]))
+
+
+def with_noise(
+    x: np.ndarray, snr_db: float, rng: np.random.Generator, power: float | None = None
+) -> np.ndarray:
+    """``x`` (as float) plus white noise ``snr_db`` below ``power`` (default: its active power)."""
+    p = active_power(x) if power is None else power
+    noise = rng.standard_normal(len(x)) * np.sqrt(p / 10 ** (snr_db / 10.0))
+    return np.asarray(x, dtype=np.float64) + noise
 
 
 def _duration(path: Path) -> float:
@@ -156,11 +171,10 @@ def make(out: Path) -> dict[str, dict[str, object]]:
             manifest[path.name] = {"kind": "gain", "gain_db": gain, "source": "rate_175.flac"}
         rng = np.random.default_rng(NOISE_SEED)
         clean = _cut_at_pause(base, NOISE_EXCERPT_S)
-        p_speech = _active_power(clean)
+        p_speech = active_power(clean)
         for name, snr in SNRS_DB.items():
             path = out / f"{name}.flac"
-            noise = rng.standard_normal(len(clean)) * np.sqrt(p_speech / 10 ** (snr / 10.0))
-            mixed = clean + noise
+            mixed = with_noise(clean, snr, rng, p_speech)
             peak = np.max(np.abs(mixed))
             if peak > 32767:
                 raise SystemExit(f"error: {name} would clip (peak {peak:.0f}); lower the level")
@@ -175,6 +189,73 @@ def make(out: Path) -> dict[str, dict[str, object]]:
         json.dumps({"text": TEXT, "files": manifest}, indent=2, sort_keys=True) + "\n"
     )
     return manifest
+
+
+def sentences(text: str = TEXT) -> list[str]:
+    """The text's sentences, in order (split after ``.``, ``!`` or ``?``)."""
+    return [s for s in re.split(r"(?<=[.!?])\s+", text.strip()) if s]
+
+
+def sentence_cuts(x: np.ndarray, n: int, sample_rate: int = RATE) -> list[int]:
+    """Sample indices cutting ``x`` into ``n`` sentences: the middles of its n - 1 longest pauses.
+
+    A pause is a run of 10 ms frames more than 40 dB below the loudest 5 %; festival leaves its
+    longest pauses at sentence ends (checked on the shipped rate files: the six longest pauses
+    inside each are 0.22-0.49 s and fall at the sentence ends; the next is 0.2 s at most).
+
+    Raises:
+        ValueError: ``x`` has fewer than ``n - 1`` pauses inside it.
+    """
+    f = sample_rate // 100
+    m = len(x) // f
+    frames = np.asarray(x[: m * f], dtype=np.float64).reshape(m, f)
+    db = 10.0 * np.log10(np.mean(frames**2, axis=1) + 1e-3)
+    quiet = db < np.percentile(db, 95) - 40.0
+    runs: list[tuple[int, int]] = []  # (length, middle frame), inside the file only
+    i = 0
+    while i < m:
+        if not quiet[i]:
+            i += 1
+            continue
+        j = i
+        while j < m and quiet[j]:
+            j += 1
+        if i > 0 and j < m:
+            runs.append((j - i, (i + j) // 2))
+        i = j
+    if len(runs) < n - 1:
+        raise ValueError(f"found {len(runs)} pauses, need {n - 1}")
+    longest = sorted(runs, reverse=True)[: n - 1]
+    return sorted(mid * f for _, mid in longest)
+
+
+def long_talk(
+    x: np.ndarray, *, min_s: float = 120.0, seed: int = 1, text: str = TEXT
+) -> tuple[np.ndarray, int]:
+    """A talk of whole rounds of ``x``'s sentences, each round in a new seeded random order.
+
+    Args:
+        x: a ``rate_*`` file's samples (the whole text, once).
+        min_s: rounds are added until the talk is at least this long.
+        seed: the order's random seed.
+        text: the text ``x`` reads.
+
+    Returns:
+        The samples (same dtype as ``x``) and the number of words in them. Every round holds
+        every sentence with its own pauses once, so the true rate is the file's: words / length.
+    """
+    parts = sentences(text)
+    cuts = [0, *sentence_cuts(x, len(parts)), len(x)]
+    pieces = [x[a:b] for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+    rng = np.random.default_rng(seed)
+    out: list[np.ndarray] = []
+    total = rounds = 0
+    while total < min_s * RATE:
+        for k in rng.permutation(len(pieces)):
+            out.append(pieces[k])
+            total += len(pieces[k])
+        rounds += 1
+    return np.concatenate(out), rounds * count_words(text)
 
 
 def main(argv: list[str] | None = None) -> int:

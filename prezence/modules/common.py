@@ -14,6 +14,10 @@ began. The common command line is::
 
 Exit status: 0 done, 2 bad input or arguments (``error: FILE: what is wrong`` on stderr, no
 traceback), as ``prezence``'s own command line does.
+
+Heartbeat: when the launcher sets :data:`HEARTBEAT_ENV` to a file's path, a module touches that
+file (:class:`Heartbeat`) about once a second while it reads and analyses its input, so that a
+module that is working but has nothing to write yet is not taken for a hung one.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import argparse
 import logging
 import os
 import sys
+import time
 from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
@@ -48,6 +53,44 @@ class ModuleInputError(PrezenceError, ValueError):
         self.source = str(source)
         self.reason = reason
         super().__init__(f"{self.source}: {reason}")
+
+
+#: The environment variable holding the heartbeat file's path (``prezence.launcher`` sets it).
+HEARTBEAT_ENV = "PREZENCE_HEARTBEAT"
+
+
+class Heartbeat:
+    """Touches the launcher's heartbeat file at most once per ``period_s``; else does nothing.
+
+    Args:
+        path: the file; default: ``$PREZENCE_HEARTBEAT``, and no heartbeat when that is unset.
+        period_s: the least time between two touches, seconds.
+    """
+
+    def __init__(self, path: str | os.PathLike[str] | None = None, period_s: float = 1.0) -> None:
+        if path is None:
+            path = os.environ.get(HEARTBEAT_ENV) or None
+        self.path = Path(path) if path is not None else None
+        self.period_s = float(period_s)
+        self._last = -float("inf")
+
+    def beat(self) -> None:
+        """Touch the file if ``period_s`` has passed since the last touch (cheap otherwise).
+
+        A file that cannot be touched is logged once and then left alone: the heartbeat is a
+        courtesy to the launcher, never a reason for the module to fail.
+        """
+        if self.path is None:
+            return
+        now = time.monotonic()
+        if now - self._last < self.period_s:
+            return
+        self._last = now
+        try:
+            self.path.touch()
+        except OSError as e:
+            log.warning("cannot touch the heartbeat file %s (%s); no heartbeat", self.path, e)
+            self.path = None
 
 
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:

@@ -4,30 +4,42 @@ Run it as its own process::
 
     python -m prezence.modules.speech --audio talk.flac --out SESSION
     python -m prezence.modules.speech --audio mic --out SESSION --t0 1767225600.0 \\
-        [--window 10] [--hop 1] [--calibration-db 90] [--realtime]
+        [--window 10] [--word-window 30] [--max-pause 2] [--hop 1] [--calibration-db 90]
+        [--realtime]
 
-Every ``--hop`` seconds it measures the last ``--window`` seconds and appends one line to each
-stream, ``SESSION/streams/<metric>.txt``, with ``t`` = the end of the window in seconds since the
-talk began (media time for a file; for the microphone, wall time minus ``--t0``):
+Every ``--hop`` seconds it appends one line to each stream, ``SESSION/streams/<metric>.txt``, with
+``t`` = the end of the window in seconds since the talk began (media time for a file; for the
+microphone, wall time minus ``--t0``). The levels are measured over the last ``--window``
+seconds; the word-based metrics over the last ``--word-window`` seconds of *talk*, where a pause
+counts at most ``--max-pause`` seconds (so a long pause neither reads as slow speech nor empties
+the window); early in the talk, over all the talk so far (at least ``--window`` seconds of it):
 
 ===================== ========================================================================
 metric                 value
 ===================== ========================================================================
-speech_speed           words per minute over the window (recognised words / window length);
-                       the syllable estimate instead when the recogniser is unreliable there
+speech_speed           words per minute of talk (recognised words / talk time in the word
+                       window); the syllable estimate instead when the recogniser is
+                       unreliable there
 speech_speed_syllables the ASR-free estimate: syllable nuclei / :data:`SYLLABLES_PER_WORD` / min
 speech_articulation    words per *speaking* minute (same words / voice-activity time)
 speech_volume          active-speech level in estimated dB SPL: RMS dBFS of the speech frames
                        plus ``--calibration-db`` (see "Calibrating the volume")
 speech_loudness        integrated loudness of the window, LUFS (ITU-R BS.1770, pyloudnorm),
                        relative to full scale, uncalibrated; only when pyloudnorm is installed
-speech_accuracy        recogniser confidence 0..1: the summed word posteriors over the number
-                       of words spoken (the larger of the recognised and the syllable count)
+speech_accuracy        recogniser confidence 0..1 over the word window: the summed word
+                       posteriors over the number of words spoken (the larger of the recognised
+                       and the syllable count)
 speech_clarity         speech_accuracy as a 0-100 score: 0.2 -> 0, 0.8 -> 100, clipped
+speech_activity        the fraction of the last ``--window`` seconds with voice activity, 0..1;
+                       written every hop, in silence too: the module's heartbeat
 ===================== ========================================================================
 
-A window with less than :data:`MIN_SPEECH_S` of voice activity writes nothing: silence is not
-slow, quiet or unclear speech, and the processor sees the stream go quiet instead.
+A window whose last ``--window`` seconds hold less than :data:`MIN_SPEECH_S` of voice activity
+writes only speech_activity: silence is not slow, quiet or unclear speech (the other streams go
+quiet), and speech_volume would only measure the room's noise. speech_activity goes on, so a
+silent presenter is not mistaken for a hung module; and while the module reads audio it touches
+the launcher's heartbeat file, ``$PREZENCE_HEARTBEAT``, about once a second
+(:class:`prezence.modules.common.Heartbeat`).
 
 How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/bench_speech.py``):
 
@@ -37,6 +49,10 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
   most about that much. A window is written once everything up to its end is decoded, so file
   input and ``--realtime`` give the same lines; only their timing differs.
 * A word counts in a window by the fraction of it that lies inside.
+* Why a 30 s word window: over 10 s the count follows the local rate of the sentences in it,
+  which on the test voice at a steady 175 wpm spans 0.91-1.10 x the talk's rate (p10-p90; the
+  one paragraph looped: 0.85-1.16); over 30 s of talk 0.98-1.04, and 0.92-1.06 at 130-225 wpm
+  (``bench/bench_speech.py --part windows``).
 * Syllable nuclei (De Jong & Wempe style: 300-3000 Hz band intensity peaks, >= 2 dB prominent,
   >= 70 ms apart, within 25 dB of the loudest, voiced) are found per utterance with numpy/scipy.
 * The recogniser is *unreliable* in a window when its mean word posterior is below
@@ -81,6 +97,7 @@ import numpy as np
 from prezence.errors import BackendUnavailable, PrezenceError
 from prezence.modules.audio_io import SAMPLE_RATE, AudioSource, FileSource, MicSource
 from prezence.modules.common import (
+    Heartbeat,
     ModuleInputError,
     StreamSet,
     add_common_arguments,
@@ -91,6 +108,7 @@ from prezence.samples import SPEECH_ACCURACY, SPEECH_SPEED, SPEECH_VOLUME, Sampl
 
 log = logging.getLogger(__name__)
 
+SPEECH_ACTIVITY = "speech_activity"
 SPEECH_ARTICULATION = "speech_articulation"
 SPEECH_CLARITY = "speech_clarity"
 SPEECH_LOUDNESS = "speech_loudness"
@@ -104,14 +122,21 @@ METRICS = (
     SPEECH_LOUDNESS,
     SPEECH_ACCURACY,
     SPEECH_CLARITY,
+    SPEECH_ACTIVITY,
 )
 
 #: dBFS -> dB SPL offset used when the user has not calibrated (a rough laptop-mic guess).
 DEFAULT_CALIBRATION_DB = 90.0
 #: English averages about 1.4-1.5 syllables per word (the reference measured 1.34 on one text).
 SYLLABLES_PER_WORD = 1.45
-#: A window needs this much voice activity to be measured at all.
+#: The level window needs this much voice activity for anything but speech_activity.
 MIN_SPEECH_S = 1.0
+#: Seconds of talk the word-based metrics (speed, articulation, clarity) count over.
+WORD_WINDOW_S = 30.0
+#: A pause counts as at most this many seconds of talk in the word window.
+MAX_PAUSE_S = 2.0
+#: The word window looks back at most this many word windows of input time.
+MAX_LOOKBACK = 3.0
 #: An utterance is cut here even without a pause (bounds the live lag).
 MAX_UTTERANCE_S = 10.0
 #: Below this mean word posterior the recogniser's word count is not trusted.
@@ -137,6 +162,7 @@ DECODER_CONFIG: dict[str, Any] = {
     "pbeam": 1e-44,
     "wbeam": 1e-26,
 }
+_ORDER = {m: i for i, m in enumerate(METRICS)}
 _FRAME = 480  # 30 ms at 16 kHz: the endpointer's frame
 _FRAME_S = _FRAME / SAMPLE_RATE
 
@@ -146,12 +172,15 @@ class SpeechOptions:
     """What the speech analysis measures, and how.
 
     Attributes:
-        window_s: length of the measured window, seconds.
+        window_s: length of the level window (volume, loudness, voice activity), seconds; the
+            word-based metrics also need this much talk before their first value.
         hop_s: time between two measurements, seconds.
         calibration_db: dB added to dBFS to estimate dB SPL (see the module doc).
         syllables_per_word: the prior turning syllables into words.
-        min_speech_s: voice activity a window needs to be measured.
+        min_speech_s: voice activity the level window needs for anything but speech_activity.
         max_utterance_s: longest utterance decoded in one piece.
+        word_window_s: seconds of talk the word-based metrics count over.
+        max_pause_s: a pause counts as at most this many seconds of talk.
     """
 
     window_s: float = 10.0
@@ -160,16 +189,20 @@ class SpeechOptions:
     syllables_per_word: float = SYLLABLES_PER_WORD
     min_speech_s: float = MIN_SPEECH_S
     max_utterance_s: float = MAX_UTTERANCE_S
+    word_window_s: float = WORD_WINDOW_S
+    max_pause_s: float = MAX_PAUSE_S
 
     def __post_init__(self) -> None:
-        for name in ("window_s", "hop_s", "syllables_per_word", "max_utterance_s"):
+        for name in ("window_s", "word_window_s", "hop_s", "syllables_per_word", "max_utterance_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
         if self.hop_s > self.window_s:
             raise ValueError(f"hop_s ({self.hop_s}) must not exceed window_s ({self.window_s})")
-        if not (math.isfinite(self.min_speech_s) and self.min_speech_s >= 0):
-            raise ValueError(f"min_speech_s must be >= 0, got {self.min_speech_s!r}")
+        for name in ("min_speech_s", "max_pause_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be >= 0, got {v!r}")
         if not math.isfinite(self.calibration_db):
             raise ValueError(f"calibration_db must be finite, got {self.calibration_db!r}")
 
@@ -318,6 +351,8 @@ class SpeechAnalyser:
         self._syllables: deque[float] = deque()
         self._span_start: float | None = None
         self._next_t = options.window_s  # end of the next window to write
+        # Words, spans and syllables are kept this far back (the word window's longest reach).
+        self._lookback_s = max(options.window_s, MAX_LOOKBACK * options.word_window_s)
         self._last_t = 0.0  # end of the last window written
         self._finished = False
         # Totals over the whole input.
@@ -384,7 +419,7 @@ class SpeechAnalyser:
         self._close_span(stop)
         out = self._emit(end)
         if end > self._last_t + 1e-6:
-            out += self._window(end)
+            out += self._window(end, final=True)
         return out
 
     def totals(self) -> SpeechTotals:
@@ -464,22 +499,50 @@ class SpeechAnalyser:
             out += self._window(self._next_t)
             self._last_t = self._next_t
             self._next_t += self.options.hop_s
-            self._prune(self._next_t - self.options.window_s)
+            self._prune(self._next_t - self._lookback_s, self._next_t - self.options.window_s)
         return out
 
-    def _prune(self, lo: float) -> None:
+    def _prune(self, lo: float, lo_audio: float) -> None:
         while self._words and self._words[0].end <= lo:
             self._words.popleft()
         while self._spans and self._spans[0][1] <= lo:
             self._spans.popleft()
         while self._syllables and self._syllables[0] < lo:
             self._syllables.popleft()
-        keep_from = max(0, int(lo * SAMPLE_RATE) - self._ring_start)
+        keep_from = max(0, int(lo_audio * SAMPLE_RATE) - self._ring_start)
         if keep_from > SAMPLE_RATE:  # trim in chunks, not every hop
             self._ring = self._ring[keep_from:]
             self._ring_start += keep_from
 
-    def _window(self, t: float) -> list[Sample]:
+    def _talk_window(self, t: float, spans: list[tuple[float, float]]) -> tuple[float, float]:
+        """The word window ending at ``t``: its start and the talk time in it.
+
+        Walks back from ``t`` over speech spans and pauses, a pause counting at most
+        ``max_pause_s``, until ``word_window_s`` of talk is found or the look-back ends; the
+        talk time is less than ``word_window_s`` only in the latter case. Where in a long pause
+        a start falls does not matter: no words or syllables lie in pauses.
+        """
+        want, cap = self.options.word_window_s, self.options.max_pause_s
+        floor = max(0.0, t - self._lookback_s)
+        talk, cursor = 0.0, t
+        for a, b in reversed(spans):
+            a, b = max(a, floor), min(b, t)
+            if b <= a:
+                continue
+            gap = max(0.0, cursor - b)
+            if talk + min(gap, cap) >= want:
+                return max(b, cursor - (want - talk)), want
+            talk += min(gap, cap)
+            if talk + (b - a) >= want:
+                return b - (want - talk), want
+            talk += b - a
+            cursor = a
+        gap = max(0.0, cursor - floor)
+        if talk + min(gap, cap) >= want:
+            return max(floor, cursor - (want - talk)), want
+        return floor, talk + min(gap, cap)
+
+    def _window(self, t: float, *, final: bool = False) -> list[Sample]:
         opt = self.options
         lo = max(0.0, t - opt.window_s)
         dur = t - lo
@@ -487,8 +550,32 @@ class SpeechAnalyser:
         if self._span_start is not None:
             spans.append((self._span_start, t))
         speech_s = sum(_overlap(a, b, lo, t) for a, b in spans)
-        if dur <= 0 or speech_s < min(opt.min_speech_s, 0.5 * dur):
+        if dur <= 0:
             return []
+        out = [Sample(SPEECH_ACTIVITY, t, min(1.0, speech_s / dur))]
+        if speech_s < min(opt.min_speech_s, 0.5 * dur):
+            return out
+        level = self._active_dbfs(lo, t, spans)
+        if level is not None:
+            out.append(Sample(SPEECH_VOLUME, t, level + opt.calibration_db))
+        lufs = self._lufs(lo, t)
+        if lufs is not None:
+            out.append(Sample(SPEECH_LOUDNESS, t, lufs))
+        out += self._word_samples(t, spans, final=final)
+        return sorted(out, key=lambda smp: _ORDER[smp.metric])
+
+    def _word_samples(
+        self, t: float, spans: list[tuple[float, float]], *, final: bool
+    ) -> list[Sample]:
+        """speech_speed and the other word-based metrics over the word window ending at ``t``.
+
+        Nothing before ``window_s`` of talk has been heard, except at the end of the input.
+        """
+        opt = self.options
+        lo, talk_s = self._talk_window(t, spans)
+        if talk_s <= 0 or (talk_s < min(opt.window_s, opt.word_window_s) - 1e-9 and not final):
+            return []
+        voiced_s = sum(_overlap(a, b, lo, t) for a, b in spans)
         n_asr = 0.0
         p_sum = 0.0
         for w in self._words:
@@ -508,16 +595,11 @@ class SpeechAnalyser:
         )
         words = n_asr if reliable else n_syl_words
         out = [
-            Sample(SPEECH_SPEED, t, words / dur * 60.0),
-            Sample(SPEECH_SPEED_SYLLABLES, t, n_syl_words / dur * 60.0),
-            Sample(SPEECH_ARTICULATION, t, words / speech_s * 60.0),
+            Sample(SPEECH_SPEED, t, words / talk_s * 60.0),
+            Sample(SPEECH_SPEED_SYLLABLES, t, n_syl_words / talk_s * 60.0),
         ]
-        level = self._active_dbfs(lo, t, spans)
-        if level is not None:
-            out.append(Sample(SPEECH_VOLUME, t, level + opt.calibration_db))
-        lufs = self._lufs(lo, t)
-        if lufs is not None:
-            out.append(Sample(SPEECH_LOUDNESS, t, lufs))
+        if voiced_s > 0:
+            out.append(Sample(SPEECH_ARTICULATION, t, words / voiced_s * 60.0))
         if spoken > 0:
             accuracy = min(1.0, p_sum / spoken)
             out.append(Sample(SPEECH_ACCURACY, t, accuracy))
@@ -592,6 +674,7 @@ def run(
         BackendUnavailable: pocketsphinx is missing.
     """
     an = SpeechAnalyser(options)
+    heartbeat = Heartbeat()
     cpu0 = time.process_time()
     offset: float | None = None if callable(t_offset) else float(t_offset)
     last_warn = -math.inf
@@ -603,6 +686,7 @@ def run(
                 streams.write(s.metric, (offset or 0.0) + s.t, s.value)
 
         for block in source.blocks():
+            heartbeat.beat()
             if offset is None and callable(t_offset):
                 offset = max(0.0, t_offset() - len(block) / SAMPLE_RATE)
             write(an.feed(block))
@@ -647,7 +731,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--audio", required=True, help="an audio/video file (WAV, FLAC, MP3, MP4), or mic"
     )
     add_common_arguments(p)
-    p.add_argument("--window", type=float, default=10.0, help="seconds (default %(default)s)")
+    p.add_argument(
+        "--window",
+        type=float,
+        default=10.0,
+        help="level window (volume, loudness, voice activity), seconds (default %(default)s)",
+    )
+    p.add_argument(
+        "--word-window",
+        type=float,
+        default=WORD_WINDOW_S,
+        help="seconds of talk that speed, articulation and clarity count over "
+        "(default %(default)s)",
+    )
+    p.add_argument(
+        "--max-pause",
+        type=float,
+        default=MAX_PAUSE_S,
+        help="a pause counts as at most this many seconds of talk (default %(default)s)",
+    )
     p.add_argument("--hop", type=float, default=1.0, help="seconds (default %(default)s)")
     p.add_argument(
         "--calibration-db",
@@ -666,6 +768,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         options = SpeechOptions(
             window_s=args.window,
+            word_window_s=args.word_window,
+            max_pause_s=args.max_pause,
             hop_s=args.hop,
             calibration_db=(
                 DEFAULT_CALIBRATION_DB if args.calibration_db is None else args.calibration_db

@@ -1,13 +1,21 @@
 """The speech module on the shipped festival test audio (tests/modules/material, made by
-tools/make_test_audio.py; the truth is in its manifest.json)."""
+tools/make_test_audio.py; the truth is in its manifest.json).
+
+The per-window tests use ~2 minute talks built from the shipped files by
+``make_test_audio.long_talk`` (the sentences in a seeded random order); their tolerances are the
+figures of ``bench/bench_speech.py --part windows clarity`` with some margin.
+"""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import subprocess
 import sys
 from collections import defaultdict
+from functools import cache
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -22,6 +30,7 @@ from prezence.modules.audio_io import FileSource, read_file  # noqa: E402
 from prezence.modules.common import ModuleInputError  # noqa: E402
 from prezence.modules.speech import (  # noqa: E402
     METRICS,
+    SPEECH_ACTIVITY,
     SpeechOptions,
     SpeechTotals,
     analyse,
@@ -30,10 +39,12 @@ from prezence.modules.speech import (  # noqa: E402
 from prezence.samples import Sample  # noqa: E402
 from prezence.streams.codec import parse_line  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[2]
 MATERIAL = Path(__file__).parent / "material"
 MANIFEST = json.loads((MATERIAL / "manifest.json").read_text())["files"]
 RATE_FILES = sorted(f for f, info in MANIFEST.items() if info["kind"] == "rate")
-WHOLE = SpeechOptions(window_s=120.0, hop_s=1.0)  # one window: the whole file
+# One window: the whole file.
+WHOLE = SpeechOptions(window_s=120.0, word_window_s=120.0, hop_s=1.0)
 
 
 def by_metric(samples: list[Sample]) -> dict[str, list[Sample]]:
@@ -66,6 +77,30 @@ def whole(name: str, metric: str) -> float:
     return s.value
 
 
+@cache
+def make_test_audio() -> ModuleType:
+    path = ROOT / "tools" / "make_test_audio.py"
+    spec = importlib.util.spec_from_file_location("make_test_audio", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault(spec.name, mod)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@cache
+def long_talk(rate: int, snr_db: float | None = None) -> tuple[dict[str, list[Sample]], float]:
+    """The default options on a ~2 min talk at ``rate`` wpm (with noise): streams, true wpm."""
+    mta = make_test_audio()
+    y, words = mta.long_talk(read_file(MATERIAL / f"rate_{rate}.flac"), min_s=120.0)
+    truth = words / (len(y) / 16000) * 60.0
+    if snr_db is not None:
+        noisy = mta.with_noise(y, snr_db, np.random.default_rng(int(snr_db)))
+        y = np.clip(np.round(noisy), -32768, 32767).astype(np.int16)
+    samples, _ = analyse(blocks(y), SpeechOptions(), loudness=False)
+    return by_metric(samples), truth
+
+
 # ---- speed ---------------------------------------------------------------------------------
 
 
@@ -81,14 +116,47 @@ def test_speech_speed_within_5_percent_of_truth(name: str) -> None:
 
 
 @pytest.mark.parametrize("name", RATE_FILES, ids=lambda f: f.removesuffix(".flac"))
-def test_sliding_windows_follow_the_rate(name: str) -> None:
-    # 10 s windows measure the local rate, which varies with the words in them (measured:
-    # windows of the 175 wpm file span 144-214 wpm); their mean stays near the truth.
+def test_sliding_windows_of_a_short_file_follow_the_rate(name: str) -> None:
+    # The windows grow from 10 s of talk to the whole file (17-30 s). Measured: 0.98-1.19 x the
+    # truth (the text's first 10 s are its fastest), 1.01-1.07 from 20 s, 0.98-1.00 at the end.
     truth = MANIFEST[name]["true_wpm"]
-    speeds = [s.value for s in measure(name, SpeechOptions())[0]["speech_speed"]]
+    speeds = measure(name, SpeechOptions())[0]["speech_speed"]
     assert len(speeds) >= 5
-    assert np.mean(speeds) == pytest.approx(truth, rel=0.08)
-    assert all(0.6 * truth < v < 1.4 * truth for v in speeds)
+    assert all(0.9 * truth < s.value < 1.25 * truth for s in speeds)
+    assert all(0.95 * truth < s.value < 1.1 * truth for s in speeds if s.t >= 20.0)
+    assert speeds[-1].value == pytest.approx(truth, rel=0.03)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rate", [130, 175, 225])
+def test_windows_of_a_steady_talk_stay_near_its_rate(rate: int) -> None:
+    # Measured (30 s of talk per window): p10-p90 0.92-1.06 x the truth, 96-100 % within 10 %,
+    # extremes 0.88-1.11 (the 225 wpm talk reads 2-3 % low: the recogniser misses words).
+    streams, truth = long_talk(rate)
+    ratios = np.array([s.value for s in streams["speech_speed"]]) / truth
+    assert len(ratios) >= 100
+    assert np.mean(np.abs(ratios - 1.0) <= 0.1) >= 0.9
+    assert ratios.min() > 0.85 and ratios.max() < 1.12
+    assert np.percentile(ratios, 90) - np.percentile(ratios, 10) < 0.15
+
+
+def test_a_long_pause_is_not_slow_speech() -> None:
+    # 175 wpm, 15 s of silence, 175 wpm again. The pause counts 2 s of talk, so the windows
+    # that span it read at most 2/30 low (measured >= 0.91 x; a plain 10 s window: 0.1-0.5 x).
+    # Once the level window holds no voice, only speech_activity goes on.
+    x = read_file(MATERIAL / "rate_175.flac")
+    pause = 15.0
+    y = np.concatenate([x, np.zeros(int(pause * 16000), np.int16), x])
+    samples, _ = analyse(blocks(y), SpeechOptions(), loudness=False)
+    streams = by_metric(samples)
+    truth = MANIFEST["rate_175.flac"]["true_wpm"]
+    speeds = [s.value for s in streams["speech_speed"]]
+    assert all(0.88 * truth < v < 1.25 * truth for v in speeds), speeds
+    gap = (len(x) / 16000 + 10.5, len(x) / 16000 + pause)  # > 10 s into the pause
+    for metric in METRICS:
+        inside = [s for s in streams[metric] if gap[0] < s.t < gap[1]]
+        assert bool(inside) == (metric == SPEECH_ACTIVITY), metric
+    assert all(s.value == 0.0 for s in streams[SPEECH_ACTIVITY] if gap[0] < s.t < gap[1])
 
 
 def test_syllable_estimate_orders_the_rates_and_is_near_truth() -> None:
@@ -137,8 +205,19 @@ def test_clarity_falls_as_noise_rises() -> None:
 
 @pytest.mark.parametrize("name", RATE_FILES, ids=lambda f: f.removesuffix(".flac"))
 def test_clean_speech_is_judged_clear(name: str) -> None:
-    # The default rule is `speech_accuracy min 0.8`; measured 0.80-0.90 on the clean files.
+    # Whole files: measured 0.80-0.90.
     assert whole(name, "speech_accuracy") >= 0.78
+
+
+@pytest.mark.slow
+def test_window_accuracy_separates_clean_speech_from_noise() -> None:
+    # Windows of 30 s of talk, measured: clean 0.705-0.914 over 130/175/225 wpm; white noise at
+    # SNR 20 dB 0.37-0.53. A rule `speech_accuracy min 0.6` lies between (see docs/modules.md).
+    clean = [s.value for rate in (130, 175, 225) for s in long_talk(rate)[0]["speech_accuracy"]]
+    noisy = [s.value for s in long_talk(175, 20.0)[0]["speech_accuracy"]]
+    assert len(clean) >= 300 and len(noisy) >= 100
+    assert min(clean) > 0.68
+    assert max(noisy) < 0.57
 
 
 def test_clarity_score_anchors() -> None:
@@ -167,9 +246,18 @@ def test_windows_are_written_in_time_order_on_the_hop_grid() -> None:
     assert ts[-1] == pytest.approx(MANIFEST["rate_225.flac"]["duration_s"], abs=0.05)
 
 
-def test_silence_writes_nothing(tmp_path: Path) -> None:
+def test_silence_writes_only_the_activity_heartbeat() -> None:
     samples, totals = analyse([np.zeros(16000 * 12, np.int16)], SpeechOptions())
-    assert samples == [] and totals.words == 0
+    assert totals.words == 0
+    assert {s.metric for s in samples} == {SPEECH_ACTIVITY}
+    assert [s.t for s in samples] == [10.0, 11.0, 12.0] and all(s.value == 0 for s in samples)
+
+
+def test_activity_is_written_every_hop_and_follows_the_voice() -> None:
+    samples = measure("rate_175.flac", SpeechOptions())[0][SPEECH_ACTIVITY]
+    ts = [s.t for s in samples]
+    assert ts[0] == pytest.approx(10.0) and np.allclose(np.diff(ts[:-1]), 1.0)
+    assert all(0.8 < s.value <= 1.0 for s in samples)  # the test voice barely pauses
 
 
 def test_invalid_options_are_refused() -> None:
@@ -320,6 +408,21 @@ def test_module_process_writes_well_formed_streams(tmp_path: Path) -> None:
     speeds = [v for _, v in map(parse_line, lines)]
     assert np.mean(speeds) == pytest.approx(MANIFEST[name]["true_wpm"], rel=0.1)
     assert "CPU s per audio s" in r.stderr
+
+
+def test_run_touches_the_launchers_heartbeat_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from prezence.modules.speech import run
+
+    beat = tmp_path / ".speech.alive"
+    monkeypatch.setenv("PREZENCE_HEARTBEAT", str(beat))
+    src = FileSource(MATERIAL / "gain_0.flac", realtime=False)
+    try:
+        run(src, tmp_path / "s", SpeechOptions(), fresh=True)
+    finally:
+        src.close()
+    assert beat.exists()
 
 
 def test_module_process_bad_file_exits_2_naming_it(tmp_path: Path) -> None:
