@@ -20,9 +20,9 @@ cv_headYaw          head yaw relative to the audience direction, deg,     each a
 cv_facingAudience   fraction of the analysed frames in the last           1 Hz
                     ``--facing-window`` s (5) with a face whose |yaw| and
                     |pitch| are within ``--facing-tolerance`` (20, 15 deg)
-cv_gestures         gesture bursts per minute over the last               1 Hz
-                    ``--gesture-window`` s (30; since the start, but at
-                    least 10 s, early in the talk)
+cv_gestures         gesture bursts per minute over the last               1 Hz, once 10 s
+                    ``--gesture-window`` s (30; over all the video seen   of video have
+                    so far, early in the talk)                            been seen
 ================== ===================================================== ==================
 
 Head pose (needs ``mediapipe==0.10.21`` in the vision env):
@@ -49,6 +49,9 @@ Which python:
     itself in that venv when one exists (``--no-reexec`` stops that). With no vision env, head
     pose is off with a message naming the one command that installs it, and the gesture rate
     still runs.
+
+While it reads frames it touches the launcher's heartbeat file, ``$PREZENCE_HEARTBEAT``, about
+once a second (:class:`prezence.modules.common.Heartbeat`).
 
 Live input never drops frames silently: frames the analysis could not keep up with are
 counted, and a warning every 10 s (and at the end) says how many and at what rate.
@@ -82,6 +85,7 @@ import numpy as np
 
 from prezence.errors import PrezenceError
 from prezence.modules.common import (
+    Heartbeat,
     ModuleInputError,
     StreamSet,
     add_common_arguments,
@@ -109,6 +113,10 @@ _FOREHEAD = 10
 _CHIN = 152
 
 _REEXEC_GUARD = "PREZENCE_VISION_REEXEC"
+
+#: No gesture rate is written before this much video has been seen (or the whole
+#: ``--gesture-window`` when that is shorter).
+GESTURE_MIN_WINDOW_S = 10.0
 
 
 class VisionInputError(ModuleInputError):
@@ -366,7 +374,8 @@ class GestureDetector:
 
     Args:
         window_s: the rate's window.
-        min_window_s: early in the talk the rate divides by at least this many seconds.
+        min_window_s: no rate until this many seconds of video have been seen (a calm start
+            is not a lack of gestures); until ``window_s`` have, the rate is over all of it.
         floor: the lowest energy threshold.
         k: the threshold is ``max(floor, k * median energy of the last baseline_s)``.
         baseline_s: the median's window.
@@ -379,7 +388,7 @@ class GestureDetector:
         self,
         *,
         window_s: float = 30.0,
-        min_window_s: float = 10.0,
+        min_window_s: float = GESTURE_MIN_WINDOW_S,
         floor: float = 0.002,
         k: float = 3.0,
         baseline_s: float = 10.0,
@@ -398,6 +407,7 @@ class GestureDetector:
         self.min_burst_s = float(min_burst_s)
         self.width = int(width)
         self.bursts: list[float] = []  #: start times of the counted bursts
+        self.first_t: float | None = None  #: time of the first frame fed
         self._prev: np.ndarray | None = None
         self._energies: deque[tuple[float, float]] = deque()
         self._run_start: float | None = None  # first active frame of the current burst
@@ -419,6 +429,8 @@ class GestureDetector:
         Returns:
             The start time of a burst that has just been counted, else None.
         """
+        if self.first_t is None:
+            self.first_t = t
         gray, s = self._prepare(bgr)
         prev, self._prev = self._prev, gray
         if prev is None or prev.shape != gray.shape:
@@ -456,11 +468,19 @@ class GestureDetector:
             return self._run_start
         return None
 
-    def rate(self, t: float) -> float:
-        """Bursts per minute that started in the window ending at ``t``."""
+    def rate(self, t: float) -> float | None:
+        """Bursts per minute that started in the window ending at ``t``.
+
+        Returns:
+            None until ``min_window_s`` of video has been seen (from the first frame fed, so a
+            module restarted late in the talk waits too); then bursts / minutes seen, at most
+            ``window_s``.
+        """
+        seen = t - self.first_t if self.first_t is not None else 0.0
+        if seen < self.min_window_s - 1e-9:
+            return None
         n = sum(1 for b in self.bursts if t - self.window_s < b <= t)
-        span = min(self.window_s, max(t, self.min_window_s))
-        return n / span * 60.0
+        return n / min(self.window_s, seen) * 60.0
 
 
 # --------------------------------------------------------------------------------------------
@@ -673,8 +693,12 @@ def run(
         facing_window_s=opts.facing_window_s,
         tolerance=opts.tolerance,
     )
-    gestures = GestureDetector(window_s=opts.gesture_window_s)
+    gestures = GestureDetector(
+        window_s=opts.gesture_window_s,
+        min_window_s=min(GESTURE_MIN_WINDOW_S, opts.gesture_window_s),
+    )
     streams = StreamSet(out, METRICS, fresh=fresh).open()
+    heartbeat = Heartbeat()
 
     def write(metric: str, t: float, value: float) -> None:
         streams.write(metric, round(t, 4), round(value, 3))
@@ -689,6 +713,7 @@ def run(
     last_t = 0.0
     try:
         for t, frame in source.frames():
+            heartbeat.beat()
             if stop is not None and stop.is_set():
                 break
             if opts.duration_s is not None and t > opts.duration_s:
@@ -714,8 +739,9 @@ def run(
                     f = gaze.facing(next_report)
                     if f is not None:
                         write(FACING_AUDIENCE, next_report, f)
-                if opts.gestures:
-                    write(GESTURES, next_report, gestures.rate(next_report))
+                rate = gestures.rate(next_report) if opts.gestures else None
+                if rate is not None:
+                    write(GESTURES, next_report, rate)
                 next_report += 1.0
             if warn_at == -math.inf:
                 warn_at, warned_at_t = t + 10.0, t

@@ -98,10 +98,10 @@ def test_gesture_rate_stream_matches_the_true_rate(gesture_run: tuple[Any, Path]
     assert rate == pytest.approx(n_true / window * 60.0, abs=2.1)  # one burst in 30 s is 2/min
 
 
-def test_gesture_rate_is_one_sample_per_second(gesture_run: tuple[Any, Path]) -> None:
+def test_gesture_rate_is_one_sample_per_second_from_10_s(gesture_run: tuple[Any, Path]) -> None:
     _, out = gesture_run
     times = [t for t, _ in read_stream(out / "streams" / "cv_gestures.txt")]
-    assert times == [float(i) for i in range(1, int(GEST["duration_s"]))]
+    assert times == [float(i) for i in range(10, int(GEST["duration_s"]))]
 
 
 def test_gesture_detector_counts_a_single_noise_spike_as_no_burst() -> None:
@@ -119,9 +119,60 @@ def test_gesture_detector_counts_a_single_noise_spike_as_no_burst() -> None:
 
 def test_gesture_rate_counts_only_the_window() -> None:
     det = GestureDetector(window_s=30.0, min_window_s=10.0)
+    det.first_t = 0.0
     det.bursts = [1.0, 5.0, 40.0, 50.0]
     assert det.rate(60.0) == pytest.approx(2 / 30 * 60)
-    assert det.rate(5.0) == pytest.approx(2 / 10 * 60)  # early: at least 10 s
+    assert det.rate(10.0) == pytest.approx(2 / 10 * 60)  # early: over the 10 s seen
+    assert det.rate(20.0) == pytest.approx(2 / 20 * 60)
+
+
+def test_a_calm_start_gives_no_gesture_rate_until_10_s_of_video() -> None:
+    # Not "0 gestures per minute" at 1 s, which would make `gestureMore` fire at once.
+    import numpy as np
+
+    det = GestureDetector(window_s=30.0, min_window_s=10.0)
+    still = np.full((120, 160, 3), 100, np.uint8)
+    rates = {}
+    for i in range(12 * 5):
+        t = i / 5.0
+        det.update(t, still)
+        rates[t] = det.rate(t)
+    assert all(r is None for t, r in rates.items() if t < 10.0)
+    assert rates[10.0] == 0.0 and rates[11.8] == 0.0
+
+
+def test_a_module_started_late_waits_for_its_own_10_s() -> None:
+    # A camera module restarted at t = 100 s has seen none of the talk before it.
+    det = GestureDetector(window_s=30.0, min_window_s=10.0)
+    det.first_t = 100.0
+    det.bursts = [103.0, 107.0, 125.0]
+    assert det.rate(105.0) is None
+    assert det.rate(110.0) == pytest.approx(2 / 10 * 60)
+    assert det.rate(140.0) == pytest.approx(1 / 30 * 60)
+
+
+def test_a_gesture_window_shorter_than_10_s_is_used_as_is(tmp_path: Path) -> None:
+    source = FileSource(MATERIAL / GEST["file"])
+    try:
+        opts = VisionOptions(head=False, fps=0, gesture_window_s=5.0, duration_s=8.0)
+        run(source, tmp_path, opts)
+    finally:
+        source.close()
+    times = [t for t, _ in read_stream(tmp_path / "streams" / "cv_gestures.txt")]
+    assert times == [5.0, 6.0, 7.0, 8.0]
+
+
+def test_run_touches_the_launchers_heartbeat_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    beat = tmp_path / ".vision.alive"
+    monkeypatch.setenv("PREZENCE_HEARTBEAT", str(beat))
+    source = FileSource(MATERIAL / GEST["file"])
+    try:
+        run(source, tmp_path / "s", VisionOptions(head=False, fps=0, duration_s=2.0))
+    finally:
+        source.close()
+    assert beat.exists()
 
 
 # --------------------------------------------------------------------------------------------
@@ -173,7 +224,8 @@ def test_cli_without_mediapipe_still_writes_the_gesture_rate(tmp_path: Path) -> 
     )
     assert proc.returncode == 0, proc.stderr
     assert "python -m prezence.modules.vision_env install" in proc.stderr
-    assert len(read_stream(tmp_path / "streams" / "cv_gestures.txt")) >= 11
+    times = [t for t, _ in read_stream(tmp_path / "streams" / "cv_gestures.txt")]
+    assert times == [10.0, 11.0, 12.0]  # none before 10 s of video
     assert read_stream(tmp_path / "streams" / "cv_headGaze.txt") == []
 
 
