@@ -49,6 +49,7 @@ KNOWN_METRICS = (
     "speech_articulation",
     "speech_loudness",
     "speech_clarity",
+    "speech_activity",
     "cv_headYaw",
     "cv_facingAudience",
 )
