@@ -365,7 +365,8 @@ class StreamTailer:
 
     def _feed(self, data: bytes, now: float | None) -> list[Sample]:
         self._offset += len(data)
-        self._tail = (self._tail + data)[-REWRITE_CHECK_BYTES:]
+        # Only the last bytes matter: never copy a whole (possibly large) read to keep them.
+        self._tail = (self._tail + data[-REWRITE_CHECK_BYTES:])[-REWRITE_CHECK_BYTES:]
         buf = self._pending + data if self._pending else data
         cut = buf.rfind(b"\n")
         if cut < 0:
