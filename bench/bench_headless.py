@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from sim.runner import run_talk
+from prezence.synthetic.runner import run_talk
 
 TARGET = {"fake": 300.0, "sim": 100.0}
 

@@ -171,8 +171,8 @@ def _config_or_default(args: argparse.Namespace) -> Config:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from sim.runner import run_talk
-    from sim.scenario import check_expectations
+    from prezence.synthetic.runner import run_talk
+    from prezence.synthetic.scenario import check_expectations
 
     config = _load_config(args)
     out = Path(args.out) if args.out else Path("sessions") / f"{Path(args.scenario).stem}"

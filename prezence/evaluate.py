@@ -1,6 +1,6 @@
 """Closed-loop evaluation: scenarios × policies × seeds of whole synthetic talks.
 
-Each talk runs through :func:`sim.runner.run_talk` (synthetic presenter → module files →
+Each talk runs through :func:`prezence.synthetic.runner.run_talk` (presenter → module files →
 processor → robot backend → the presenter reacts), in a temporary session folder, and is scored
 against the presenter's ground truth. Talks run in parallel worker processes (or on a Ray
 cluster); every talk is deterministic given its seed, and rows come back sorted, so the tables do
@@ -195,7 +195,7 @@ def run_task(task: Task) -> dict[str, Any]:
     from prezence.backends.registry import make_backend
     from prezence.processor import Decision
     from prezence.session import read_jsonl
-    from sim.runner import run_talk
+    from prezence.synthetic.runner import run_talk
 
     backend = make_backend(task.backend)
     started: list[float] = []
@@ -473,7 +473,7 @@ def build_parser() -> argparse.ArgumentParser:
 def evaluate_main(argv: Sequence[str] | None = None) -> int:
     """``prezence evaluate``: run the grid, write the tables, print the Markdown; returns 0."""
     from prezence.processor.resolve import POLICIES
-    from sim.scenario import list_scenarios
+    from prezence.synthetic.scenario import list_scenarios
 
     args = build_parser().parse_args(argv)
     scenarios = args.scenarios or list_scenarios()

@@ -26,8 +26,8 @@ from prezence.feedback.commands import get_command
 from prezence.processor import Processor
 from prezence.processor.resolve import SilentPolicy
 from prezence.samples import Sample
-from sim.presenters import PHYSICAL_RANGES, SyntheticPresenter
-from sim.scenario import Scenario, list_scenarios, load_scenario
+from prezence.synthetic.presenters import PHYSICAL_RANGES, SyntheticPresenter
+from prezence.synthetic.scenario import Scenario, list_scenarios, load_scenario
 
 ENV_ID = "prezence/Coach-v0"
 
@@ -45,7 +45,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
 
     ## Description
 
-    A synthetic presenter (:class:`sim.presenters.SyntheticPresenter`) plays a scenario: metric
+    A synthetic presenter (:class:`SyntheticPresenter`) plays a scenario: metric
     samples (speech speed, volume, clarity, head gaze, gesture rate) that drift out of their
     ideal bands in scripted episodes. At every step (``step_s`` of talk time, by default the
     configuration's decision period, 0.5 s) the agent may have the robot give one cue. The

@@ -10,7 +10,7 @@ import pytest
 from prezence.cli import main
 from prezence.errors import ConfigError
 from prezence.replay import replay
-from sim.runner import run_talk
+from prezence.synthetic.runner import run_talk
 
 
 @pytest.fixture(scope="module")

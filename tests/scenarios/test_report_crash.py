@@ -19,7 +19,7 @@ import pytest
 from prezence.processor import Decision
 from prezence.report import build_report, write_report
 from prezence.session import SessionDir, read_jsonl
-from sim.runner import run_talk
+from prezence.synthetic.runner import run_talk
 
 ROOT = Path(__file__).resolve().parents[2]
 CRASH_AT_S = 300.0

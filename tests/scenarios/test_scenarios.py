@@ -8,9 +8,9 @@ import pytest
 
 from prezence.session import read_jsonl
 from prezence.streams.codec import StreamLineError, parse_line
-from sim.scenario import check_expectations, list_scenarios, load_scenario
+from prezence.synthetic.scenario import check_expectations, list_scenarios, load_scenario
 
-runner = pytest.importorskip("sim.runner")
+runner = pytest.importorskip("prezence.synthetic.runner")
 
 SCENARIOS = list_scenarios()
 

@@ -20,7 +20,7 @@ from prezence.cli import main  # noqa: E402
 from prezence.config.load import load_config  # noqa: E402
 from prezence.processor import Decision  # noqa: E402
 from prezence.session import read_jsonl  # noqa: E402
-from sim.runner import run_talk  # noqa: E402
+from prezence.synthetic.runner import run_talk  # noqa: E402
 from sim.virtual_nao import spawn, stop_spawned  # noqa: E402
 
 

@@ -12,8 +12,8 @@ from prezence.config.model import Check, Config, Rule
 from prezence.errors import UnknownName
 from prezence.samples import Sample
 from prezence.streams.codec import StreamLineError, parse_line
-from sim.presenters import TRUTH_STEP_S, SyntheticPresenter, comfortable_values
-from sim.scenario import Scenario
+from prezence.synthetic.presenters import TRUTH_STEP_S, SyntheticPresenter, comfortable_values
+from prezence.synthetic.scenario import Scenario
 
 # The default rule set's bands, written out so these tests do not depend on the shipped file.
 CONFIG = Config(

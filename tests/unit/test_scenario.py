@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from prezence.errors import ConfigError, UnknownName
-from sim.scenario import (
+from prezence.synthetic.scenario import (
     EpisodeKind,
     Scenario,
     check_expectations,

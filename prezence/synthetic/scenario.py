@@ -811,15 +811,9 @@ class _Parser:
 
 
 def scenarios_dir() -> Path:
-    """The folder of the built-in scenarios.
+    """The folder of the built-in scenarios (see :func:`prezence.resources.scenarios_dir`)."""
+    from prezence.resources import scenarios_dir as _resources_scenarios_dir
 
-    Uses :func:`prezence.resources.scenarios_dir` (which also finds them in an installed wheel)
-    when it exists, else ``scenarios/`` at the repository root.
-    """
-    try:
-        from prezence.resources import scenarios_dir as _resources_scenarios_dir
-    except ImportError:
-        return Path(__file__).resolve().parents[1] / "scenarios"
     return Path(_resources_scenarios_dir())
 
 

@@ -28,8 +28,8 @@ from prezence.session import SessionDir, dumps, read_jsonl
 from prezence.streams.tail import MultiTailer
 from prezence.streams.writer import StreamWriter
 from prezence.summary import summarize_session
-from sim.presenters import SyntheticPresenter
-from sim.scenario import Scenario, load_scenario
+from prezence.synthetic.presenters import SyntheticPresenter
+from prezence.synthetic.scenario import Scenario, load_scenario
 
 log = logging.getLogger(__name__)
 

@@ -55,7 +55,7 @@ from prezence.samples import (
     SPEECH_VOLUME,
     Sample,
 )
-from sim.scenario import Episode, EpisodeKind, MetricScript, Scenario
+from prezence.synthetic.scenario import Episode, EpisodeKind, MetricScript, Scenario
 
 log = logging.getLogger(__name__)
 
@@ -204,7 +204,7 @@ class _TruthState:
 
 
 class SyntheticPresenter:
-    """Plays a :class:`~sim.scenario.Scenario` as metric samples and reacts to cues.
+    """Plays a :class:`~prezence.synthetic.scenario.Scenario` as metric samples and reacts to cues.
 
     Args:
         scenario: the script, noise, faults and reactions.
