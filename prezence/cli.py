@@ -16,9 +16,11 @@ from typing import TYPE_CHECKING, Any
 
 from prezence import __version__
 from prezence.errors import PrezenceError
+from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION
 
 if TYPE_CHECKING:
     from prezence.config.model import Config
+    from prezence.talk import RunOptions
 
 log = logging.getLogger(__name__)
 
@@ -170,6 +172,19 @@ def _config_or_default(args: argparse.Namespace) -> Config:
     return config if config is not None else load_config(None)
 
 
+def _options(args: argparse.Namespace) -> RunOptions:
+    """The run options of a coaching command (pacing to a real robot is the loop's business)."""
+    from prezence.talk import RunOptions
+
+    return RunOptions(
+        policy=args.policy,
+        seed=args.seed if args.seed is not None else 0,
+        speed_fraction=args.speed,
+        realtime=bool(getattr(args, "realtime", False)),
+        report=not args.no_report,
+    )
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from prezence.synthetic.runner import run_talk
     from prezence.synthetic.scenario import check_expectations
@@ -179,15 +194,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     result = run_talk(
         args.scenario,
         out=out,
+        options=_options(args),
         seed=args.seed,
         backend=args.backend,
         backend_kwargs=_backend_kwargs(args),
         config=config,
-        policy=args.policy,
-        speed_fraction=args.speed,
-        realtime=args.realtime or args.backend == "naoqi",  # a real robot moves in real time
         progress=None if args.quiet else _progress_printer(),
-        report=not args.no_report,
     )
     problems = check_expectations(result.scenario, result.cues)
     if args.json:
@@ -235,15 +247,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
     result = replay(
         src,
         out=out,
+        options=_options(args),
         config=_load_config(args),
-        policy=args.policy,
         backend=args.backend,
         backend_kwargs=_backend_kwargs(args),
-        speed_fraction=args.speed,
-        seed=args.seed,
         allocated_s=args.allocated,
-        realtime=args.realtime,
-        report=not args.no_report,
     )
     _finish_session(result.session.root, result.summary, args, report=result.report)
     return 0
@@ -257,19 +265,15 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
     result = rehearse(
         rec,
         out=out,
+        options=_options(args),
         config=_config_or_default(args),
-        policy=args.policy,
         backend=args.backend,
         backend_kwargs=_backend_kwargs(args),
-        speed_fraction=args.speed,
         module_args={
             "speech": module_args("--speech-args", "speech", args.speech_args),
             "vision": module_args("--vision-args", "vision", args.vision_args),
         },
-        seed=args.seed,
         allocated_s=args.allocated,
-        realtime=args.realtime,
-        report=not args.no_report,
     )
     _finish_session(result.session.root, result.summary, args, report=result.report)
     return 0
@@ -310,13 +314,10 @@ def cmd_up(args: argparse.Namespace) -> int:
             session_dir=out,
             modules=specs,
             backend=backend,
-            policy=args.policy,
-            seed=args.seed,
-            speed_fraction=args.speed,
+            options=_options(args),
             grace_s=args.grace,
             duration_s=args.duration,
             view=None if args.quiet else LiveView(config),
-            report=not args.no_report,
         )
     except ValueError as e:  # two modules of the same name
         raise PrezenceError(str(e)) from None
@@ -401,7 +402,9 @@ def cmd_gestures_check(args: argparse.Namespace) -> int:
 
 
 def cmd_gestures_render(args: argparse.Namespace) -> int:
-    from sim.render import render_gesture
+    from prezence.backends.registry import load_tool
+
+    render_gesture = load_tool("render")
 
     out = Path(args.out)
     video = Path(args.video) if args.video else out.with_suffix(".mp4")
@@ -412,7 +415,9 @@ def cmd_gestures_render(args: argparse.Namespace) -> int:
 
 
 def cmd_sim_serve(args: argparse.Namespace) -> int:
-    from sim.virtual_nao import main as serve_main
+    from prezence.backends.registry import load_tool
+
+    serve_main = load_tool("serve")
 
     argv = ["--host", args.host, "--port", str(args.port)]
     if args.gui:
@@ -433,8 +438,15 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
     p.add_argument(
         "--room", metavar="FILE", help="room profile TOML: the named values the rules use"
     )
-    p.add_argument("--policy", default="weighted", help="conflict policy (default: weighted)")
-    p.add_argument("--speed", type=float, default=0.6, help="gesture speed fraction (0..1]")
+    p.add_argument(
+        "--policy", default=DEFAULT_POLICY, help=f"conflict policy (default: {DEFAULT_POLICY})"
+    )
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=DEFAULT_SPEED_FRACTION,
+        help=f"gesture speed fraction (0..1], default {DEFAULT_SPEED_FRACTION}",
+    )
     p.add_argument("--json", action="store_true", help="print summary.json instead")
     p.add_argument("--no-report", action="store_true", help="skip the post-talk report")
 

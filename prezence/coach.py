@@ -93,6 +93,11 @@ class Coach:
         session: where decisions and cues are written.
         planner: turns a gesture name and cue parameters into a trajectory.
         on_cue: called with each cue when the robot starts it (closed-loop presenters listen).
+        log_mode: the decision log (``decisions.jsonl``): ``changes`` writes a decision point
+            where a cue is chosen, or the reason, the robot's state or a metric's state
+            (fresh or stale, in range or on which side, strict cue pending) changed, with the
+            candidates and every metric's view; ``every`` writes every decision point;
+            ``off`` writes none. :attr:`decisions` counts every decision point.
     """
 
     def __init__(
@@ -103,13 +108,18 @@ class Coach:
         *,
         planner: GesturePlanner,
         on_cue: Callable[[Cue], None] | None = None,
+        log_mode: str = "changes",
     ) -> None:
+        if log_mode not in ("changes", "every", "off"):
+            raise ValueError(f"log_mode: changes, every or off, not {log_mode!r}")
         self.processor = processor
         self.backend = backend
         self.session = session
         self.planner = planner
         self.on_cue = on_cue
-        self._decisions = JsonlWriter(session.decisions)
+        self.log_mode = log_mode
+        self._decisions = JsonlWriter(session.decisions, flush=False)
+        self._last_logged: tuple[Any, ...] | None = None
         self._cues = JsonlWriter(session.cues)
         self._current: Performance | None = None
         self._free_since: float | None = 0.0
@@ -121,12 +131,34 @@ class Coach:
         self.backend.advance(now)
         self._settle()
         free_since = self._free_since if not self.backend.busy else None
-        decision = self.processor.step(now, samples, free_since=free_since)
-        self._decisions.write(decision.to_dict())
+        every = self.log_mode == "every"
+        decision = self.processor.step(now, samples, free_since=free_since, with_views=every)
         self.decisions += 1
+        if every:
+            self._decisions.write(decision.to_dict())
+        elif self.log_mode == "changes":
+            key = (decision.reason, decision.busy, self.processor.status(now))
+            if decision.cue is not None or key != self._last_logged:
+                self._last_logged = key
+                rec = decision.to_dict()
+                rec["metrics"] = [m.to_dict() for m in self.processor.views(now)]
+                self._decisions.write(rec)
         if decision.cue is not None:
             self._perform(decision.cue, now)
         return decision
+
+    def give(self, cue: Cue) -> bool:
+        """Have the robot give ``cue`` at ``cue.t`` (an agent's own choice, not the
+        processor's); the processor counts it as fired. False when the robot is busy."""
+        self.backend.advance(cue.t)
+        self._settle()
+        if self.backend.busy or self._current is not None:
+            return False
+        if cue.metric is not None:
+            self.processor.state(cue.metric).fired(cue.t)
+        self._decisions.write({"t": round(cue.t, 6), "cue": cue.to_dict(), "reason": cue.reason})
+        self._perform(cue, cue.t)
+        return True
 
     def _perform(self, cue: Cue, now: float) -> None:
         command = get_command(cue.command)

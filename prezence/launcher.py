@@ -41,15 +41,12 @@ from pathlib import Path
 from typing import IO, Any
 
 from prezence.backends.base import Backend
-from prezence.clock import MonotonicClock
-from prezence.coach import Coach, default_planner
 from prezence.config.model import Config
-from prezence.config.tomlconf import dumps_config
-from prezence.processor import Decision, Processor, make_policy
-from prezence.samples import MAX_AHEAD_S
+from prezence.processor import Decision
+from prezence.samples import MAX_AHEAD_S, Sample
 from prezence.session import SessionDir
 from prezence.streams.tail import MultiTailer
-from prezence.summary import summarize_session
+from prezence.talk import RunOptions, SourceBase, View, WallClock, run_talk
 
 log = logging.getLogger(__name__)
 
@@ -352,27 +349,113 @@ def _mmss(t: float) -> str:
     return f"{int(t // 60)}:{t % 60:04.1f}"
 
 
+class LiveSource(SourceBase):
+    """Live input modules as a sample source: started with the talk, supervised while it
+    runs (see the module docstring), their stream files tailed as they grow.
+
+    Args:
+        modules: the modules to run (names must differ).
+        end_at: talk seconds after which the talk ends (None: until stopped).
+    """
+
+    kind = "live"
+
+    def __init__(self, modules: Sequence[ModuleSpec], *, end_at: float | None) -> None:
+        names = [m.name for m in modules]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"two modules are called {', '.join(dup)}: give each its own name")
+        self.modules = list(modules)
+        self.end_at = end_at
+        self.t0_epoch = 0.0
+        self.procs: list[ModuleProcess] = []
+        self._logs: list[IO[str]] = []
+        self._tailer: MultiTailer | None = None
+        self._next_look = 0.0
+        self._stopped = False
+
+    @property
+    def talk_s(self) -> float | None:
+        return None
+
+    def start(self, session: SessionDir, config: Config) -> None:
+        streams = {r.metric: session.stream(r.stream) for r in config.rules}
+        self._tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
+        self.t0_epoch = time.time()
+        self._logs = [
+            (session.root / f"{m.name}.log").open("a", encoding="utf-8") for m in self.modules
+        ]
+        self.procs = [
+            ModuleProcess(m, session.root, self.t0_epoch, f)
+            for m, f in zip(self.modules, self._logs, strict=True)
+        ]
+        for p in self.procs:
+            p.start(0.0)
+
+    def meta(self) -> dict[str, Any]:
+        return {"t0_epoch": self.t0_epoch}
+
+    def poll(self, now: float) -> Sequence[Sample]:
+        assert self._tailer is not None
+        return self._tailer.poll(now)
+
+    def wait(self, timeout_s: float) -> bool:
+        assert self._tailer is not None
+        return bool(self._tailer.wait(timeout_s))
+
+    def ended(self, now: float) -> bool:
+        return self.end_at is not None and now >= self.end_at
+
+    def events(self, now: float) -> list[str]:
+        if now < self._next_look:
+            return []
+        self._next_look = now + SUPERVISE_PERIOD_S
+        return [ev for p in self.procs if (ev := p.check(now))]
+
+    def finish_input(self) -> None:
+        for p in self.procs:
+            p.stop()
+
+    def stop(self) -> None:
+        if self._stopped:
+            return
+        self._stopped = True
+        self.finish_input()
+        if self._tailer is not None:
+            self._tailer.close()
+        for f in self._logs:
+            f.close()
+
+    def tailer(self) -> MultiTailer | None:
+        return self._tailer
+
+    def summary_extra(self) -> dict[str, Any]:
+        return {
+            "kind": "live",
+            "modules": {
+                p.spec.name: {"restarts": p.restarts, "crashes": p.crashes} for p in self.procs
+            },
+        }
+
+
 def up(
     config: Config,
     *,
     session_dir: Path,
     modules: Sequence[ModuleSpec],
     backend: Backend,
-    policy: str = "weighted",
-    seed: int = 0,
-    speed_fraction: float = 0.6,
+    options: RunOptions,
     grace_s: float = 30.0,
     duration_s: float | None = None,
-    view: LiveView | None = None,
+    view: View | None = None,
     stop: Callable[[], bool] | None = None,
-    report: bool = False,
 ) -> UpResult:
     """Run a live talk until Ctrl-C, ``duration_s``, or the allocated time plus ``grace_s``.
 
-    After the talk the cue in progress finishes; with ``report`` the robot then says the
-    post-talk summary (time used, the two things to work on first) with its summary gesture,
-    and ``SESSION/report/`` is written. The robot's last moves are paced to the wall clock,
-    except on the ``fake`` backend, which only keeps time and has nothing to watch.
+    The talk runs through the one loop (:func:`prezence.talk.run_talk`) on the wall clock,
+    with the modules as its sample source. After the talk the cue in progress finishes; with
+    ``options.report`` the robot then says the post-talk summary (time used, the two things to
+    work on first) with its summary gesture, and ``SESSION/report/`` is written.
 
     Args:
         config: rules and settings (its allocated time ends the talk, plus ``grace_s``).
@@ -380,145 +463,28 @@ def up(
         modules: input modules to start and supervise (names must differ: each has its own
             log, ``SESSION/<name>.log``, and heartbeat file).
         backend: an unopened robot backend.
-        policy: conflict policy name.
-        seed: for policies that use chance.
-        speed_fraction: gesture speed.
+        options: policy, seed, gesture speed, report.
         grace_s: time after the allocated time before the talk is stopped.
         duration_s: stop after this long regardless (tests, fixed-length rehearsals).
-        view: the live terminal view (None: log only).
+        view: the live terminal view (None: log only): an object with ``decision(d)`` and
+            ``event(now, text)``.
         stop: polled every loop; True ends the talk (tests, embedding).
-        report: say the post-talk summary and write the report.
 
     Raises:
         ValueError: two modules have the same name.
     """
-    names = [m.name for m in modules]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise ValueError(f"two modules are called {', '.join(dup)}: give each its own name")
-    session = SessionDir(Path(session_dir)).create()
-    session.config.write_text(dumps_config(config))
-    streams = {r.metric: session.stream(r.stream) for r in config.rules}
-    tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
-    clock = MonotonicClock()
-    t0_epoch = time.time()
-    meta: dict[str, Any] = {
-        "kind": "live",
-        "t0_epoch": t0_epoch,
-        "policy": policy,
-        "backend": backend.name,
-    }
-    session.write_meta(meta)
-    logs = [(session.root / f"{m.name}.log").open("a", encoding="utf-8") for m in modules]
-    procs = [
-        ModuleProcess(m, session.root, t0_epoch, f) for m, f in zip(modules, logs, strict=True)
-    ]
-    processor = Processor(config, policy=make_policy(policy, seed=seed))
-    events: list[str] = []
     end_at = duration_s
     if end_at is None and config.time.allocated_s is not None:
         end_at = config.time.allocated_s + grace_s
-    dt = config.processor.decision_period_s
-    interrupted = False
-
-    def pace(t: float) -> None:
-        time.sleep(max(0.0, t - clock.now()))
-
-    paced = None if backend.name == "fake" else pace
-    backend.open()
-    coach = Coach(processor, backend, session, planner=default_planner(speed_fraction))
-    talk_s = 0.0
-    post: dict[str, Any] | None = None
-    ended = False  # the talk ended as planned or by Ctrl-C, not by an error
-    try:
-        for p in procs:
-            p.start(0.0)
-        next_tick = 0.0
-        next_look = 0.0
-        while True:
-            now = clock.now()
-            if (end_at is not None and now >= end_at) or (stop is not None and stop()):
-                break
-            if tailer.wait(max(0.0, min(dt, next_tick - now))):
-                pass  # new data: decide now (cue latency), not at the next period
-            now = clock.now()
-            samples = tailer.poll(now)
-            d = coach.tick(now, samples)
-            next_tick = now + dt
-            if view is not None:
-                view.decision(d)
-            if now < next_look:
-                continue
-            next_look = now + SUPERVISE_PERIOD_S
-            for p in procs:
-                ev = p.check(now)
-                if ev:
-                    events.append(f"{now:.1f} {ev}")
-                    if view is not None:
-                        view.event(now, ev)
-        ended = True
-    except KeyboardInterrupt:
-        interrupted = ended = True
-        log.info("stopped by Ctrl-C")
-    finally:
-        for p in procs:
-            p.stop()
-        talk_s = clock.now()
-        try:
-            coach.tick(talk_s, tailer.poll(talk_s))
-            end = coach.drain(talk_s, step_s=0.05, limit_s=10.0, pace=paced)
-            session.write_meta({**meta, "talk_s": round(talk_s, 3)})
-            if report and ended:
-                post = _post_talk(coach, session, config, end, pace=paced)
-        finally:
-            coach.close()
-            tailer.close()
-            backend.close()
-            for f in logs:
-                f.close()
-    summary = summarize_session(
-        session,
-        config,
-        talk_s=talk_s,
-        backend_stats=backend.stats(),
-        live=tailer,
-        processor=processor,
-        extra={
-            "kind": "live",
-            "policy": policy,
-            "backend": backend.name,
-            "decisions": coach.decisions,
-            "interrupted": interrupted,
-            "modules": {p.spec.name: {"restarts": p.restarts, "crashes": p.crashes} for p in procs},
-            **({"post_talk": post} if post is not None else {}),
-        },
+    source = LiveSource(modules, end_at=end_at)
+    run = run_talk(
+        source,
+        config=config,
+        session=SessionDir(Path(session_dir)),
+        backend=backend,
+        options=options,
+        clock=WallClock(config.processor.decision_period_s),
+        view=view,
+        stop=stop,
     )
-    page = None
-    if report:
-        from prezence.report.build import write_report
-
-        page = write_report(session.root, config=config)
-    return UpResult(session, summary, events, page)
-
-
-def _post_talk(
-    coach: Coach,
-    session: SessionDir,
-    config: Config,
-    now: float,
-    *,
-    pace: Callable[[float], None] | None,
-) -> dict[str, Any] | None:
-    """The robot says the post-talk summary (as a headless talk's robot does); its record.
-
-    A second Ctrl-C skips it (None); the report is still written.
-    """
-    from prezence.report.build import build_report
-    from prezence.report.speech import summary_phrase
-
-    phrase = summary_phrase(build_report(session.root, config=config))
-    try:
-        return coach.post_talk(phrase, now, step_s=0.05, pace=pace)
-    except KeyboardInterrupt:
-        log.info("post-talk summary skipped (Ctrl-C)")
-        return None
+    return UpResult(run.session, run.summary, run.events, run.report)

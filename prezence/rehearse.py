@@ -24,6 +24,7 @@ from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError, PrezenceError
 from prezence.replay import ReplayResult, find_streams, load_samples, process_recorded
 from prezence.session import SessionDir
+from prezence.talk import RunOptions
 
 log = logging.getLogger(__name__)
 
@@ -152,34 +153,27 @@ def rehearse(
     recording: Path,
     *,
     out: Path,
+    options: RunOptions,
     config: Config | None = None,
-    policy: str = "weighted",
     backend: str = "fake",
     backend_kwargs: dict[str, Any] | None = None,
-    speed_fraction: float = 0.6,
     modules: dict[str, list[str]] | None = None,
     module_args: Mapping[str, Sequence[str]] | None = None,
-    seed: int = 0,
     allocated_s: float | None = None,
-    realtime: bool = False,
-    report: bool = False,
 ) -> ReplayResult:
     """Analyse ``recording`` with the input modules, then coach over the result.
 
     Args:
         recording: an audio or video file.
         out: the session folder (created).
+        options: policy, seed, gesture speed, pacing (``realtime``: at the recording's pace on
+            the wall clock), report.
         config: rules and settings (None: the built-in configuration).
-        policy: conflict policy name.
         backend: robot backend name; ``backend_kwargs`` go to its constructor.
-        speed_fraction: gesture speed.
         modules: the module command lines (None: :func:`module_commands`).
         module_args: per module name, words appended to its command line.
-        seed: for policies that use chance.
         allocated_s: the time allocated, seconds (None keeps the config's); a 36 s clip is
             then not judged against ten minutes.
-        realtime: coach at the recording's pace on the wall clock (a real robot).
-        report: write ``out/report/`` afterwards.
 
     Raises:
         ConfigError: the recording is missing or of an unknown kind.
@@ -213,26 +207,15 @@ def rehearse(
     paths = find_streams(session.root, config)
     samples = load_samples(paths)
     talk_s = samples[-1].t if samples else 0.0
-    session.write_meta(
-        {
-            "kind": "rehearsal",
-            "recording": str(recording),
-            "talk_s": talk_s,
-            "policy": policy,
-            "backend": backend,
-        }
-    )
     return process_recorded(
         session,
         config,
         samples,
         talk_s=talk_s,
-        policy=policy,
+        options=options,
         backend=backend,
         backend_kwargs=backend_kwargs,
-        speed_fraction=speed_fraction,
-        seed=seed,
-        realtime=realtime,
-        report=report,
+        kind="rehearsal",
+        meta={"recording": str(recording)},
         extra={"kind": "rehearsal", "recording": str(recording), "module_failures": failures},
     )

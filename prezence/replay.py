@@ -10,25 +10,19 @@ loop is open.
 
 from __future__ import annotations
 
-import contextlib
 import logging
-import shutil
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from prezence.backends.registry import make_backend
-from prezence.coach import Coach, default_planner
 from prezence.config.load import load_config
 from prezence.config.model import Config
-from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError
-from prezence.processor import Processor, make_policy
 from prezence.samples import Sample
 from prezence.session import SessionDir, read_jsonl
 from prezence.streams.tail import read_stream
-from prezence.summary import summarize_session
+from prezence.talk import RecordedSource, RunOptions, run_talk
 
 log = logging.getLogger(__name__)
 
@@ -96,15 +90,11 @@ def replay(
     src: Path,
     *,
     out: Path,
+    options: RunOptions,
     config: Config | None = None,
-    policy: str = "weighted",
     backend: str = "fake",
     backend_kwargs: dict[str, Any] | None = None,
-    speed_fraction: float = 0.6,
-    seed: int = 0,
     allocated_s: float | None = None,
-    realtime: bool = False,
-    report: bool = False,
 ) -> ReplayResult:
     """Re-run the processor over the recorded streams in ``src``; write a new session in ``out``.
 
@@ -116,14 +106,11 @@ def replay(
     Args:
         src: a session folder (or any folder holding stream files).
         out: where the new decisions, cues and summary go (must differ from ``src``).
+        options: policy, seed, gesture speed, pacing (``realtime``: at the recording's pace on
+            the wall clock; a real robot is always paced), report.
         config: rules and settings; None uses ``src/config.toml`` if present, else the default.
-        policy: the conflict policy to try.
-        backend: robot backend (``fake``, ``sim`` or ``naoqi``).
-        speed_fraction: gesture speed.
-        seed: for policies that use chance.
+        backend: robot backend name (see :mod:`prezence.backends.registry`).
         allocated_s: the time allocated, seconds (None keeps the config's).
-        realtime: pace the replay to the wall clock (a real robot moves in real time).
-        report: write ``out/report/`` (HTML, plots, JSON) after the replay.
 
     Raises:
         ConfigError: ``out`` is ``src``, ``src`` holds no stream file, or a config is invalid.
@@ -145,20 +132,6 @@ def replay(
     samples = load_samples(paths)
     talk_s = float(meta.get("talk_s") or (samples[-1].t if samples else 0.0))
 
-    session = SessionDir(out).create()
-    session.config.write_text(dumps_config(config))
-    for metric, path in paths.items():
-        shutil.copyfile(path, session.stream(config.rule(metric).stream))
-    session.write_meta(
-        {
-            "kind": "replay",
-            "source": str(src),
-            "policy": policy,
-            "backend": backend,
-            "talk_s": talk_s,
-            **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
-        }
-    )
     truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
     extra: dict[str, Any] = {
         "replay_of": str(src),
@@ -178,22 +151,21 @@ def replay(
         )
         extra["truth_dropped"] = why
         truth = None
-    else:
-        with contextlib.suppress(OSError):
-            shutil.copyfile(src_session.truth, session.truth)
+    session = SessionDir(out)
     return process_recorded(
         session,
         config,
         samples,
         talk_s=talk_s,
         truth=truth,
-        policy=policy,
+        options=options,
         backend=backend,
         backend_kwargs=backend_kwargs,
-        speed_fraction=speed_fraction,
-        seed=seed,
-        realtime=realtime,
-        report=report,
+        copy_streams=paths,
+        meta={
+            "source": str(src),
+            **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
+        },
         extra=extra,
     )
 
@@ -216,74 +188,38 @@ def process_recorded(
     samples: list[Sample],
     *,
     talk_s: float,
+    options: RunOptions,
     truth: list[dict[str, Any]] | None = None,
-    policy: str = "weighted",
     backend: str = "fake",
     backend_kwargs: dict[str, Any] | None = None,
-    speed_fraction: float = 0.6,
-    seed: int = 0,
-    realtime: bool = False,
-    report: bool = False,
+    copy_streams: dict[str, Path] | None = None,
+    kind: str = "replay",
+    meta: dict[str, Any] | None = None,
     extra: dict[str, Any] | None = None,
 ) -> ReplayResult:
     """Run the coach over recorded samples on their own clock; write decisions, cues, summary.
 
     Decision points fall every ``decision_period_s`` and each sees the samples stamped up to it,
-    exactly as in a live or headless talk.
+    exactly as in a live or headless talk (:func:`prezence.talk.run_talk` on a stepped clock).
 
     Args:
-        realtime: sleep before each decision point until the wall clock gets there (always
-            on for the ``naoqi`` backend: a real robot moves in real time).
-        report: write ``SESSION/report/`` afterwards (see
-            :func:`prezence.report.build.write_report`).
+        copy_streams: stream files to copy into the new session (metric → file), so that
+            its summary and report read what the coach read. None: the samples were read
+            from ``session``'s own stream files (a rehearsal), which are kept.
+        kind: the session's kind (``replay``, ``rehearsal``).
+        meta: more for ``session.json``.
+        extra: more for ``summary.json``.
     """
-    bk = make_backend(backend, **(backend_kwargs or {}))
-    processor = Processor(config, policy=make_policy(policy, seed=seed))
-    dt = config.processor.decision_period_s
-    wall0 = time.perf_counter()
-
-    def pace(t: float) -> None:
-        time.sleep(max(0.0, t - (time.perf_counter() - wall0)))
-
-    paced = pace if realtime or bk.name == "naoqi" else None
-    bk.open()
-    coach = Coach(processor, bk, session, planner=default_planner(speed_fraction))
-    try:
-        i = 0
-        n = int(round(talk_s / dt))
-        for k in range(1, n + 1):
-            now = k * dt
-            j = i
-            while j < len(samples) and samples[j].t <= now:
-                j += 1
-            if paced is not None:
-                paced(now)
-            coach.tick(now, samples[i:j])
-            i = j
-        end = coach.drain(n * dt, step_s=dt, pace=paced)
-        backend_stats = bk.stats()
-    finally:
-        coach.close()
-        bk.close()
-    summary = summarize_session(
-        session,
-        config,
+    source = RecordedSource(
+        samples,
         talk_s=talk_s,
         truth=truth,
-        backend_stats=backend_stats,
-        processor=processor,
-        extra={
-            "policy": policy,
-            "backend": bk.name,
-            "decisions": coach.decisions,
-            "ended_at_s": round(end, 3),
-            "wall_s": round(time.perf_counter() - wall0, 4),
-            **(extra or {}),
-        },
+        meta=meta,
+        extra=extra,
+        copy_streams={config.rule(m).stream: p for m, p in (copy_streams or {}).items()},
+        keep_streams=copy_streams is None,
+        kind=kind,
     )
-    page = None
-    if report:
-        from prezence.report.build import write_report
-
-        page = write_report(session.root, config=config)
-    return ReplayResult(session, read_jsonl(session.cues), summary, page)
+    bk = make_backend(backend, **(backend_kwargs or {}))
+    run = run_talk(source, config=config, session=session, backend=bk, options=options)
+    return ReplayResult(run.session, run.cues, run.summary, run.report)

@@ -69,14 +69,16 @@ class SessionDir:
     def stream(self, filename: str) -> Path:
         return self.streams / filename
 
-    def create(self) -> SessionDir:
-        """Make the folder (and ``streams/``); an existing session's files are replaced."""
+    def create(self, *, keep_streams: bool = False) -> SessionDir:
+        """Make the folder (and ``streams/``); an existing session's files are replaced
+        (its stream files too, unless ``keep_streams``: they are the talk's input)."""
         self.streams.mkdir(parents=True, exist_ok=True)
         for p in (self.decisions, self.cues, self.truth, self.summary):
             if p.exists():
                 p.unlink()
-        for p in self.streams.glob("*.txt"):
-            p.unlink()
+        if not keep_streams:
+            for p in self.streams.glob("*.txt"):
+                p.unlink()
         return self
 
     def write_meta(self, meta: dict[str, Any]) -> None:
@@ -114,16 +116,28 @@ def write_json(path: Path, data: Any) -> None:
     tmp.replace(path)
 
 
+_ENCODE = json.JSONEncoder(allow_nan=False, separators=(",", ":")).encode
+
+
 class JsonlWriter:
     """Append one JSON object per line, flushed at once (a crash keeps every finished line)."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, *, flush: bool = True) -> None:
         self.path = path
         self._f = path.open("a", encoding="utf-8")
+        self._flush = flush
 
     def write(self, obj: dict[str, Any]) -> None:
-        self._f.write(dumps(obj, sort_keys=True, separators=(",", ":")) + "\n")
-        self._f.flush()
+        """One line; keys in the record's own order. ``flush=False`` leaves flushing to the
+        file's buffer (a decision log written many times a second; a crash loses at most
+        the buffer's last lines, never a cue)."""
+        try:
+            text = _ENCODE(obj)
+        except ValueError:  # an infinite priority or a NaN mean: standard JSON says null
+            text = json.dumps(strict_json(obj), allow_nan=False, separators=(",", ":"))
+        self._f.write(text + "\n")
+        if self._flush:
+            self._f.flush()
 
     def close(self) -> None:
         if not self._f.closed:

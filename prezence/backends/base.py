@@ -77,6 +77,10 @@ class Backend(abc.ABC):
     """Base class: owns the bookkeeping of running motions; subclasses fill in the hooks."""
 
     name: ClassVar[str] = "base"
+    #: True when the robot moves on the wall clock by itself (a real NAO, a NAOqi server): a
+    #: talk on simulated time must then be paced to the wall clock. Simulated and
+    #: time-keeping backends, whose robot moves only when :meth:`advance` is called, say False.
+    realtime: ClassVar[bool] = False
 
     def __init__(self) -> None:
         self._running: list[Motion] = []

@@ -159,6 +159,7 @@ class NaoqiBackend(Backend):
     """
 
     name = "naoqi"
+    realtime = True
 
     def __init__(
         self,

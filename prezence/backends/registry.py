@@ -18,6 +18,32 @@ BACKENDS: dict[str, str] = {
 _EXTRA = {"sim": "sim", "naoqi": "naoqi"}
 
 
+#: Sandbox tools the command line offers (``gestures render``, ``sim serve``): entry points
+#: in the ``sim`` extra, imported by name on use so that the product never imports ``sim``.
+TOOLS: dict[str, str] = {
+    "render": "sim.render:render_gesture",
+    "serve": "sim.virtual_nao:main",
+}
+
+
+def _load(target: str, what: str, extra: str) -> Any:
+    module_name, _, attr = target.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as e:
+        raise BackendUnavailable(f'{what} needs {e.name}: pip install "prezence[{extra}]"') from e
+    return getattr(module, attr)
+
+
+def load_tool(name: str) -> Any:
+    """The sandbox tool called ``name`` (see :data:`TOOLS`)."""
+    try:
+        target = TOOLS[name]
+    except KeyError:
+        raise UnknownName("tool", name, TOOLS) from None
+    return _load(target, f"the {name} tool", "sim")
+
+
 def make_backend(name: str, **kwargs: Any) -> Backend:
     """Construct (not open) the backend called ``name``."""
     try:

@@ -98,7 +98,12 @@ class Processor:
 
     # -- decision --------------------------------------------------------------------------
     def step(
-        self, now: float, samples: Iterable[Sample] = (), *, free_since: float | None
+        self,
+        now: float,
+        samples: Iterable[Sample] = (),
+        *,
+        free_since: float | None,
+        with_views: bool = True,
     ) -> Decision:
         """Ingest ``samples``, integrate to ``now`` and decide.
 
@@ -107,6 +112,8 @@ class Processor:
             samples: new samples since the last step.
             free_since: when the robot last became free (None while it is busy). The minimum
                 gap is counted from here.
+            with_views: put every metric's view in the decision (False: an empty tuple; ask
+                :meth:`views` when one is needed).
 
         Returns:
             The decision; its ``cue`` is set when a cue must be given now.
@@ -114,7 +121,7 @@ class Processor:
         self.ingest(samples, now=now)
         for st in self._states.values():
             st.advance(now)
-        views = tuple(self._view(st, now) for st in self._states.values())
+        views = self.views(now) if with_views else ()
         if free_since is None:
             return Decision(now, None, "robot busy", True, (), views)
         gap = self.config.processor.min_gap_s
@@ -132,6 +139,22 @@ class Processor:
             )
         cue = self._fire(chosen, cands, now)
         return Decision(now, cue, cue.reason, False, tuple(cands), views)
+
+    def views(self, now: float) -> tuple[MetricView, ...]:
+        """Every metric's state at ``now`` (the decision log, live views)."""
+        return tuple(self._view(st, now) for st in self._states.values())
+
+    def status(self, now: float) -> tuple[tuple[bool, str | None, bool], ...]:
+        """A cheap summary of every metric's state: (stale or no value, side out of range,
+        strict cue pending). The decision log writes a line when it changes."""
+        out: list[tuple[bool, str | None, bool]] = []
+        for st in self._states.values():
+            v = st.value
+            if v is None or st.stale(now):
+                out.append((True, None, st.strict_pending))
+            else:
+                out.append((False, st.rule.side(v), st.strict_pending))
+        return tuple(out)
 
     def _view(self, st: MetricState, now: float) -> MetricView:
         return MetricView(

@@ -2,39 +2,109 @@
 
 The presenter writes module files exactly as real modules would; the coach reads them back
 through the same tailer a live talk uses, so a headless talk exercises the whole path from a
-line in a file to a gesture on the robot. The run's clock drives everything (presenter, tailer,
-processor, physics): the same seed gives the same decision log, byte for byte.
+line in a file to a gesture on the robot. The talk runs through the one loop,
+:func:`prezence.talk.run_talk`, on a stepped clock: the same seed gives the same decision log,
+byte for byte.
 """
 
 from __future__ import annotations
 
 import logging
-import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from prezence.backends.base import Backend
 from prezence.backends.registry import make_backend
-from prezence.clock import ManualClock
-from prezence.coach import Coach, default_planner
 from prezence.config.load import load_config
 from prezence.config.model import Config
-from prezence.config.tomlconf import dumps_config
-from prezence.processor import Cue, Decision, Processor, make_policy
-from prezence.samples import MAX_AHEAD_S
-from prezence.session import SessionDir, dumps, read_jsonl
+from prezence.processor import Cue, Decision
+from prezence.samples import MAX_AHEAD_S, Sample
+from prezence.session import SessionDir
 from prezence.streams.tail import MultiTailer
 from prezence.streams.writer import StreamWriter
-from prezence.summary import summarize_session
 from prezence.synthetic.presenters import SyntheticPresenter
 from prezence.synthetic.scenario import Scenario, load_scenario
+from prezence.talk import Progress, RunOptions, SourceBase
+from prezence.talk import run_talk as run_loop
 
 log = logging.getLogger(__name__)
 
-#: Progress callback: (simulated seconds done, talk length).
-Progress = Callable[[float, float], None]
+
+class SyntheticSource(SourceBase):
+    """A synthetic presenter as a sample source.
+
+    With ``files`` (the default) the presenter writes module files (and, as a misbehaving
+    module would, garbage lines) that the coach tails back, as in a live talk; without, its
+    samples go to the processor directly (the Gymnasium environment's fast path).
+    """
+
+    kind = "synthetic"
+
+    def __init__(
+        self, scenario: Scenario, config: Config, *, seed: int, files: bool = True
+    ) -> None:
+        self.scenario = scenario
+        self.seed = seed
+        self.files = files
+        self.presenter = SyntheticPresenter(scenario, config, seed=seed)
+        self._writers: dict[str, StreamWriter] = {}
+        self._streams: dict[str, Path] = {}
+        self._tailer: MultiTailer | None = None
+        self._session: SessionDir | None = None
+        self._truth: list[dict[str, Any]] | None = None
+
+    @property
+    def talk_s(self) -> float | None:
+        return self.scenario.duration_s
+
+    def start(self, session: SessionDir, config: Config) -> None:
+        self._session = session
+        if not self.files:
+            return
+        self._streams = {r.metric: session.stream(r.stream) for r in config.rules}
+        self._writers = {m: StreamWriter(p) for m, p in self._streams.items()}
+        for w in self._writers.values():
+            w.open()
+        self._tailer = MultiTailer(self._streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
+
+    def poll(self, now: float) -> Sequence[Sample]:
+        samples = self.presenter.advance(now)
+        garbage = self.presenter.garbage(now)
+        if self._tailer is None:
+            return samples
+        for s in samples:
+            w = self._writers.get(s.metric)
+            if w is not None:
+                w.write(s.t, s.value)
+        for metric, text in garbage:
+            # a misbehaving module: a line the tailer must skip, count and report
+            with self._streams[metric].open("a", encoding="utf-8") as f:
+                f.write(text + "\n")
+        return self._tailer.poll(now)
+
+    def on_cue(self, cue: Cue) -> None:
+        self.presenter.on_cue(cue.t, cue.command, cue.metric, dict(cue.params))
+
+    def stop(self) -> None:
+        for w in self._writers.values():
+            w.close()
+        self._writers = {}
+
+    def tailer(self) -> MultiTailer | None:
+        return self._tailer
+
+    def truth(self) -> list[dict[str, Any]] | None:
+        if self._truth is None:
+            self._truth = self.presenter.truth()
+        return self._truth
+
+    def meta(self) -> dict[str, Any]:
+        return {"scenario": self.scenario.name, "seed": self.seed, "talk_s": self.talk_s}
+
+    def summary_extra(self) -> dict[str, Any]:
+        return {"scenario": self.scenario.name, "seed": self.seed}
 
 
 @dataclass
@@ -53,138 +123,56 @@ def run_talk(
     scenario: Scenario | str | Path,
     *,
     out: Path,
+    options: RunOptions | None = None,
     seed: int | None = None,
     backend: str | Backend = "fake",
     backend_kwargs: dict[str, Any] | None = None,
     config: Config | None = None,
-    policy: str = "weighted",
-    speed_fraction: float = 0.6,
-    realtime: bool = False,
     progress: Progress | None = None,
     on_decision: Callable[[Decision], None] | None = None,
-    report: bool = False,
+    **option_changes: Any,
 ) -> TalkResult:
     """Run one synthetic talk from start to end and write its session folder.
 
     Args:
         scenario: a Scenario, a scenario name (``fast_talker``) or a path to a scenario TOML.
         out: the session folder (created; earlier files in it are replaced).
-        seed: presenter noise and reactions; None uses the scenario's own seed.
+        options: how to run it (None: :meth:`RunOptions.default` with ``option_changes``,
+            e.g. ``policy="seed"``, ``report=True``); its seed is not used: ``seed`` is.
+        seed: presenter noise and reactions (and the policy's chance); None uses the
+            scenario's own seed.
         backend: ``fake``, ``sim``, ``naoqi`` or an (unopened) Backend instance.
         backend_kwargs: passed to the backend's constructor when ``backend`` is a name.
         config: rules and settings; None loads the built-in default. The scenario's
             allocated time replaces the config's.
-        policy: conflict resolution policy name.
-        speed_fraction: fraction of each joint's velocity limit used by gestures.
-        realtime: pace the simulated clock to the wall clock.
         progress: called after every decision point.
         on_decision: called with every decision (tests, live views).
-        report: after the talk, have the robot say the spoken summary and write ``report/``
-            (HTML, plots, JSON). Off by default: evaluations run thousands of talks.
     """
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     seed = sc.seed if seed is None else seed
+    opts = options if options is not None else RunOptions.default(**option_changes)
+    if options is not None and option_changes:
+        raise TypeError("give either options or option keywords, not both")
+    opts = RunOptions(
+        policy=opts.policy,
+        seed=seed,
+        speed_fraction=opts.speed_fraction,
+        realtime=opts.realtime,
+        report=opts.report,
+        decision_log=opts.decision_log,
+    )
     cfg = (config or load_config(None)).with_allocated(sc.allocated_s)
-    session = SessionDir(Path(out)).create()
-    session.config.write_text(dumps_config(cfg))
     bk = (
         backend if isinstance(backend, Backend) else make_backend(backend, **(backend_kwargs or {}))
     )
-    session.write_meta(
-        {
-            "kind": "synthetic",
-            "scenario": sc.name,
-            "seed": seed,
-            "backend": bk.name,
-            "policy": policy,
-            "speed_fraction": speed_fraction,
-            "talk_s": sc.duration_s,
-        }
+    source = SyntheticSource(sc, cfg, seed=seed)
+    run = run_loop(
+        source,
+        config=cfg,
+        session=SessionDir(Path(out)),
+        backend=bk,
+        options=opts,
+        on_decision=on_decision,
+        progress=progress,
     )
-    presenter = SyntheticPresenter(sc, cfg, seed=seed)
-    streams = {r.metric: session.stream(r.stream) for r in cfg.rules}
-    writers = {m: StreamWriter(p) for m, p in streams.items()}
-    for w in writers.values():
-        w.open()
-    tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
-    processor = Processor(cfg, policy=make_policy(policy, seed=seed))
-
-    def heard(cue: Cue) -> None:
-        presenter.on_cue(cue.t, cue.command, cue.metric, dict(cue.params))
-
-    clock = ManualClock()
-    dt = cfg.processor.decision_period_s
-    wall0 = time.perf_counter()
-
-    def pace(t: float) -> None:
-        ahead = t - (time.perf_counter() - wall0)
-        if ahead > 0:
-            time.sleep(ahead)
-
-    paced = pace if realtime else None
-    bk.open()
-    coach = Coach(processor, bk, session, planner=default_planner(speed_fraction), on_cue=heard)
-    try:
-        n_steps = int(round(sc.duration_s / dt))
-        for i in range(1, n_steps + 1):
-            now = i * dt
-            clock.set(now)
-            for s in presenter.advance(now):
-                w = writers.get(s.metric)
-                if w is not None:
-                    w.write(s.t, s.value)
-            for metric, text in presenter.garbage(now):
-                # a misbehaving module: a line the tailer must skip, count and report
-                with streams[metric].open("a", encoding="utf-8") as f:
-                    f.write(text + "\n")
-            decision = coach.tick(now, tailer.poll(now))
-            if on_decision is not None:
-                on_decision(decision)
-            if progress is not None:
-                progress(now, sc.duration_s)
-            if paced is not None:
-                paced(now)
-        end = coach.drain(clock.now(), step_s=dt, pace=paced)
-        wall = time.perf_counter() - wall0
-        post: dict[str, Any] | None = None
-        if report:
-            from prezence.report.build import build_report
-            from prezence.report.speech import summary_phrase
-
-            phrase = summary_phrase(build_report(session.root, config=cfg))
-            post = coach.post_talk(phrase, end, step_s=dt, pace=paced)
-        backend_stats = bk.stats()
-    finally:
-        coach.close()
-        for w in writers.values():
-            w.close()
-        bk.close()
-    truth = presenter.truth()
-    with session.truth.open("w") as f:
-        for row in truth:
-            f.write(dumps(row, sort_keys=True) + "\n")
-    summary = summarize_session(
-        session,
-        cfg,
-        talk_s=sc.duration_s,
-        truth=truth,
-        backend_stats=backend_stats,
-        live=tailer,
-        processor=processor,
-        extra={
-            "scenario": sc.name,
-            "seed": seed,
-            "policy": policy,
-            "backend": bk.name,
-            "decisions": coach.decisions,
-            "ended_at_s": round(end, 3),
-            "wall_s": round(wall, 4),
-            "realtime_factor": round(sc.duration_s / wall, 1) if wall > 0 else None,
-            **({"post_talk": post} if post is not None else {}),
-        },
-    )
-    if report:
-        from prezence.report.build import write_report
-
-        write_report(session.root, config=cfg)
-    return TalkResult(session, sc, read_jsonl(session.cues), summary, coach.decisions, wall)
+    return TalkResult(run.session, sc, run.cues, run.summary, run.decisions, run.wall_s)

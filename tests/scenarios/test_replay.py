@@ -11,6 +11,7 @@ from prezence.cli import main
 from prezence.errors import ConfigError
 from prezence.replay import replay
 from prezence.synthetic.runner import run_talk
+from prezence.talk import RunOptions
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +24,12 @@ def demo_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_replay_with_same_policy_reproduces_the_decision_log(
     demo_session: Path, tmp_path: Path
 ) -> None:
-    result = replay(demo_session, out=tmp_path / "r", policy="weighted", backend="fake")
+    result = replay(
+        demo_session,
+        out=tmp_path / "r",
+        options=RunOptions.default(policy="weighted"),
+        backend="fake",
+    )
     assert (tmp_path / "r" / "decisions.jsonl").read_bytes() == (
         demo_session / "decisions.jsonl"
     ).read_bytes()
@@ -31,21 +37,31 @@ def test_replay_with_same_policy_reproduces_the_decision_log(
 
 
 def test_replay_with_another_policy_changes_the_cues(demo_session: Path, tmp_path: Path) -> None:
-    silent = replay(demo_session, out=tmp_path / "none", policy="none", backend="fake")
+    silent = replay(
+        demo_session,
+        out=tmp_path / "none",
+        options=RunOptions.default(policy="none"),
+        backend="fake",
+    )
     assert silent.cues == []
-    first = replay(demo_session, out=tmp_path / "first", policy="first_rule", backend="fake")
+    first = replay(
+        demo_session,
+        out=tmp_path / "first",
+        options=RunOptions.default(policy="first_rule"),
+        backend="fake",
+    )
     assert first.cues
     assert first.summary["counts"]["false_alarms"] >= 0  # truth carried over from the recording
 
 
 def test_replay_never_overwrites_the_recording(demo_session: Path) -> None:
     with pytest.raises(ConfigError, match="another folder"):
-        replay(demo_session, out=demo_session)
+        replay(demo_session, out=demo_session, options=RunOptions.default())
 
 
 def test_replay_of_a_folder_without_streams_names_it(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no stream files"):
-        replay(tmp_path, out=tmp_path / "out")
+        replay(tmp_path, out=tmp_path / "out", options=RunOptions.default())
 
 
 def test_replay_cli_on_plain_stream_files(
@@ -81,7 +97,9 @@ def test_replay_under_other_bands_drops_the_ground_truth(
 def test_replay_under_the_same_bands_keeps_the_ground_truth(
     demo_session: Path, tmp_path: Path
 ) -> None:
-    result = replay(demo_session, out=tmp_path / "r", policy="recent", report=True)
+    result = replay(
+        demo_session, out=tmp_path / "r", options=RunOptions.default(policy="recent", report=True)
+    )
     assert "truth_dropped" not in result.summary
     assert "truth_time_in_range" in result.summary["metrics"]["speech_speed"]
     assert (tmp_path / "r" / "truth.jsonl").read_bytes() == (
@@ -112,13 +130,65 @@ def test_replay_room_needs_rules(demo_session: Path, tmp_path: Path) -> None:
     assert main(argv) == 2
 
 
-def test_replay_in_real_time_follows_the_wall_clock(tmp_path: Path) -> None:
+class FakeWall:
+    """A wall clock for ``prezence.talk``: sleeping moves it on, nothing really waits."""
+
+    def __init__(self) -> None:
+        self.t = 100.0
+        self.slept: list[float] = []
+
+    def perf_counter(self) -> float:
+        return self.t
+
+    def sleep(self, s: float) -> None:
+        self.slept.append(s)
+        self.t += s
+
+
+def test_replay_in_real_time_follows_the_wall_clock(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import prezence.talk
+
     src = tmp_path / "rec"
     src.mkdir()
     (src / "speech_speed.txt").write_text("".join(f"{t / 2} 160.0\n" for t in range(5)))
-    fast = replay(src, out=tmp_path / "fast")
-    paced = replay(src, out=tmp_path / "paced", realtime=True)
-    assert fast.summary["wall_s"] < 1.0 <= 2.0 - 0.1 <= paced.summary["wall_s"] < 3.0
+    wall = FakeWall()
+    monkeypatch.setattr(prezence.talk, "time", wall)
+    replay(src, out=tmp_path / "fast", options=RunOptions.default())
+    assert wall.slept == []  # not paced: the fake robot needs no wall clock
+    paced = replay(src, out=tmp_path / "paced", options=RunOptions.default(realtime=True))
+    # every decision point (0.5 s apart over the 2 s recording) waited for the wall clock
+    assert len(wall.slept) == 4 and sum(wall.slept) == pytest.approx(2.0)
+    assert paced.summary["wall_s"] == pytest.approx(2.0)
     assert (tmp_path / "fast" / "decisions.jsonl").read_bytes() == (
         tmp_path / "paced" / "decisions.jsonl"
     ).read_bytes()
+
+
+def test_a_real_time_backend_is_paced_without_being_named(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Pacing follows the backend's declared property, whatever the backend is called."""
+    import prezence.talk
+    from prezence.backends.fake import FakeBackend
+    from prezence.config.load import load_config
+    from prezence.samples import Sample
+    from prezence.session import SessionDir
+    from prezence.talk import RecordedSource, run_talk
+
+    class SlowRobot(FakeBackend):
+        name = "fake"  # the same name as the fake backend, which is never paced
+        realtime = True
+
+    wall = FakeWall()
+    monkeypatch.setattr(prezence.talk, "time", wall)
+    samples = [Sample("speech_speed", t / 2, 160.0) for t in range(5)]
+    run_talk(
+        RecordedSource(samples, talk_s=2.0),
+        config=load_config(None),
+        session=SessionDir(tmp_path / "s"),
+        backend=SlowRobot(),
+        options=RunOptions.default(),
+    )
+    assert sum(wall.slept) == pytest.approx(2.0)

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 from prezence.session import read_jsonl
 from prezence.streams.codec import StreamLineError, parse_line
+from prezence.synthetic import runner
 from prezence.synthetic.scenario import check_expectations, list_scenarios, load_scenario
-
-runner = pytest.importorskip("prezence.synthetic.runner")
 
 SCENARIOS = list_scenarios()
 
@@ -43,6 +44,34 @@ def test_same_seed_gives_identical_decision_log(tmp_path: Path) -> None:
     assert log_a, "the decision log is empty"
     assert log_a == b.session.decisions.read_bytes()
     assert a.cues == b.cues
+
+
+def test_same_seed_gives_identical_decision_log_across_processes(tmp_path: Path) -> None:
+    """Two processes (other hash seeds, other import orders) write the same bytes."""
+    logs = []
+    for i, hashseed in enumerate(("1", "2")):
+        out = tmp_path / f"p{i}"
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "prezence",
+                "run",
+                "fast_talker",
+                "--seed",
+                "5",
+                "--out",
+                str(out),
+                "--no-report",
+                "-q",
+            ],
+            check=True,
+            capture_output=True,
+            env={**__import__("os").environ, "PYTHONHASHSEED": hashseed},
+        )
+        logs.append(((out / "decisions.jsonl").read_bytes(), (out / "cues.jsonl").read_bytes()))
+    assert logs[0][0] and logs[0][1]
+    assert logs[0] == logs[1]
 
 
 def test_another_seed_gives_other_samples(tmp_path: Path) -> None:

@@ -1,0 +1,618 @@
+"""The one talk loop: a sample source, the processor and a robot backend, on a clock.
+
+Every command that coaches runs a talk through :func:`run_talk`: ``run`` and ``demo`` (a
+synthetic presenter), ``replay`` and ``rehearse`` (recorded streams), ``up`` (live input
+modules), ``evaluate`` (thousands of synthetic talks) and the Gymnasium environment (which
+drives a :class:`Talk` one step at a time and gives the cues itself). What differs between
+them is only
+
+- the **sample source** (:class:`SampleSource`): where samples come from, what the session
+  folder's metadata and summary say about it, and who hears the cues;
+- the **clock**: a :class:`SteppedClock` moves from one decision point to the next at once
+  (simulated time: a synthetic talk or a recording), a :class:`WallClock` follows the wall
+  clock and wakes when a module writes (a live talk);
+- the :class:`RunOptions` (policy, seed, gesture speed, pacing, report).
+
+Pacing is decided here and only here: a stepped run sleeps until the wall clock catches up
+when ``RunOptions.realtime`` is set or the backend declares it moves in real time
+(:attr:`prezence.backends.base.Backend.realtime`, true for a real NAO), never by its name.
+"""
+
+from __future__ import annotations
+
+import logging
+import shutil
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Protocol
+
+from prezence.backends.base import Backend
+from prezence.clock import ManualClock, MonotonicClock
+from prezence.coach import Coach, default_planner
+from prezence.config.model import Config
+from prezence.config.tomlconf import dumps_config
+from prezence.processor import Cue, Decision, Processor, make_policy
+from prezence.samples import Sample
+from prezence.session import SessionDir, dumps, read_jsonl
+from prezence.streams.tail import MultiTailer
+from prezence.summary import summarize_session
+
+log = logging.getLogger(__name__)
+
+#: The defaults of the command line, in one place (``prezence run --policy`` etc.).
+DEFAULT_POLICY = "weighted"
+DEFAULT_SPEED_FRACTION = 0.6
+
+#: Progress callback: (talk seconds done, talk length).
+Progress = Callable[[float, float], None]
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunOptions:
+    """How a talk is run. Every field that changes what the coach does is required.
+
+    Attributes:
+        policy: conflict policy name (``weighted``, ``seed``, ...; ``silent`` gives no cue).
+        seed: for policies that use chance.
+        speed_fraction: fraction of each joint's velocity limit the gestures use.
+        realtime: pace a stepped run to the wall clock even when the backend does not need it.
+        report: after the talk the robot says the spoken summary and ``report/`` is written.
+        decision_log: ``changes`` (the default: a line where a cue is chosen or the reason,
+            the robot's state or a metric's state changes), ``every`` (a line per decision
+            point) or ``off``.
+    """
+
+    policy: str
+    seed: int
+    speed_fraction: float
+    realtime: bool
+    report: bool
+    decision_log: str = "changes"
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.speed_fraction <= 1.0:
+            raise ValueError(f"speed_fraction must be in (0, 1], got {self.speed_fraction!r}")
+        if self.decision_log not in ("changes", "every", "off"):
+            raise ValueError(f"decision_log: changes, every or off, not {self.decision_log!r}")
+
+    @classmethod
+    def default(cls, **changes: Any) -> RunOptions:
+        """The command line's defaults with ``changes`` applied (tests, embedding)."""
+        base = cls(
+            policy=DEFAULT_POLICY,
+            seed=0,
+            speed_fraction=DEFAULT_SPEED_FRACTION,
+            realtime=False,
+            report=False,
+        )
+        return replace(base, **changes)
+
+
+class SampleSource(Protocol):
+    """Where a talk's samples come from (a presenter, recorded files, live modules)."""
+
+    #: ``synthetic``, ``replay``, ``rehearsal`` or ``live`` (the session's ``kind``).
+    kind: str
+    #: The samples come from the session's own stream files: creating the session keeps them.
+    keep_streams: bool
+
+    @property
+    def talk_s(self) -> float | None:
+        """The talk's length when known beforehand (None: until stopped)."""
+        ...
+
+    def start(self, session: SessionDir, config: Config) -> None:
+        """Get ready to give samples into ``session`` (open files, start modules)."""
+        ...
+
+    def poll(self, now: float) -> Sequence[Sample]:
+        """The samples stamped up to ``now`` not given before."""
+        ...
+
+    def wait(self, timeout_s: float) -> bool:
+        """Block up to ``timeout_s`` for new data (live sources); True when some arrived."""
+        ...
+
+    def ended(self, now: float) -> bool:
+        """True when the talk is over by the source's own account (live: time is up)."""
+        ...
+
+    def events(self, now: float) -> list[str]:
+        """Supervision events since the last call (a module restarted...)."""
+        ...
+
+    def on_cue(self, cue: Cue) -> None:
+        """The robot started ``cue`` (a closed-loop presenter reacts)."""
+        ...
+
+    def finish_input(self) -> None:
+        """The talk is over: stop producing samples (live modules stop); those already
+        written are still given by :meth:`poll`."""
+        ...
+
+    def stop(self) -> None:
+        """Release what :meth:`start` took (idempotent; also called after an error)."""
+        ...
+
+    def meta(self) -> dict[str, Any]:
+        """What ``session.json`` says about this source (besides the run's options)."""
+        ...
+
+    def summary_extra(self) -> dict[str, Any]:
+        """What ``summary.json`` says about this source."""
+        ...
+
+    def truth(self) -> list[dict[str, Any]] | None:
+        """Ground truth (synthetic talks; a recording's when it still holds), else None."""
+        ...
+
+    def tailer(self) -> MultiTailer | None:
+        """The tailer that fed the processor (its counters go into the summary), if any."""
+        ...
+
+
+class SourceBase:
+    """Defaults for the optional parts of :class:`SampleSource`."""
+
+    kind = "source"
+    keep_streams = False
+
+    def wait(self, timeout_s: float) -> bool:
+        return False
+
+    def ended(self, now: float) -> bool:
+        return False
+
+    def events(self, now: float) -> list[str]:
+        return []
+
+    def on_cue(self, cue: Cue) -> None:
+        return None
+
+    def finish_input(self) -> None:
+        return None
+
+    def stop(self) -> None:
+        return None
+
+    def meta(self) -> dict[str, Any]:
+        return {}
+
+    def summary_extra(self) -> dict[str, Any]:
+        return {}
+
+    def truth(self) -> list[dict[str, Any]] | None:
+        return None
+
+    def tailer(self) -> MultiTailer | None:
+        return None
+
+
+class RecordedSource(SourceBase):
+    """Samples already recorded (a replay, a rehearsal's module files), in time order."""
+
+    kind = "replay"
+
+    def __init__(
+        self,
+        samples: Sequence[Sample],
+        *,
+        talk_s: float,
+        truth: list[dict[str, Any]] | None = None,
+        meta: dict[str, Any] | None = None,
+        extra: dict[str, Any] | None = None,
+        copy_streams: dict[str, Path] | None = None,
+        keep_streams: bool = False,
+        kind: str = "replay",
+    ) -> None:
+        self.kind = kind
+        self.keep_streams = keep_streams
+        self._copy = dict(copy_streams or {})
+        self._samples = samples
+        self._talk_s = float(talk_s)
+        self._truth = truth
+        self._meta = dict(meta or {})
+        self._extra = dict(extra or {})
+        self._i = 0
+
+    @property
+    def talk_s(self) -> float | None:
+        return self._talk_s
+
+    def start(self, session: SessionDir, config: Config) -> None:
+        """Copy the recorded stream files (file name → source) into ``session``, so that its
+        summary and report read what the coach read."""
+        self._i = 0
+        for name, path in self._copy.items():
+            shutil.copyfile(path, session.stream(name))
+
+    def poll(self, now: float) -> Sequence[Sample]:
+        ss = self._samples
+        i = j = self._i
+        n = len(ss)
+        while j < n and ss[j].t <= now:
+            j += 1
+        self._i = j
+        return ss[i:j]
+
+    def meta(self) -> dict[str, Any]:
+        return {"talk_s": self._talk_s, **self._meta}
+
+    def summary_extra(self) -> dict[str, Any]:
+        return self._extra
+
+    def truth(self) -> list[dict[str, Any]] | None:
+        return self._truth
+
+
+class SteppedClock:
+    """Simulated time: decision points every ``dt`` seconds, reached at once.
+
+    Args:
+        dt: the decision period.
+    """
+
+    live = False
+    drain_step_s: float
+    drain_limit_s = 120.0
+
+    def __init__(self, dt: float) -> None:
+        self.dt = dt
+        self.drain_step_s = dt
+        self._clock = ManualClock()
+
+    def now(self) -> float:
+        return self._clock.now()
+
+    def points(self, talk_s: float) -> list[float]:
+        """The decision points of a talk ``talk_s`` long (the first at ``dt``)."""
+        n = int(round(talk_s / self.dt))
+        return [k * self.dt for k in range(1, n + 1)]
+
+    def set(self, t: float) -> None:
+        self._clock.set(t)
+
+
+class WallClock:
+    """Live time: seconds since the talk began on the monotonic clock.
+
+    Decision points fall every ``dt`` and as soon as a module writes (cue latency).
+    """
+
+    live = True
+    drain_step_s = 0.05
+    drain_limit_s = 10.0
+
+    def __init__(self, dt: float) -> None:
+        self.dt = dt
+        self._clock = MonotonicClock()
+
+    def now(self) -> float:
+        return self._clock.now()
+
+
+@dataclass
+class TalkRun:
+    """What a talk leaves: its folder, its cues and summary, and how it went."""
+
+    session: SessionDir
+    summary: dict[str, Any]
+    cues: list[dict[str, Any]]
+    decisions: int
+    wall_s: float
+    #: The talk stopped before its end (``stop`` said so, or Ctrl-C).
+    truncated: bool = False
+    interrupted: bool = False
+    post_talk: dict[str, Any] | None = None
+    #: ``report/report.html``, when the report was written.
+    report: Path | None = None
+    events: list[str] = field(default_factory=list)
+
+
+class Talk:
+    """One talk in progress: :meth:`start`, :meth:`step` at each decision point, :meth:`finish`.
+
+    :func:`run_talk` drives it; the Gymnasium environment drives it itself and gives its
+    agent's cues with :meth:`perform`.
+    """
+
+    def __init__(
+        self,
+        source: SampleSource,
+        *,
+        config: Config,
+        session: SessionDir,
+        backend: Backend,
+        options: RunOptions,
+        on_decision: Callable[[Decision], None] | None = None,
+    ) -> None:
+        self.source = source
+        self.config = config
+        self.session = session
+        self.backend = backend
+        self.options = options
+        self.on_decision = on_decision
+        self.processor = Processor(config, policy=make_policy(options.policy, seed=options.seed))
+        self.coach: Coach | None = None
+        self.wall0 = 0.0
+        self._meta: dict[str, Any] = {}
+
+    @property
+    def paced(self) -> bool:
+        """Whether robot time must follow the wall clock (the option, or a real-time robot)."""
+        return self.options.realtime or self.backend.realtime
+
+    def start(self) -> None:
+        """Write the folder's config and metadata, open the robot and the source."""
+        self.session.create(keep_streams=self.source.keep_streams)
+        self.session.config.write_text(dumps_config(self.config))
+        self._meta = {
+            "kind": self.source.kind,
+            **self.source.meta(),
+            "policy": self.options.policy,
+            "backend": self.backend.name,
+            "speed_fraction": self.options.speed_fraction,
+        }
+        self.session.write_meta(self._meta)
+        self.wall0 = time.perf_counter()
+        self.source.start(self.session, self.config)
+        self.backend.open()
+        self.coach = Coach(
+            self.processor,
+            self.backend,
+            self.session,
+            planner=default_planner(self.options.speed_fraction),
+            on_cue=self.source.on_cue,
+            log_mode=self.options.decision_log,
+        )
+
+    def step(self, now: float) -> Decision:
+        """One decision point at ``now`` with the source's new samples."""
+        assert self.coach is not None, "start() first"
+        d = self.coach.tick(now, self.source.poll(now))
+        if self.on_decision is not None:
+            self.on_decision(d)
+        return d
+
+    def perform(self, cue: Cue) -> bool:
+        """Have the robot give ``cue`` now (an agent's choice); False when it is busy."""
+        assert self.coach is not None, "start() first"
+        return self.coach.give(cue)
+
+    def pace(self, t: float) -> None:
+        """Sleep until the wall clock reaches talk time ``t`` (paced runs)."""
+        ahead = t - (time.perf_counter() - self.wall0)
+        if ahead > 0:
+            time.sleep(ahead)
+
+    def finish(
+        self,
+        now: float,
+        *,
+        clock: SteppedClock | WallClock,
+        talk_s: float,
+        completed: bool,
+        truncated: bool = False,
+        interrupted: bool = False,
+        events: Sequence[str] = (),
+    ) -> TalkRun:
+        """End the talk at ``now``: the cue in progress finishes, then (with ``report``) the
+        post-talk summary and the report; writes ``summary.json``.
+
+        Args:
+            completed: the talk ended as planned or by Ctrl-C (not by an error): only then is
+                the post-talk summary said.
+        """
+        coach = self.coach
+        assert coach is not None, "start() first"
+        pace = self.pace if self.paced else None
+        post: dict[str, Any] | None = None
+        end = now
+        try:
+            end = coach.drain(
+                now, step_s=clock.drain_step_s, limit_s=clock.drain_limit_s, pace=pace
+            )
+            if self.source.talk_s is None or truncated:
+                self.session.write_meta({**self._meta, "talk_s": round(talk_s, 3)})
+            if self.options.report and completed:
+                post = self._post_talk(coach, end, step_s=clock.drain_step_s, pace=pace)
+            backend_stats = self.backend.stats()
+        finally:
+            coach.close()
+            self.source.stop()
+            self.backend.close()
+        wall = time.perf_counter() - self.wall0
+        truth = self.source.truth()
+        if truth is not None:  # only a talk that ended has its ground truth written
+            with self.session.truth.open("w") as f:
+                for row in truth:
+                    f.write(dumps(row, sort_keys=True) + "\n")
+        extra: dict[str, Any] = {
+            "policy": self.options.policy,
+            "backend": self.backend.name,
+            "decisions": coach.decisions,
+            "ended_at_s": round(end, 3),
+            "wall_s": round(wall, 4),
+            **({"truncated": True} if truncated else {}),
+            **self.source.summary_extra(),
+            **({"post_talk": post} if post is not None else {}),
+        }
+        if clock.live:
+            extra["interrupted"] = interrupted
+        elif wall > 0:
+            extra["realtime_factor"] = round(talk_s / wall, 1)
+        summary = summarize_session(
+            self.session,
+            self.config,
+            talk_s=talk_s,
+            truth=truth,
+            backend_stats=backend_stats,
+            live=self.source.tailer(),
+            processor=self.processor,
+            extra=extra,
+        )
+        page = None
+        if self.options.report:
+            from prezence.report.build import write_report
+
+            page = write_report(self.session.root, config=self.config)
+        return TalkRun(
+            self.session,
+            summary,
+            read_jsonl(self.session.cues),
+            coach.decisions,
+            wall,
+            truncated=truncated,
+            interrupted=interrupted,
+            post_talk=post,
+            report=page,
+            events=list(events),
+        )
+
+    def _post_talk(
+        self,
+        coach: Coach,
+        now: float,
+        *,
+        step_s: float,
+        pace: Callable[[float], None] | None,
+    ) -> dict[str, Any] | None:
+        """The robot says the post-talk summary; a Ctrl-C here skips it (None)."""
+        from prezence.report.build import build_report
+        from prezence.report.speech import summary_phrase
+
+        phrase = summary_phrase(build_report(self.session.root, config=self.config))
+        try:
+            return coach.post_talk(phrase, now, step_s=step_s, pace=pace)
+        except KeyboardInterrupt:
+            log.info("post-talk summary skipped (Ctrl-C)")
+            return None
+
+
+class View(Protocol):
+    """A live view: told about every decision and every supervision event."""
+
+    def decision(self, d: Decision) -> None: ...
+
+    def event(self, now: float, text: str) -> None: ...
+
+
+def run_talk(
+    source: SampleSource,
+    *,
+    config: Config,
+    session: SessionDir | Path,
+    backend: Backend,
+    options: RunOptions,
+    clock: SteppedClock | WallClock | None = None,
+    on_decision: Callable[[Decision], None] | None = None,
+    progress: Progress | None = None,
+    view: View | None = None,
+    stop: Callable[[], bool] | None = None,
+) -> TalkRun:
+    """Run one talk from ``source`` against ``backend`` (unopened) and write its folder.
+
+    Args:
+        source: where the samples come from.
+        config: rules and settings (the decision period sets the clock's step).
+        session: the session folder (created; an earlier session's files are replaced).
+        backend: an unopened robot backend; it is opened and closed here.
+        options: policy, seed, speed, pacing, report.
+        clock: None: stepped when the source knows the talk's length, else the wall clock.
+        on_decision: called with every decision.
+        progress: called after every decision point with (time, talk length).
+        view: told about decisions and events (live talks).
+        stop: polled at every decision point; True ends the talk early (truncated).
+    """
+    dt = config.processor.decision_period_s
+    if clock is None:
+        clock = SteppedClock(dt) if source.talk_s is not None else WallClock(dt)
+    sess = session if isinstance(session, SessionDir) else SessionDir(Path(session))
+    talk = Talk(
+        source,
+        config=config,
+        session=sess,
+        backend=backend,
+        options=options,
+        on_decision=on_decision,
+    )
+    talk.start()
+    events: list[str] = []
+    now = talk_s = 0.0
+    completed = truncated = interrupted = False
+    try:
+        if isinstance(clock, SteppedClock):
+            length = float(source.talk_s or 0.0)
+            pace = talk.pace if talk.paced else None
+            for now in clock.points(length):
+                clock.set(now)
+                if pace is not None:
+                    pace(now)
+                d = talk.step(now)
+                if view is not None:
+                    view.decision(_with_views(talk, d))
+                if progress is not None:
+                    progress(now, length)
+                if stop is not None and stop():
+                    truncated = True
+                    break
+            talk_s = now if truncated else length
+        else:
+            next_tick = 0.0
+            while True:
+                now = clock.now()
+                if source.ended(now):
+                    break
+                if stop is not None and stop():
+                    break
+                source.wait(max(0.0, min(dt, next_tick - now)))  # new data: decide at once
+                now = clock.now()
+                d = talk.step(now)
+                next_tick = now + dt
+                if view is not None:
+                    view.decision(_with_views(talk, d))
+                for ev in source.events(now):
+                    events.append(f"{now:.1f} {ev}")
+                    if view is not None:
+                        view.event(now, ev)
+        completed = True
+    except KeyboardInterrupt:
+        completed = interrupted = True
+        talk_s = now
+        log.info("stopped by Ctrl-C")
+    except BaseException:
+        # the robot and the source are released; the error goes on
+        _abandon(talk)
+        raise
+    if clock.live:
+        talk_s = clock.now()
+        talk.source.finish_input()
+        talk.step(talk_s)  # the samples written while the modules stopped
+        now = talk_s
+    return talk.finish(
+        now,
+        clock=clock,
+        talk_s=talk_s,
+        completed=completed,
+        truncated=truncated,
+        interrupted=interrupted,
+        events=events,
+    )
+
+
+def _with_views(talk: Talk, d: Decision) -> Decision:
+    """``d`` with every metric's view (views are built only for those who show them)."""
+    return d if d.metrics else replace(d, metrics=talk.processor.views(d.t))
+
+
+def _abandon(talk: Talk) -> None:
+    try:
+        if talk.coach is not None:
+            talk.coach.close()
+    finally:
+        try:
+            talk.source.stop()
+        finally:
+            talk.backend.close()
