@@ -147,6 +147,16 @@ class Coach:
             self._perform(decision.cue, now)
         return decision
 
+    @property
+    def current(self) -> Performance | None:
+        """The cue being performed, if any."""
+        return self._current
+
+    @property
+    def free_since(self) -> float | None:
+        """When the robot last became free (None while a cue is being performed)."""
+        return self._free_since
+
     def give(self, cue: Cue) -> bool:
         """Have the robot give ``cue`` at ``cue.t`` (an agent's own choice, not the
         processor's); the processor counts it as fired. False when the robot is busy."""
@@ -156,7 +166,9 @@ class Coach:
             return False
         if cue.metric is not None:
             self.processor.state(cue.metric).fired(cue.t)
-        self._decisions.write({"t": round(cue.t, 6), "cue": cue.to_dict(), "reason": cue.reason})
+        if self.log_mode != "off":
+            rec = {"t": round(cue.t, 6), "cue": cue.to_dict(), "reason": cue.reason}
+            self._decisions.write(rec)
         self._perform(cue, cue.t)
         return True
 

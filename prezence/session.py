@@ -23,7 +23,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 SESSION_FORMAT = 1
 
@@ -120,27 +120,41 @@ _ENCODE = json.JSONEncoder(allow_nan=False, separators=(",", ":")).encode
 
 
 class JsonlWriter:
-    """Append one JSON object per line, flushed at once (a crash keeps every finished line)."""
+    """Append one JSON object per line.
+
+    ``flush=True`` (cues): each line is appended and the file closed at once, so a crash keeps
+    every finished line and nothing stays open between lines. ``flush=False`` (the decision
+    log, written many times a second): the file is opened at the first line and buffered; a
+    crash loses at most the buffer's last lines, never a cue.
+    """
 
     def __init__(self, path: Path, *, flush: bool = True) -> None:
         self.path = path
-        self._f = path.open("a", encoding="utf-8")
         self._flush = flush
+        self._f: IO[str] | None = None
+        self._closed = False
+        if flush:
+            path.touch()
 
     def write(self, obj: dict[str, Any]) -> None:
-        """One line; keys in the record's own order. ``flush=False`` leaves flushing to the
-        file's buffer (a decision log written many times a second; a crash loses at most
-        the buffer's last lines, never a cue)."""
+        """One line; keys in the record's own order."""
         try:
             text = _ENCODE(obj)
         except ValueError:  # an infinite priority or a NaN mean: standard JSON says null
             text = json.dumps(strict_json(obj), allow_nan=False, separators=(",", ":"))
-        self._f.write(text + "\n")
         if self._flush:
-            self._f.flush()
+            with self.path.open("a", encoding="utf-8") as f:
+                f.write(text + "\n")
+            return
+        if self._f is None:
+            if self._closed:
+                raise ValueError(f"{self.path}: written after close()")
+            self._f = self.path.open("a", encoding="utf-8")
+        self._f.write(text + "\n")
 
     def close(self) -> None:
-        if not self._f.closed:
+        self._closed = True
+        if self._f is not None and not self._f.closed:
             self._f.close()
 
 

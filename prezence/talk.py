@@ -338,6 +338,8 @@ class Talk:
         self.coach: Coach | None = None
         self.wall0 = 0.0
         self._meta: dict[str, Any] = {}
+        #: The samples the last :meth:`step` gave the processor.
+        self.last_samples: Sequence[Sample] = ()
 
     @property
     def paced(self) -> bool:
@@ -371,7 +373,8 @@ class Talk:
     def step(self, now: float) -> Decision:
         """One decision point at ``now`` with the source's new samples."""
         assert self.coach is not None, "start() first"
-        d = self.coach.tick(now, self.source.poll(now))
+        self.last_samples = self.source.poll(now)
+        d = self.coach.tick(now, self.last_samples)
         if self.on_decision is not None:
             self.on_decision(d)
         return d

@@ -1,14 +1,24 @@
 """A Gymnasium environment for learning when to cue: ``prezence/Coach-v0``.
 
-Importing this module registers the id, so ``gymnasium.make("prezence/Coach-v0")`` works after
-``import sim.gym_env``, and ``gymnasium.make("sim.gym_env:prezence/Coach-v0")`` works with no
-import at all (Gymnasium imports the module named before the colon). Gymnasium 1.x has no
-entry-point plugin discovery, so a package cannot register itself on ``import gymnasium``.
+``import sim`` registers the id (as environment packages do on import), with
+``max_episode_steps`` (:data:`MAX_EPISODE_STEPS`): an episode cut short by that limit ends
+``truncated``, one that reaches the end of the talk ``terminated``. ``gymnasium.make(
+"sim.gym_env:prezence/Coach-v0")`` also works with no import (Gymnasium imports the module named
+before the colon).
+
+An episode is a talk run by the one loop (:class:`prezence.talk.Talk`): the agent's actions are
+the cues, given through the coach exactly as the processor's would be (gesture and phrase on the
+robot, the presenter hears it); the processor itself stays silent and keeps the state the
+observations show. ``render_mode="rgb_array"`` runs the talk on the PyBullet NAO and returns
+camera images of it; ``"ansi"`` returns a text line.
 """
 
 from __future__ import annotations
 
+import shutil
+import tempfile
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -16,20 +26,20 @@ import numpy as np
 import numpy.typing as npt
 from gymnasium import spaces
 
-from prezence.backends.base import Motion
+from prezence.backends.base import Backend
 from prezence.backends.fake import FakeBackend
-from prezence.coach import GesturePlanner, default_planner
 from prezence.config.load import load_config
 from prezence.config.model import Config, Rule
 from prezence.errors import UnknownName
-from prezence.feedback.commands import get_command
-from prezence.processor import Processor
-from prezence.processor.resolve import SilentPolicy
+from prezence.processor import Cue, Processor
+from prezence.processor.types import Kind
 from prezence.samples import Sample
+from prezence.session import SessionDir
 from prezence.synthetic.presenters import PHYSICAL_RANGES, SyntheticPresenter
+from prezence.synthetic.runner import SyntheticSource
 from prezence.synthetic.scenario import Scenario, list_scenarios, load_scenario
-
-ENV_ID = "prezence/Coach-v0"
+from prezence.talk import RunOptions, Talk
+from sim import ENV_ID, MAX_EPISODE_STEPS, register
 
 #: Observation columns per metric, then the global ones.
 METRIC_FEATURES = ("value", "signed_deviation", "weight", "fresh")
@@ -121,7 +131,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     * v0: initial version.
     """
 
-    metadata: dict[str, Any] = {"render_modes": ["ansi"], "render_fps": 2}
+    metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}
 
     def __init__(
         self,
@@ -132,11 +142,13 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         cue_cost: float = 0.005,
         in_range_penalty: float = 0.01,
         speed_fraction: float = 0.6,
-        planner: GesturePlanner | None = None,
         render_mode: str | None = None,
+        render_size: tuple[int, int] = (240, 240),
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+            raise ValueError(
+                f"render_mode must be None, 'ansi' or 'rgb_array', got {render_mode!r}"
+            )
         names = [scenarios] if isinstance(scenarios, str) else list(scenarios or list_scenarios())
         if not names:
             raise ValueError("no scenarios")
@@ -150,7 +162,10 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         self.cue_cost = float(cue_cost)
         self.in_range_penalty = float(in_range_penalty)
         self.render_mode = render_mode
-        self._planner = planner if planner is not None else default_planner(speed_fraction)
+        self.render_size = render_size
+        self.speed_fraction = float(speed_fraction)
+        self._tmp: Path | None = None
+        self._camera: Any = None
         self.rules: tuple[Rule, ...] = self.config.rules
         acts: list[tuple[str | None, str | None]] = [(None, None)]
         for r in self.rules:
@@ -200,8 +215,14 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         """Talk time of the current step."""
         return float(self._episode["t"])
 
+    @property
+    def talk(self) -> Talk:
+        """The current episode's talk (the one loop, driven one step at a time)."""
+        talk: Talk = self._episode["talk"]
+        return talk
+
     def _truly_in_range(self, metric: str, t: float) -> bool:
-        pres: SyntheticPresenter = self._episode["presenter"]
+        pres: SyntheticPresenter = self._episode["source"].presenter
         rule = self._episode["config"].rule(metric)
         return rule.side(pres.true_value(metric, t)) is None
 
@@ -212,7 +233,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
 
     def _obs(self) -> npt.NDArray[np.float32]:
         ep = self._episode
-        proc: Processor = ep["processor"]
+        proc: Processor = self.talk.processor
         t = float(ep["t"])
         thr = self.config.processor.threshold
         out: list[float] = []
@@ -233,8 +254,10 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
                 min(st.weight / thr, _WEIGHT_CLIP) if thr > 0 else 0.0,
                 0.0 if st.stale(t) else 1.0,
             ]
-        busy_left = max((m.started_at + m.planned_s - t for m in ep["motions"]), default=0.0)
-        busy = bool(ep["backend"].busy)
+        perf = self.talk.coach.current if self.talk.coach is not None else None
+        motions = perf.motions if perf is not None else []
+        busy_left = max((m.started_at + m.planned_s - t for m in motions), default=0.0)
+        busy = bool(self.talk.backend.busy)
         duration = float(ep["scenario"].duration_s)
         alloc = ep["config"].time.allocated_s
         left = 1.0 if not alloc else min(max((alloc - t) / alloc, -1.0), 1.0)
@@ -255,8 +278,8 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             "scenario": ep["scenario"].name,
             "presenter_seed": ep["seed"],
             "samples": samples,
-            "robot_busy": bool(ep["backend"].busy),
-            "robot_free_since": None if ep["backend"].busy else ep["free_since"],
+            "robot_busy": bool(self.talk.backend.busy),
+            "robot_free_since": None if self.talk.backend.busy else self._free_since(),
             "cue": cue,
             "ignored": ignored,
             "in_range": ep["in_range"],
@@ -264,12 +287,31 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
 
     # -- Gymnasium API -------------------------------------------------------------------------
 
+    def _free_since(self) -> float | None:
+        coach = self.talk.coach
+        return coach.free_since if coach is not None else None
+
+    def _end_episode(self) -> None:
+        if self._episode:
+            talk = self.talk
+            if talk.coach is not None:
+                talk.coach.close()
+            talk.backend.close()
+            self._episode = {}
+        self._camera = None
+
+    def _backend(self) -> Backend:
+        if self.render_mode == "rgb_array":
+            from prezence.backends.registry import make_backend
+
+            return make_backend("sim", speed_fraction=self.speed_fraction)
+        return FakeBackend()
+
     def reset(
         self, *, seed: int | None = None, options: Mapping[str, Any] | None = None
     ) -> tuple[npt.NDArray[np.float32], dict[str, Any]]:
         super().reset(seed=seed)
-        if self._episode:
-            self._episode["backend"].close()
+        self._end_episode()
         options = options or {}
         if "scenario" in options:
             sc = next((s for s in self.scenarios if s.name == options["scenario"]), None)
@@ -278,22 +320,35 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             sc = self.scenarios[int(self.np_random.integers(len(self.scenarios)))]
         pseed = int(self.np_random.integers(0, 2**31 - 1))
         cfg = self.config.with_allocated(sc.allocated_s)
-        backend = FakeBackend()
-        backend.open()
+        if self._tmp is None:
+            self._tmp = Path(tempfile.mkdtemp(prefix="prezence-gym-"))
+        source = SyntheticSource(sc, cfg, seed=pseed, files=False)
+        talk = Talk(
+            source,
+            config=cfg,
+            session=SessionDir(self._tmp / "episode"),
+            backend=self._backend(),
+            options=RunOptions(
+                policy="none",
+                seed=pseed,
+                speed_fraction=self.speed_fraction,
+                realtime=False,
+                report=False,
+                decision_log="off",
+            ),
+        )
+        talk.start()
         self._episode = {
             "scenario": sc,
             "seed": pseed,
             "config": cfg,
-            "presenter": SyntheticPresenter(sc, cfg, seed=pseed),
-            "processor": Processor(cfg, policy=SilentPolicy()),
-            "backend": backend,
-            "motions": [],
-            "free_since": 0.0,
+            "source": source,
+            "talk": talk,
             "t": 0.0,
             "in_range": 1.0,
             "cues": 0,
         }
-        self._episode["presenter"].advance(0.0)
+        source.poll(0.0)
         return self._obs(), self._info([], None, False)
 
     def _params(self, command: str, t: float) -> dict[str, Any]:
@@ -307,26 +362,25 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             return {"minutes_over": int(max(0.0, -left) // 60)}
         return {}
 
-    def _perform(self, command: str, metric: str | None, t: float) -> dict[str, Any]:
+    def _perform(self, command: str, metric: str | None, t: float) -> dict[str, Any] | None:
+        """Give the agent's cue through the coach; None when the robot is busy."""
         ep = self._episode
         params = self._params(command, t)
-        cmd = get_command(command)
-        phrase = cmd.say(params)
-        traj = self._planner(cmd.gesture, params)
-        backend: FakeBackend = ep["backend"]
-        motions: list[Motion] = [backend.play(traj, now=t), backend.say(phrase, now=t)]
-        ep["motions"] = motions
-        ep["presenter"].on_cue(t, command, metric, params)
-        if metric is not None:
-            ep["processor"].state(metric).fired(t)
+        kind = Kind.TIME if metric is None else Kind.WEIGHTED
+        cue = Cue(t, command, metric, kind, "the agent's choice", params)
+        if not self.talk.perform(cue):
+            return None
         ep["cues"] += 1
+        coach = self.talk.coach
+        perf = coach.current if coach is not None else None
+        planned = max((m.planned_s for m in perf.motions), default=0.0) if perf else 0.0
         return {
             "t": t,
             "command": command,
             "metric": metric,
             "params": params,
-            "phrase": phrase,
-            "planned_s": max(m.planned_s for m in motions),
+            "phrase": perf.phrase if perf is not None else "",
+            "planned_s": planned,
         }
 
     def step(
@@ -338,30 +392,22 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             raise ValueError(f"action {action!r} is not in {self.action_space}")
         ep = self._episode
         t0 = float(ep["t"])
-        backend: FakeBackend = ep["backend"]
         reward = 0.0
         cue: dict[str, Any] | None = None
         ignored = False
         command, metric = self.actions[int(action)]
         if command is not None:
-            if backend.busy:
-                ignored = True
+            cue = self._perform(command, metric, t0)
+            if cue is None:
+                ignored = True  # the robot is busy: the cue is not given and costs nothing
             else:
-                cue = self._perform(command, metric, t0)
                 reward -= self.cue_cost
                 if metric is not None and self._truly_in_range(metric, t0):
                     reward -= self.in_range_penalty
         duration = float(ep["scenario"].duration_s)
         t1 = min(t0 + self.step_s, duration)
-        presenter: SyntheticPresenter = ep["presenter"]
-        samples = presenter.advance(t1)
-        presenter.garbage(t1)  # the environment reads samples directly: no files to garble
-        was_busy = backend.busy
-        backend.advance(t1)
-        if was_busy and not backend.busy:
-            ends = [m.finished_at for m in ep["motions"] if m.finished_at is not None]
-            ep["free_since"] = max(ends) if ends else t1
-        ep["processor"].step(t1, samples, free_since=None)
+        self.talk.step(t1)
+        samples = list(self.talk.last_samples)
         ep["t"] = t1
         metrics = self._judged_metrics()
         share = sum(self._truly_in_range(m, t1) for m in metrics) / len(metrics) if metrics else 1.0
@@ -370,28 +416,45 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         terminated = t1 >= duration - 1e-9
         return self._obs(), float(reward), terminated, False, self._info(samples, cue, ignored)
 
-    def render(self) -> str | None:
-        if self.render_mode != "ansi" or not self._episode:
+    def render(self) -> Any:
+        if self.render_mode is None or not self._episode:
             return None
+        if self.render_mode == "rgb_array":
+            return self._frame()
         ep = self._episode
-        proc: Processor = ep["processor"]
-        parts = [f"t={ep['t']:6.1f}s", "busy" if ep["backend"].busy else "free"]
+        proc: Processor = self.talk.processor
+        parts = [f"t={ep['t']:6.1f}s", "busy" if self.talk.backend.busy else "free"]
         for r in self.rules:
             st = proc.state(r.metric)
             v = "-" if st.value is None else f"{st.value:.3g}"
             parts.append(f"{r.metric}={v}(w{st.weight:.0f})")
         return " ".join(parts)
 
+    def _frame(self) -> npt.NDArray[np.uint8]:
+        """The PyBullet NAO as it stands now: one RGB image (height, width, 3)."""
+        from sim.render import _add_floor, _cameras, _grab
+
+        cid = self.talk.backend.sim.client  # type: ignore[attr-defined]
+        if self._camera is None:
+            _add_floor(cid)
+            self._camera = _cameras(cid, self.render_size)[:1]
+        frame: npt.NDArray[np.uint8] = _grab(cid, self.render_size, self._camera)
+        return frame
+
     def close(self) -> None:
-        if self._episode:
-            self._episode["backend"].close()
+        self._end_episode()
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            self._tmp = None
 
 
-def _register() -> None:
-    if ENV_ID not in gym.registry:
-        gym.register(id=ENV_ID, entry_point="sim.gym_env:CoachEnv")
+register()
 
-
-_register()
-
-__all__ = ["ENV_ID", "GLOBAL_FEATURES", "METRIC_FEATURES", "CoachEnv"]
+__all__ = [
+    "ENV_ID",
+    "GLOBAL_FEATURES",
+    "MAX_EPISODE_STEPS",
+    "METRIC_FEATURES",
+    "CoachEnv",
+    "register",
+]

@@ -101,3 +101,48 @@ def test_rule_baseline_and_tuned_policy_beat_silence_on_the_demo_talk() -> None:
     assert mean_return(env, RuleBaseline(), seeds) > silent
     assert mean_return(env, ThresholdPolicy(), seeds) > silent
     assert run_episode(env, RuleBaseline(), 0)["cues"] >= 4
+
+
+def test_import_sim_registers_the_env_with_a_step_limit() -> None:
+    code = (
+        "import sim, gymnasium; s = gymnasium.spec('prezence/Coach-v0');"
+        "print(s.entry_point, s.max_episode_steps)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["sim.gym_env:CoachEnv", "2400"]
+
+
+def test_a_talk_cut_short_is_truncated_not_terminated() -> None:
+    env = gym.make(ENV_ID, scenarios="ideal", max_episode_steps=4)
+    env.reset(seed=0)
+    flags = [env.step(0)[2:4] for _ in range(4)]
+    assert flags[:3] == [(False, False)] * 3
+    assert flags[3] == (False, True)  # cut short: truncated
+    env.close()
+
+
+def test_a_talk_that_ends_is_terminated() -> None:
+    env = CoachEnv("ideal", step_s=60.0)
+    env.reset(seed=0)
+    done = [env.step(0)[2] for _ in range(int(env.scenarios[0].duration_s // 60) + 1)]
+    assert done[-1] and not any(done[:-1])
+
+
+def test_rgb_array_shows_the_pybullet_nao_moving() -> None:
+    env = CoachEnv("demo", render_mode="rgb_array", render_size=(96, 96))
+    env.reset(seed=0)
+    still = env.render()
+    assert isinstance(still, np.ndarray) and still.shape == (96, 96, 3) and still.dtype == np.uint8
+    assert still.std() > 5  # not a blank picture: the robot and the floor
+    env.step(env.action_index("lookUp", "cv_headGaze"))
+    for _ in range(3):
+        env.step(0)
+    moved = env.render()
+    assert np.abs(moved.astype(int) - still.astype(int)).sum() > 0  # the gesture shows
+    env.close()
+
+
+def test_env_checker_passes_with_rendering() -> None:
+    env = gym.make(ENV_ID, scenarios="demo", render_mode="rgb_array", render_size=(48, 48))
+    check_env(env.unwrapped)
+    env.close()

@@ -23,7 +23,9 @@ def planner(gesture: str, params: Mapping[str, Any]) -> Trajectory:
     return Trajectory(gesture, ("HeadYaw",), (1.5, 3.0), ((0.3,), (0.0,)), (0.0,))
 
 
-def make_coach(tmp_path: Path, backend: FakeBackend, heard: list[Cue]) -> Coach:
+def make_coach(
+    tmp_path: Path, backend: FakeBackend, heard: list[Cue], log_mode: str = "changes"
+) -> Coach:
     cfg = Config(
         rules=(SPEED,),
         processor=ProcessorSettings(min_gap_s=2.0, refractory_s=0.0, praise_after_s=0.0),
@@ -36,6 +38,7 @@ def make_coach(tmp_path: Path, backend: FakeBackend, heard: list[Cue]) -> Coach:
         SessionDir(tmp_path).create(),
         planner=planner,
         on_cue=heard.append,
+        log_mode=log_mode,
     )
 
 
@@ -51,9 +54,12 @@ def test_cues_are_spaced_by_performance_and_gap_and_recorded(tmp_path: Path) -> 
     heard: list[Cue] = []
     coach = make_coach(tmp_path, FakeBackend(), heard)
     run(coach, 60.0)
+    assert coach.decisions == 120
     recs = read_jsonl(tmp_path / "decisions.jsonl")
-    assert len(recs) == 120
+    # the log is compact: a line where a cue is chosen or something changed, not every tick
+    assert 2 < len(recs) < 120
     cues = read_jsonl(tmp_path / "cues.jsonl")
+    assert [r["t"] for r in recs if r["cue"]] == [c["t"] for c in cues]
     assert [c["command"] for c in cues] == ["slowDown"] * len(cues) and len(cues) >= 2
     assert [c.t for c in heard] == [c["t"] for c in cues]
     for a, b in zip(cues, cues[1:], strict=False):
@@ -78,4 +84,33 @@ def test_cue_for_a_lost_robot_is_dropped_and_the_talk_goes_on(tmp_path: Path) ->
     cues = read_jsonl(tmp_path / "cues.jsonl")
     assert cues and all(c["dropped"] for c in cues)
     assert heard == []  # the presenter saw nothing
-    assert len(read_jsonl(tmp_path / "decisions.jsonl")) == 160
+    assert coach.decisions == 160
+    logged = read_jsonl(tmp_path / "decisions.jsonl")
+    assert [r["t"] for r in logged if r["cue"]] == [c["t"] for c in cues]
+
+
+def test_compact_decision_log_is_the_full_log_where_something_changes(tmp_path: Path) -> None:
+    """Every line of the compact log is the full log's line at that time, and the full log's
+    lines left out repeat the line before them (same reason, robot state and metric states)."""
+    (tmp_path / "every").mkdir()
+    (tmp_path / "changes").mkdir()
+    run(make_coach(tmp_path / "every", FakeBackend(), [], log_mode="every"), 60.0)
+    run(make_coach(tmp_path / "changes", FakeBackend(), [], log_mode="changes"), 60.0)
+    every = read_jsonl(tmp_path / "every" / "decisions.jsonl")
+    compact = read_jsonl(tmp_path / "changes" / "decisions.jsonl")
+    assert len(every) == 120
+    by_t = {r["t"]: r for r in every}
+
+    def head(r: dict[str, object]) -> tuple[object, ...]:
+        return (r["busy"], r["cue"], r["reason"], r["candidates"])
+
+    for r in compact:
+        assert head(r) == head(by_t[r["t"]])
+    kept = {r["t"] for r in compact}
+    last = None
+    for r in every:
+        if r["t"] in kept:
+            last = r
+        else:
+            assert last is not None and r["cue"] is None
+            assert (r["busy"], r["reason"]) == (last["busy"], last["reason"])

@@ -26,3 +26,27 @@ def test_prezence_imports_no_simulator_or_robot_sdk() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout + out.stderr
+
+
+def test_no_file_of_the_product_imports_the_sandbox() -> None:
+    """Not even inside a function: the sandbox is reached by entry-point strings only."""
+    import ast
+    from pathlib import Path
+
+    import prezence
+
+    root = Path(prezence.__file__).parent
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        for node in ast.walk(tree):
+            names: list[str] = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            for name in names:
+                if name == "sim" or name.startswith("sim."):
+                    found.append(f"{path.relative_to(root.parent)}:{node.lineno}: {name}")
+    assert len(list(root.rglob("*.py"))) > 40  # the walk saw the product
+    assert found == []
