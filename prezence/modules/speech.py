@@ -113,10 +113,16 @@ SPEECH_ARTICULATION = "speech_articulation"
 SPEECH_CLARITY = "speech_clarity"
 SPEECH_LOUDNESS = "speech_loudness"
 SPEECH_SPEED_SYLLABLES = "speech_speed_syllables"
+SPEECH_SPEED_SOURCE = "speech_speed_source"
+#: speech_speed_source values: where the speech_speed and speech_articulation written at the
+#: same ``t`` came from (a stream line carries one number, so the source is a stream of its own).
+SOURCE_RECOGNISER = 1.0
+SOURCE_SYLLABLES = 2.0
 #: Every metric this module may write, in the order it writes them.
 METRICS = (
     SPEECH_SPEED,
     SPEECH_SPEED_SYLLABLES,
+    SPEECH_SPEED_SOURCE,
     SPEECH_ARTICULATION,
     SPEECH_VOLUME,
     SPEECH_LOUDNESS,
@@ -139,6 +145,8 @@ MAX_PAUSE_S = 2.0
 MAX_LOOKBACK = 3.0
 #: An utterance is cut here even without a pause (bounds the live lag).
 MAX_UTTERANCE_S = 10.0
+#: Normalised autocorrelation (window-corrected) a syllable nucleus needs to count as voiced.
+VOICING_THRESHOLD = 0.45
 #: Below this mean word posterior the recogniser's word count is not trusted.
 MIN_RELIABLE_POSTERIOR = 0.3
 #: Above this relative difference between ASR and syllable counts the ASR count is not trusted.
@@ -148,19 +156,16 @@ CLARITY_ANCHORS = ((0.2, 0.0), (0.8, 100.0))
 #: Warn when a live input is this many seconds behind.
 BEHIND_WARN_S = 2.0
 
-#: pocketsphinx settings. The second (flat-lexicon) pass is off, the beams are a little
-#: tighter than the defaults (1e-48 / 7e-29) and active HMMs and word exits per frame are
-#: capped. On the test material this keeps the word count (65-66 of 66, defaults: 67-68) and a
-#: clarity that falls monotonically with noise, at about half the CPU on clean speech and a
-#: fifth on noisy speech (the defaults cost 0.34-0.5 CPU s per audio s there; see
-#: bench/bench_speech.py). Tighter caps (maxhmmpf 1500-2000, maxwpf 5) lost most words at SNR 20.
+#: pocketsphinx settings. The second (flat-lexicon) pass is off and active HMMs and word exits
+#: per frame are capped; the beams are pocketsphinx's own. On the corpus of
+#: tools/make_speech_corpus.py this keeps the word count within a few % of the truth (132-139
+#: of 136 words where the defaults find 141-145) at about half the defaults' CPU on clean speech
+#: and a fifth on noisy speech. The tighter beams used before (1e-44 / 1e-44 / 1e-26) lost 6-8 %
+#: of the words on several voices, so speed read low (bench/bench_speech.py --part corpus).
 DECODER_CONFIG: dict[str, Any] = {
     "fwdflat": False,
     "maxhmmpf": 2500,
     "maxwpf": 10,
-    "beam": 1e-44,
-    "pbeam": 1e-44,
-    "wbeam": 1e-26,
 }
 _ORDER = {m: i for i, m in enumerate(METRICS)}
 _FRAME = 480  # 30 ms at 16 kHz: the endpointer's frame
@@ -277,8 +282,13 @@ def syllable_nuclei(pcm: np.ndarray, sample_rate: int = SAMPLE_RATE) -> np.ndarr
     frames -= frames.mean(axis=1, keepdims=True)
     spec = np.fft.rfft(frames, n=2 * win, axis=1)
     ac = np.fft.irfft(np.abs(spec) ** 2, axis=1)[:, :win]
+    # Divide by the window's own autocorrelation (Boersma 1993): a windowed periodic signal's
+    # autocorrelation at lag L is damped by the window's, so without this a 100 Hz voice (lag
+    # 10 ms of a 32 ms window) scored about 0.6 of a 200 Hz one and lost its syllables.
+    wac = np.fft.irfft(np.abs(np.fft.rfft(w, n=2 * win)) ** 2)[:win]
     lo, hi = sample_rate // 400, sample_rate // 80
-    voiced = np.max(ac[:, lo : hi + 1], axis=1) > 0.45 * (ac[:, 0] + 1e-9)
+    norm = ac[:, lo : hi + 1] / (ac[:, :1] + 1e-9) / (wac[lo : hi + 1] / wac[0])
+    voiced = np.max(norm, axis=1) > VOICING_THRESHOLD
     times: np.ndarray = (peaks[voiced] * hop + win / 2) / sample_rate
     return times
 
@@ -441,7 +451,10 @@ class SpeechAnalyser:
         if speech is not None:
             self._speech_frame(speech)
             if not self._ep.in_speech:
-                self._end_utterance(self._ep.speech_end)
+                # The utterance may just have been cut at max_utterance_s on this very frame:
+                # end it only if it is still open (ending it twice makes pocketsphinx raise).
+                if self._in_utt:
+                    self._end_utterance(self._ep.speech_end)
                 self._close_span(self._ep.speech_end)
 
     def _speech_frame(self, speech: bytes) -> None:
@@ -597,6 +610,7 @@ class SpeechAnalyser:
         out = [
             Sample(SPEECH_SPEED, t, words / talk_s * 60.0),
             Sample(SPEECH_SPEED_SYLLABLES, t, n_syl_words / talk_s * 60.0),
+            Sample(SPEECH_SPEED_SOURCE, t, SOURCE_RECOGNISER if reliable else SOURCE_SYLLABLES),
         ]
         if voiced_s > 0:
             out.append(Sample(SPEECH_ARTICULATION, t, words / voiced_s * 60.0))
