@@ -58,45 +58,146 @@ FACE_OVAL = (
 
 
 @dataclass(frozen=True)
+class FaceSource:
+    """A real face photo that ships in a registry package, and where its face is."""
+
+    name: str
+    origin: str  #: the package and file, for the manifest
+    box: tuple[int, int, int, int] | None = None  #: crop (x0, y0, x1, y1) around one face
+    upscale: float = 1.0  #: the crop is enlarged by this (more texture for the renderer)
+
+
+#: ``insightface==0.7.3``'s source distribution ships a group photo (``data/images/t1.jpg``):
+#: ``pip download --no-deps --no-binary :all: insightface==0.7.3`` (its metadata step needs
+#: ``cython``, ``numpy`` and ``wheel`` in the downloading python). Checked by this digest.
+INSIGHTFACE_SDIST = "insightface-0.7.3.tar.gz"
+INSIGHTFACE_SHA256 = "f191f719612ebb37018f41936814500544cd0f86e6fcd676c023f354c668ddf7"
+
+FACES = {
+    f.name: f
+    for f in (
+        FaceSource("astronaut", "scikit-image: skimage.data.astronaut()"),
+        FaceSource("hopper", "matplotlib: mpl-data/sample_data/grace_hopper.jpg"),
+        FaceSource(
+            "kudrow", f"{INSIGHTFACE_SDIST}: data/images/t1.jpg", (1022, 142, 1358, 508), 2.5
+        ),
+        FaceSource(
+            "schwimmer", f"{INSIGHTFACE_SDIST}: data/images/t1.jpg", (353, 143, 717, 537), 2.5
+        ),
+        FaceSource("aniston", f"{INSIGHTFACE_SDIST}: data/images/t1.jpg", (0, 143, 307, 527), 2.5),
+    )
+}
+
+#: The faces whose videos the head-pose gains are fitted on; the others are held out.
+FIT_FACES = ("astronaut", "hopper")
+
+
+def load_face(face: FaceSource, sdist_dir: Path | None = None) -> np.ndarray:
+    """Return the face photo as RGB (cropped and enlarged when the source says so)."""
+    if face.name == "astronaut":
+        from skimage import data
+
+        img = np.ascontiguousarray(data.astronaut()[:, :, :3])
+    elif face.name == "hopper":
+        import matplotlib.cbook
+
+        with matplotlib.cbook.get_sample_data("grace_hopper.jpg") as f:
+            buf = np.frombuffer(f.read(), np.uint8)
+        img = cv2.cvtColor(cv2.imdecode(buf, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    else:
+        img = _insightface_photo(sdist_dir)
+    if face.box is not None:
+        x0, y0, x1, y1 = face.box
+        img = img[y0:y1, x0:x1]
+    if face.upscale != 1.0:
+        img = cv2.resize(img, None, fx=face.upscale, fy=face.upscale, interpolation=cv2.INTER_CUBIC)
+    return np.ascontiguousarray(img)
+
+
+def _insightface_photo(sdist_dir: Path | None) -> np.ndarray:
+    import hashlib
+    import tarfile
+
+    where = sdist_dir or Path.cwd()
+    path = where / INSIGHTFACE_SDIST
+    if not path.exists():
+        raise FileNotFoundError(
+            f"{path}: missing; get it with: pip download --no-deps --no-binary :all: "
+            f"insightface==0.7.3 -d {where}  (then pass --sdist-dir {where})"
+        )
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    if digest != INSIGHTFACE_SHA256:
+        raise RuntimeError(f"{path}: sha256 {digest}, expected {INSIGHTFACE_SHA256}")
+    with tarfile.open(path) as tar:
+        member = tar.extractfile("insightface-0.7.3/insightface/data/images/t1.jpg")
+        assert member is not None
+        buf = np.frombuffer(member.read(), np.uint8)
+    return cv2.cvtColor(cv2.imdecode(buf, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+
+
+@dataclass(frozen=True)
 class HeadMesh:
     """A textured head mesh in source-image pixel units (x right, y down, z away)."""
 
     texture: np.ndarray  # the source photo, RGB
     uv: np.ndarray  # (n, 2) vertex positions in the photo
-    xyz: np.ndarray  # (n, 3) vertex positions in 3D (x, y as uv; z from FaceMesh)
+    xyz: np.ndarray  # (n, 3) vertex positions in 3D (the photo's roll undone; z from FaceMesh)
     tris: np.ndarray  # (m, 3) vertex indices
     pivot: np.ndarray  # (3,) rotation centre, behind the face
     face_width: float
 
 
-def build_head_mesh(depth_scale: float = 1.0) -> HeadMesh:
-    """Lift the astronaut photo's face into a textured 3D mesh (needs mediapipe, skimage)."""
+def build_head_mesh(photo: np.ndarray, depth_scale: float = 1.0) -> HeadMesh:
+    """Lift a photo's face into a textured 3D mesh (needs mediapipe and scipy).
+
+    The photo's in-plane roll is undone (the eyes become level), so every face starts upright;
+    its own yaw and pitch stay (the module measures angles relative to the calibration).
+    """
     import mediapipe as mp
     from scipy.spatial import Delaunay
-    from skimage import data
 
-    img = np.ascontiguousarray(data.astronaut()[:, :, :3])
+    img = np.ascontiguousarray(photo[:, :, :3])
     h, w = img.shape[:2]
     with mp.solutions.face_mesh.FaceMesh(static_image_mode=True, max_num_faces=1) as fm:
         res = fm.process(img)
     if not res.multi_face_landmarks:
-        raise RuntimeError("FaceMesh found no face in skimage.data.astronaut()")
+        raise RuntimeError("FaceMesh found no face in the photo")
     lm = np.array([(p.x * w, p.y * h, p.z * w) for p in res.multi_face_landmarks[0].landmark])
     lm[:, 2] *= depth_scale
+    uv_face = lm[:, :2].copy()
     oval = lm[list(FACE_OVAL)]
     centre = oval[:, :2].mean(axis=0)
+    # Undo the roll about the face centre: xyz is upright, uv still points into the photo.
+    d = lm[263] - lm[33]
+    roll = math.atan2(float(d[1]), float(d[0]))
+    c, s = math.cos(-roll), math.sin(-roll)
+    rot = np.array([[c, -s], [s, c]])
+    lm[:, :2] = (lm[:, :2] - centre) @ rot.T + centre
+    # Undo the photo's own yaw and pitch too (FaceMesh's raw angles with rough gains, 1.2
+    # and 0.8): at (0, 0) every rendered face looks about at the camera, so +-30 deg stays
+    # within what the photo shows. The truth is the rotation applied after this.
+    d = lm[263] - lm[33]
+    e = lm[152] - lm[10]
+    yaw0 = 1.2 * math.degrees(math.atan2(float(d[2]), float(d[0])))
+    pitch0 = 0.8 * math.degrees(math.atan2(float(-e[2]), float(e[1])))
+    piv = lm.mean(axis=0)
+    lm = piv + (lm - piv) @ rotation(yaw0, pitch0)
+    oval = lm[list(FACE_OVAL)]
     face_w = float(oval[:, 0].max() - oval[:, 0].min())
     # Close the head: two rings outside the face oval, further out and further back, so that
     # hair and ears turn with the face and the face detector sees a head, not a floating mask.
-    rings = []
+    rings, ring_uv = [], []
     for grow, back in ((1.25, 0.22), (1.55, 0.55)):
         ring = oval.copy()
         ring[:, :2] = centre + grow * (oval[:, :2] - centre)
         ring[:, 2] = oval[:, 2] + back * face_w
         rings.append(ring)
+        ring_uv.append((ring[:, :2] - centre) @ rot + centre)  # back into the photo
     xyz = np.vstack([lm, *rings])
-    uv = xyz[:, :2].copy()
-    tris = Delaunay(uv).simplices.astype(np.int64)
+    uv = np.vstack([uv_face, *ring_uv])
+    uv[:, 0] = uv[:, 0].clip(0, w - 1)
+    uv[:, 1] = uv[:, 1].clip(0, h - 1)
+    tris = Delaunay(xyz[:, :2]).simplices.astype(np.int64)
     pivot = np.array(
         [centre[0], centre[1] + 0.1 * face_w, float(np.median(oval[:, 2])) + 0.35 * face_w]
     )
@@ -118,18 +219,28 @@ def rotation(yaw_deg: float, pitch_deg: float) -> np.ndarray:
 
 
 def render_head(
-    mesh: HeadMesh, yaw: float, pitch: float, background: np.ndarray, scale: float
+    mesh: HeadMesh,
+    yaw: float,
+    pitch: float,
+    background: np.ndarray,
+    scale: float,
+    centre: tuple[float, float] = (W / 2, H / 2),
+    *,
+    copy: bool = True,
 ) -> np.ndarray:
-    """Render the head at (yaw, pitch) degrees over ``background`` (H*SS x W*SS RGB)."""
-    out = background.copy()
+    """Render the head at (yaw, pitch) degrees over ``background`` (H*SS x W*SS RGB).
+
+    ``centre``: where the pivot lands, in output (not supersampled) pixels.
+    """
+    out = background.copy() if copy else background
     d = mesh.xyz - mesh.pivot
     p = d @ rotation(yaw, pitch).T
     # Perspective: the camera is 6 face widths from the pivot (about 85 cm for a real head).
     dist = 6.0 * mesh.face_width
     k = dist / (dist + p[:, 2])
     sx = scale * SS
-    u = W * SS / 2 + sx * p[:, 0] * k
-    v = H * SS / 2 + sx * p[:, 1] * k
+    u = centre[0] * SS + sx * p[:, 0] * k
+    v = centre[1] * SS + sx * p[:, 1] * k
     dst = np.stack([u, v], axis=1).astype(np.float32)
     src = mesh.uv.astype(np.float32)
     depth = p[:, 2][mesh.tris].mean(axis=1)
@@ -203,13 +314,19 @@ def _writer(path: Path) -> cv2.VideoWriter:
     return vw
 
 
-def make_head_video(path: Path, *, seed: int, depth_scale: float = 1.0) -> dict:
-    """Write the head-pose video; return its manifest entry."""
+#: The rendered face's width in output pixels (a close webcam framing at 320x240).
+HEAD_FACE_PX = 105.0
+
+
+def make_head_video(
+    path: Path, face: FaceSource, photo: np.ndarray, *, seed: int, depth_scale: float = 1.0
+) -> dict:
+    """Write one face's head-pose video; return its manifest entry."""
     rng = np.random.default_rng(seed)
-    mesh = build_head_mesh(depth_scale)
+    mesh = build_head_mesh(photo, depth_scale)
     bg = cv2.GaussianBlur(mesh.texture, (0, 0), 12)
     cx, cy = mesh.pivot[:2]
-    scale = 1.1
+    scale = HEAD_FACE_PX / mesh.face_width
     m = np.float32(
         [
             [scale * SS, 0, W * SS / 2 - scale * SS * cx],
@@ -233,6 +350,9 @@ def make_head_video(path: Path, *, seed: int, depth_scale: float = 1.0) -> dict:
     vw.release()
     return {
         "file": path.name,
+        "face": face.name,
+        "origin": face.origin,
+        "role": "fit" if face.name in FIT_FACES else "held-out",
         "fps": FPS,
         "frames": n,
         "size": [W, H],
@@ -254,8 +374,8 @@ def gesture_bursts() -> list[tuple[float, float, float]]:
     ]  # fmt: skip
 
 
-def make_gesture_video(path: Path, *, seed: int) -> dict:
-    """Write the gesture video; return its manifest entry."""
+def make_motion_video(path: Path, *, seed: int) -> dict:
+    """Write the frame-difference gesture video (a hand-like blob, no body); return its entry."""
     from skimage import data
 
     rng = np.random.default_rng(seed)
@@ -301,28 +421,265 @@ def make_gesture_video(path: Path, *, seed: int) -> dict:
     }
 
 
+@dataclass(frozen=True)
+class GestureSpec:
+    """One gesture video: who, what they wear, and the script of what they do when."""
+
+    face: str
+    shirt: tuple[int, int, int]  #: RGB
+    background: str  #: a scikit-image sample image name
+    duration_s: float
+    #: (start, end, kind, side, swing_hz): kind "gesture" (counts), "face" (a hand at the
+    #: face: reach, rest, small scratches, back; does not count); side -1 = the presenter's
+    #: right hand (image left), +1 left, 0 both hands.
+    acts: tuple[tuple[float, float, str, int, float], ...]
+    #: (start, end, yaw, pitch): head moves, a smooth out-and-back to this pose.
+    head: tuple[tuple[float, float, float, float], ...]
+    #: (start, end): the background pans (a moving background; the camera is still).
+    pans: tuple[tuple[float, float], ...]
+
+
+GESTURE_VIDEOS: dict[str, GestureSpec] = {
+    # Tuned on: the detector's thresholds were chosen on this one.
+    "gestures_a": GestureSpec(
+        face="astronaut",
+        shirt=(60, 80, 150),
+        background="rocket",
+        duration_s=48.0,
+        acts=(
+            (3.0, 4.6, "gesture", -1, 1.8),
+            (7.0, 8.2, "face", 1, 0.0),
+            (11.5, 12.8, "gesture", 1, 2.2),
+            (15.0, 17.0, "gesture", 0, 1.6),
+            (19.5, 23.5, "face", -1, 3.0),
+            (25.0, 26.2, "gesture", -1, 2.4),
+            (29.5, 31.5, "gesture", 1, 1.5),
+            (34.0, 35.0, "gesture", -1, 2.0),
+            (38.0, 40.0, "gesture", 0, 1.8),
+            (42.5, 46.5, "face", 1, 3.0),
+        ),  # fmt: skip
+        head=(
+            (5.0, 6.8, 30.0, 0.0),
+            (9.0, 11.0, -25.0, -10.0),
+            (18.0, 19.2, 0.0, -20.0),
+            (27.0, 29.0, -30.0, 5.0),
+            (32.0, 33.5, 20.0, 15.0),
+            (36.0, 37.5, 0.0, -15.0),
+            (41.0, 42.3, 25.0, 0.0),
+        ),  # fmt: skip
+        pans=((8.0, 14.0), (26.0, 33.0), (40.0, 47.0)),
+    ),
+    # Held out: a new face, shirt, background and script; nothing was tuned on it.
+    "gestures_b": GestureSpec(
+        face="kudrow",
+        shirt=(150, 40, 40),
+        background="coffee",
+        duration_s=48.0,
+        acts=(
+            (2.5, 3.5, "gesture", 1, 2.0),
+            (5.0, 9.0, "face", -1, 2.5),
+            (10.5, 12.5, "gesture", 0, 1.7),
+            (14.0, 15.0, "gesture", -1, 2.3),
+            (17.0, 18.8, "gesture", 1, 1.6),
+            (21.0, 22.0, "face", 1, 0.0),
+            (23.5, 24.7, "gesture", -1, 2.0),
+            (27.0, 28.5, "gesture", 0, 2.1),
+            (31.0, 35.0, "face", 1, 3.5),
+            (36.5, 37.7, "gesture", 1, 1.9),
+            (39.5, 40.5, "gesture", -1, 2.4),
+            (43.0, 45.0, "gesture", 1, 1.5),
+        ),  # fmt: skip
+        head=(
+            (4.0, 5.5, -30.0, 0.0),
+            (8.0, 10.0, 20.0, -20.0),
+            (13.0, 14.0, 0.0, 15.0),
+            (19.0, 21.0, 30.0, 0.0),
+            (25.5, 27.0, -20.0, -15.0),
+            (29.0, 31.0, 15.0, 10.0),
+            (38.0, 39.3, -25.0, 0.0),
+            (45.5, 47.5, 0.0, -20.0),
+        ),  # fmt: skip
+        pans=((0.0, 6.0), (15.0, 23.0), (33.0, 41.0)),
+    ),
+}
+
+BODY_FACE_PX = 44.0  #: face width in the gesture videos (upper body in frame)
+_SKIN = (222, 170, 140)
+
+
+def _smooth(x: float) -> float:
+    """0..1 -> 0..1 with zero slope at both ends."""
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def _bump(t: float, start: float, end: float, ramp: float) -> float:
+    """0 outside (start, end), 1 inside, smooth ramps of ``ramp`` s at both ends."""
+    if t <= start or t >= end:
+        return 0.0
+    return min(_smooth((t - start) / ramp), _smooth((end - t) / ramp))
+
+
+def wrist_targets(spec: GestureSpec, t: float, cx: float) -> dict[int, np.ndarray]:
+    """The two wrists' positions (output pixels) at time ``t``; keys -1 (right) and +1."""
+    out = {}
+    for side in (-1, 1):
+        rest = np.array([cx + side * 20.0, 224.0])
+        pos = rest.copy()
+        for start, end, kind, s, hz in spec.acts:
+            if s not in (0, side):
+                continue
+            w = _bump(t, start, end, 0.3 if kind == "gesture" else 0.5)
+            if w == 0.0:
+                continue
+            if kind == "gesture":
+                ph = 2 * math.pi * hz * (t - start)
+                centre = np.array([cx + side * 66.0, 176.0])
+                target = centre + np.array([side * 22.0 * math.sin(ph), -20.0 * math.sin(2 * ph)])
+            else:  # the hand at the chin, a small scratch
+                ph = 2 * math.pi * hz * (t - start)
+                target = np.array([cx + side * 8.0 + 3.0 * math.sin(ph), 136.0])
+            pos = rest + w * (target - rest)
+        out[side] = pos
+    return out
+
+
+def head_angles(spec: GestureSpec, t: float) -> tuple[float, float]:
+    yaw = pitch = 0.0
+    for start, end, y, p in spec.head:
+        w = _bump(t, start, end, min(0.6, (end - start) / 2))
+        yaw += w * y
+        pitch += w * p
+    return yaw, pitch
+
+
+def _elbow(shoulder: np.ndarray, wrist: np.ndarray, side: int, l1: float, l2: float) -> np.ndarray:
+    """Two-link arm: the elbow that puts the wrist at ``wrist``, bent outwards and down."""
+    d = wrist - shoulder
+    dist = float(np.clip(np.linalg.norm(d), 1e-6, l1 + l2 - 1e-3))
+    a = math.acos(np.clip((l1 * l1 + dist * dist - l2 * l2) / (2 * l1 * dist), -1.0, 1.0))
+    base = math.atan2(d[1], d[0])
+    # Two solutions; keep the one whose elbow is further out to the presenter's side.
+    cands = [
+        shoulder + l1 * np.array([math.cos(base + s * a), math.sin(base + s * a)]) for s in (-1, 1)
+    ]
+    return max(cands, key=lambda e: side * e[0])
+
+
+def _background(name: str) -> np.ndarray:
+    from skimage import data
+
+    img = np.ascontiguousarray(getattr(data, name)()[:, :, :3])
+    # Twice as wide as the frame (supersampled), for the pan.
+    return cv2.resize(img, (2 * W * SS, H * SS), interpolation=cv2.INTER_AREA)
+
+
+def make_gesture_video(path: Path, spec: GestureSpec, photo: np.ndarray, *, seed: int) -> dict:
+    """Write one gesture video (a presenter, upper body); return its manifest entry."""
+    rng = np.random.default_rng(seed)
+    mesh = build_head_mesh(photo)
+    scale = BODY_FACE_PX / mesh.face_width
+    bg_wide = _background(spec.background)
+    shirt = np.array(spec.shirt, np.float64)
+    sleeve = tuple(int(c) for c in shirt * 0.8)
+    seam = tuple(int(c) for c in shirt * 0.45)
+    cx = W / 2
+    shoulders = {-1: np.array([cx - 46.0, 146.0]), 1: np.array([cx + 46.0, 146.0])}
+    l1, l2 = 50.0, 46.0
+    n = int(round(spec.duration_s * FPS))
+    vw = _writer(path)
+    pan_x = 0.0
+    for i in range(n):
+        t = i / FPS
+        if any(a <= t < b for a, b in spec.pans):
+            pan_x += 40.0 / FPS * SS  # 40 px/s
+        off = int(pan_x) % (bg_wide.shape[1] - W * SS)
+        frame = np.ascontiguousarray(bg_wide[:, off : off + W * SS]).copy()
+        q = SS
+        # Torso and neck.
+        torso = np.array(
+            [[cx - 58, 148], [cx - 40, 138], [cx + 40, 138], [cx + 58, 148],
+             [cx + 64, 250], [cx - 64, 250]], np.float64,
+        )  # fmt: skip
+        cv2.fillPoly(frame, [np.round(torso * q).astype(np.int32)], spec.shirt, cv2.LINE_AA)
+        cv2.rectangle(
+            frame, (int((cx - 9) * q), int(100 * q)), (int((cx + 9) * q), int(142 * q)), _SKIN, -1
+        )
+        v = np.array([[cx - 12, 139], [cx + 12, 139], [cx, 158]], np.float64)
+        cv2.fillPoly(frame, [np.round(v * q).astype(np.int32)], _SKIN, cv2.LINE_AA)
+        yaw, pitch = head_angles(spec, t)
+        render_head(mesh, yaw, pitch, frame, scale, (cx, 84.0), copy=False)
+        for side, wrist in wrist_targets(spec, t, cx).items():
+            sh = shoulders[side]
+            el = _elbow(sh, wrist, side, l1, l2)
+            for colour, grow in ((seam, 3), (sleeve, 0)):  # an outline, then the sleeve
+                for a, b, th in ((sh, el, 17), (el, wrist, 14)):
+                    cv2.line(
+                        frame, tuple(np.round(a * q).astype(int)),
+                        tuple(np.round(b * q).astype(int)), colour, (th + grow) * q, cv2.LINE_AA,
+                    )  # fmt: skip
+            d = wrist - el
+            hand = wrist + 7.0 * d / max(float(np.linalg.norm(d)), 1e-6)
+            ang = math.degrees(math.atan2(d[1], d[0]))
+            cv2.ellipse(
+                frame, tuple(np.round(hand * q).astype(int)), (int(10 * q), int(7 * q)), ang,
+                0, 360, _SKIN, -1, cv2.LINE_AA,
+            )  # fmt: skip
+        small = cv2.resize(frame, (W, H), interpolation=cv2.INTER_AREA).astype(np.int16)
+        small += rng.normal(0.0, 1.5, small.shape).round().astype(np.int16)
+        vw.write(cv2.cvtColor(np.clip(small, 0, 255).astype(np.uint8), cv2.COLOR_RGB2BGR))
+    vw.release()
+    gestures = [a for a in spec.acts if a[2] == "gesture"]
+    return {
+        "file": path.name,
+        "face": spec.face,
+        "role": "tuned" if path.stem == "gestures_a" else "held-out",
+        "fps": FPS,
+        "frames": n,
+        "size": [W, H],
+        "duration_s": spec.duration_s,
+        "gestures": [{"start": a[0], "end": a[1], "side": a[3]} for a in gestures],
+        "hands_at_face": [{"start": a[0], "end": a[1]} for a in spec.acts if a[2] == "face"],
+        "head_moves": [{"start": h[0], "end": h[1], "yaw": h[2], "pitch": h[3]} for h in spec.head],
+        "background_pans": [{"start": a, "end": b} for a, b in spec.pans],
+        "gestures_per_min": len(gestures) / spec.duration_s * 60.0,
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Write both videos and ``manifest.json``."""
+    """Write the videos and ``manifest.json``."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, default=OUT_DIR)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--depth-scale", type=float, default=1.0, help="stretch the mesh's depth")
     ap.add_argument("--only", choices=("head", "gestures"), default=None)
+    ap.add_argument("--faces", nargs="+", choices=sorted(FACES), default=list(FACES))
+    ap.add_argument(
+        "--sdist-dir", type=Path, default=None, help=f"folder holding {INSIGHTFACE_SDIST}"
+    )
     args = ap.parse_args(argv)
     manifest_path = args.out / "manifest.json"
     manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
     manifest["tool"] = "tools/make_test_video.py"
     manifest["seed"] = args.seed
+    heads = manifest.setdefault("heads", {})
     if args.only in (None, "head"):
-        name = (
-            "head_pose.mp4"
-            if args.depth_scale == 1.0
-            else f"head_pose_depth{args.depth_scale:g}.mp4"
-        )
-        entry = make_head_video(args.out / name, seed=args.seed, depth_scale=args.depth_scale)
-        manifest[name.removesuffix(".mp4")] = entry
+        for name in args.faces:
+            face = FACES[name]
+            photo = load_face(face, args.sdist_dir)
+            suffix = "" if args.depth_scale == 1.0 else f"_depth{args.depth_scale:g}"
+            fname = f"head_{name}{suffix}.mp4"
+            heads[fname.removesuffix(".mp4")] = make_head_video(
+                args.out / fname, face, photo, seed=args.seed, depth_scale=args.depth_scale
+            )
+            print(f"{fname}: done", flush=True)
     if args.only in (None, "gestures"):
-        manifest["gestures"] = make_gesture_video(args.out / "gestures.mp4", seed=args.seed + 1)
+        manifest["gestures"] = make_motion_video(args.out / "gestures.mp4", seed=args.seed + 1)
+        for key, spec in GESTURE_VIDEOS.items():
+            photo = load_face(FACES[spec.face], args.sdist_dir)
+            manifest[key] = make_gesture_video(
+                args.out / f"{key}.mp4", spec, photo, seed=args.seed + 1
+            )
     args.out.mkdir(parents=True, exist_ok=True)
     manifest_path.write_text(json.dumps(manifest, indent=1) + "\n")
     for f in sorted(args.out.glob("*.mp4")):

@@ -99,6 +99,8 @@ log = logging.getLogger(__name__)
 HEAD_YAW = "cv_headYaw"
 FACING_AUDIENCE = "cv_facingAudience"
 METRICS = (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE, GESTURES)
+#: Every stream file this module writes: the metrics and where the gesture rate came from.
+STREAMS = (*METRICS, "cv_gestures_source")
 
 #: Raw FaceMesh yaw x this gain = degrees. Least-squares fit over -30..+30 deg on the rendered
 #: test face (raw = 0.80 x true there); see the final report / bench for the measurement.
@@ -484,6 +486,227 @@ class GestureDetector:
 
 
 # --------------------------------------------------------------------------------------------
+# Gestures from the body (mediapipe Pose)
+
+#: ``cv_gestures_source`` values: where the ``cv_gestures`` sample written at the same ``t``
+#: came from (a stream line holds one number, so the source is a stream of its own).
+SOURCE_NOT_MEASURED = 0.0  #: no cv_gestures sample at this t: the body was not in view enough
+SOURCE_BODY = 1.0  #: wrist keypoints of the pose model
+SOURCE_MOTION = 2.0  #: frame difference (the fallback when the pose model cannot run)
+GESTURES_SOURCE = "cv_gestures_source"
+
+# BlazePose landmark indices.
+_NOSE = 0
+_SHOULDER_LEFT, _SHOULDER_RIGHT = 11, 12
+_WRIST_LEFT, _WRIST_RIGHT = 15, 16
+
+
+@dataclass(frozen=True)
+class BodyKeypoints:
+    """The keypoints a gesture needs, in pixels: ``(x, y)`` arrays and the wrists' visibility."""
+
+    nose: np.ndarray
+    shoulders: tuple[np.ndarray, np.ndarray]  #: the presenter's left, right
+    wrists: tuple[np.ndarray, np.ndarray]  #: the presenter's left, right
+    wrist_visibility: tuple[float, float]
+
+
+class BodyTracker:
+    """mediapipe Pose (BlazePose, the ``full`` model that ships in the 0.10.21 wheel) →
+    :class:`BodyKeypoints` per frame (one person).
+
+    Raises:
+        VisionUnavailable: mediapipe (or its Pose solution) cannot be imported here.
+    """
+
+    def __init__(self) -> None:
+        try:
+            import mediapipe as mp
+
+            pose = mp.solutions.pose
+        except (ImportError, AttributeError) as e:
+            raise VisionUnavailable(f"{install_hint()} ({type(e).__name__}: {e})") from e
+        # model_complexity=1 is the model inside the wheel (0 and 2 would be downloaded).
+        self._pose: Any = pose.Pose(
+            static_image_mode=False,
+            model_complexity=1,
+            smooth_landmarks=True,
+            min_detection_confidence=0.5,
+            min_tracking_confidence=0.5,
+        )
+
+    def keypoints(self, bgr: np.ndarray) -> BodyKeypoints | None:
+        """Return the keypoints, or None when no person is found."""
+        if self._pose is None:
+            raise ValueError("BodyTracker is closed")
+        h, w = bgr.shape[:2]
+        res = self._pose.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        if res.pose_landmarks is None:
+            return None
+        lm = res.pose_landmarks.landmark
+
+        def xy(i: int) -> np.ndarray:
+            return np.array((lm[i].x * w, lm[i].y * h), dtype=np.float64)
+
+        return BodyKeypoints(
+            nose=xy(_NOSE),
+            shoulders=(xy(_SHOULDER_LEFT), xy(_SHOULDER_RIGHT)),
+            wrists=(xy(_WRIST_LEFT), xy(_WRIST_RIGHT)),
+            wrist_visibility=(
+                float(lm[_WRIST_LEFT].visibility),
+                float(lm[_WRIST_RIGHT].visibility),
+            ),
+        )
+
+    def close(self) -> None:
+        """Release the graph; a second call does nothing."""
+        p, self._pose = self._pose, None
+        if p is not None:
+            p.close()
+
+
+@dataclass
+class _WristRun:
+    """One wrist's current run of fast frames away from the face."""
+
+    start: float
+    last: float
+    from_face: bool  #: the wrist was at the face just before the run began
+
+
+class BodyGestureDetector:
+    """Wrist keypoints per frame → gesture bursts → bursts per minute.
+
+    Positions are taken relative to the shoulders' midpoint and in shoulder widths (the median
+    of the last ``baseline_s``), so the presenter moving, the camera's distance and the image
+    size do not matter, and the head and the background are not looked at at all. A wrist is
+    *fast* when it moves faster than ``speed`` shoulder widths per second between analysed
+    frames, *at the face* when it is within ``face_radius`` shoulder widths of the nose. Its
+    fast frames away from the face, less than ``merge_s`` apart, are one run; a run that has
+    lasted ``min_burst_s`` is a gesture unless it began or ended at the face (a hand going to
+    the face or coming back from it: scratching, adjusting glasses). Runs of the two hands that
+    overlap or are less than ``merge_s`` apart are one gesture. A run is judged when it ends,
+    so a gesture is counted ``merge_s`` after its last movement.
+
+    Args:
+        window_s: the rate's window.
+        min_window_s: no rate until this many seconds have been seen (see :class:`GestureDetector`).
+        min_coverage: no rate when fewer than this share of the window's analysed frames had a
+            body in them (the presenter out of view is "not measured", not "no gestures").
+    """
+
+    def __init__(
+        self,
+        *,
+        window_s: float = 30.0,
+        min_window_s: float = GESTURE_MIN_WINDOW_S,
+        speed: float = 0.8,
+        face_radius: float = 0.7,
+        merge_s: float = 0.5,
+        min_burst_s: float = 0.2,
+        baseline_s: float = 5.0,
+        min_visibility: float = 0.1,
+        min_coverage: float = 0.5,
+    ) -> None:
+        if not window_s > 0.0 or not 0.0 < min_window_s <= window_s:
+            raise ValueError(f"need 0 < min_window_s <= window_s, got {min_window_s}, {window_s}")
+        self.window_s = float(window_s)
+        self.min_window_s = float(min_window_s)
+        self.speed = float(speed)
+        self.face_radius = float(face_radius)
+        self.merge_s = float(merge_s)
+        self.min_burst_s = float(min_burst_s)
+        self.baseline_s = float(baseline_s)
+        self.min_visibility = float(min_visibility)
+        self.min_coverage = float(min_coverage)
+        self.bursts: list[float] = []  #: start times of the counted gestures
+        self.first_t: float | None = None
+        self._segments: list[list[float]] = []  #: counted gestures' [start, end]
+        self._widths: deque[tuple[float, float]] = deque()
+        self._frames: deque[tuple[float, bool]] = deque()  #: (t, body seen), for the coverage
+        self._prev: tuple[float, list[np.ndarray | None], list[bool]] | None = None
+        self._runs: list[_WristRun | None] = [None, None]
+
+    def update(self, t: float, body: BodyKeypoints | None) -> None:
+        """Feed one analysed frame's keypoints (None: no body found in it)."""
+        if self.first_t is None:
+            self.first_t = t
+        self._frames.append((t, body is not None))
+        while self._frames and self._frames[0][0] <= t - self.window_s:
+            self._frames.popleft()
+        pos: list[np.ndarray | None] = [None, None]
+        at_face = [False, False]
+        if body is not None:
+            width = float(np.linalg.norm(body.shoulders[0] - body.shoulders[1]))
+            if width > 1.0:
+                self._widths.append((t, width))
+            while self._widths and self._widths[0][0] < t - self.baseline_s:
+                self._widths.popleft()
+            if self._widths:
+                sw = float(np.median([w for _, w in self._widths]))
+                mid = (body.shoulders[0] + body.shoulders[1]) / 2.0
+                for k in (0, 1):
+                    if body.wrist_visibility[k] < self.min_visibility:
+                        continue
+                    pos[k] = (body.wrists[k] - mid) / sw
+                    at_face[k] = float(np.linalg.norm(body.wrists[k] - body.nose)) / sw < (
+                        self.face_radius
+                    )
+        prev = self._prev
+        for k in (0, 1):
+            run = self._runs[k]
+            fast = False
+            p = pos[k]
+            if prev is not None and p is not None and not at_face[k]:
+                pp = prev[1][k]
+                dt = t - prev[0]
+                if pp is not None and 0.0 < dt <= 0.5:
+                    fast = float(np.linalg.norm(p - pp)) / dt > self.speed
+            if fast:
+                if run is None or t - run.last > self.merge_s:
+                    if run is not None:
+                        self._close(run, to_face=False)
+                    was_at_face = prev is not None and prev[2][k]
+                    self._runs[k] = _WristRun(t, t, was_at_face)
+                else:
+                    run.last = t
+            elif run is not None and (at_face[k] or t - run.last > self.merge_s):
+                self._close(run, to_face=at_face[k])
+                self._runs[k] = None
+        self._prev = (t, pos, at_face)
+
+    def _close(self, run: _WristRun, *, to_face: bool) -> None:
+        if run.from_face or to_face or run.last - run.start < self.min_burst_s - 1e-9:
+            return
+        for seg in self._segments:
+            if run.start <= seg[1] + self.merge_s and run.last >= seg[0] - self.merge_s:
+                seg[0], seg[1] = min(seg[0], run.start), max(seg[1], run.last)
+                return
+        self._segments.append([run.start, run.last])
+        self.bursts.append(run.start)
+        log.debug("gesture at %.2f s (to %.2f s)", run.start, run.last)
+
+    def coverage(self) -> float:
+        """Share of the window's analysed frames that had a body in them."""
+        if not self._frames:
+            return 0.0
+        return sum(1 for _, seen in self._frames if seen) / len(self._frames)
+
+    def rate(self, t: float) -> float | None:
+        """Gestures per minute that started in the window ending at ``t``.
+
+        Returns:
+            None until ``min_window_s`` have been seen, and while the body was in view in
+            fewer than ``min_coverage`` of the window's analysed frames.
+        """
+        seen = t - self.first_t if self.first_t is not None else 0.0
+        if seen < self.min_window_s - 1e-9 or self.coverage() < self.min_coverage:
+            return None
+        n = sum(1 for b in self.bursts if t - self.window_s < b <= t)
+        return n / min(self.window_s, seen) * 60.0
+
+
+# --------------------------------------------------------------------------------------------
 # Frame sources
 
 
@@ -633,13 +856,16 @@ class VisionOptions:
     gestures: bool = True
     calibrate_s: float = 3.0
     audience: tuple[float, float] | None = None
-    fps: float = 10.0  #: analysed frames per second at most; 0 = every frame
+    fps: float = 8.0  #: analysed frames per second at most; 0 = every frame
     facing_window_s: float = 5.0
     tolerance: tuple[float, float] = (20.0, 15.0)
     gesture_window_s: float = 30.0
     duration_s: float | None = None
     yaw_gain: float = YAW_GAIN
     pitch_gain: float = PITCH_GAIN
+    #: ``auto``: the body's wrists when the pose model can run, else the frame difference;
+    #: ``body`` or ``motion`` force one (``body`` fails without mediapipe).
+    gesture_source: str = "auto"
 
 
 @dataclass
@@ -648,9 +874,10 @@ class RunSummary:
 
     analysed: int = 0
     faces: int = 0
-    samples: dict[str, int] = field(default_factory=lambda: dict.fromkeys(METRICS, 0))
+    samples: dict[str, int] = field(default_factory=lambda: dict.fromkeys(STREAMS, 0))
     bursts: list[float] = field(default_factory=list)
     head: bool = False
+    gesture_source: str = ""  #: "body", "motion" or "" (gestures off)
     source: SourceStats = field(default_factory=SourceStats)
 
 
@@ -693,11 +920,35 @@ def run(
         facing_window_s=opts.facing_window_s,
         tolerance=opts.tolerance,
     )
-    gestures = GestureDetector(
-        window_s=opts.gesture_window_s,
-        min_window_s=min(GESTURE_MIN_WINDOW_S, opts.gesture_window_s),
-    )
-    streams = StreamSet(out, METRICS, fresh=fresh).open()
+    min_window = min(GESTURE_MIN_WINDOW_S, opts.gesture_window_s)
+    motion = GestureDetector(window_s=opts.gesture_window_s, min_window_s=min_window)
+    body_det = BodyGestureDetector(window_s=opts.gesture_window_s, min_window_s=min_window)
+    tracker: BodyTracker | None = None
+    if opts.gestures:
+        if opts.gesture_source not in ("auto", "body", "motion"):
+            raise ValueError(
+                f"gesture source must be auto, body or motion: {opts.gesture_source!r}"
+            )
+        if opts.gesture_source != "motion":
+            try:
+                tracker = BodyTracker()
+            except VisionUnavailable:
+                if opts.gesture_source == "body":
+                    if estimator is not None:
+                        estimator.close()
+                    raise
+        summary.gesture_source = "body" if tracker is not None else "motion"
+        if tracker is not None:
+            log.info("gesture rate from the body: wrist keypoints of the pose model")
+        else:
+            log.warning(
+                "gesture rate from the frame difference (fallback%s): head motion outside the "
+                "face box, a moving background or lighting may be counted as gestures",
+                ", the pose model cannot run here" if opts.gesture_source == "auto" else "",
+            )
+    source_code = SOURCE_BODY if tracker is not None else SOURCE_MOTION
+    not_measured_since: float | None = None
+    streams = StreamSet(out, STREAMS, fresh=fresh).open()
     heartbeat = Heartbeat()
 
     def write(metric: str, t: float, value: float) -> None:
@@ -730,8 +981,10 @@ def run(
                 for tt, yaw, pitch in gaze.update(t, pose):
                     write(HEAD_YAW, tt, yaw)
                     write(HEAD_GAZE, tt, pitch)
-            if opts.gestures:
-                gestures.update(t, frame, exclude=pose.box if pose is not None else None)
+            if tracker is not None:
+                body_det.update(t, tracker.keypoints(frame))
+            elif opts.gestures:
+                motion.update(t, frame, exclude=pose.box if pose is not None else None)
             if t - next_report > 5.0:  # a jump (a paused camera, a far --t0): no backlog
                 next_report = float(math.floor(t))
             while t >= next_report:
@@ -739,9 +992,28 @@ def run(
                     f = gaze.facing(next_report)
                     if f is not None:
                         write(FACING_AUDIENCE, next_report, f)
-                rate = gestures.rate(next_report) if opts.gestures else None
-                if rate is not None:
-                    write(GESTURES, next_report, rate)
+                if opts.gestures:
+                    det = body_det if tracker is not None else motion
+                    rate = det.rate(next_report)
+                    if rate is not None:
+                        write(GESTURES, next_report, rate)
+                        write(GESTURES_SOURCE, next_report, source_code)
+                        if not_measured_since is not None:
+                            log.info("%s: the body is in view again at %.0f s", source.name, t)
+                            not_measured_since = None
+                    elif det.first_t is not None and next_report - det.first_t >= min_window:
+                        # Seen long enough, but the body was out of view: say so, no number.
+                        write(GESTURES_SOURCE, next_report, SOURCE_NOT_MEASURED)
+                        if not_measured_since is None:
+                            not_measured_since = next_report
+                            log.warning(
+                                "%s: gesture rate not measured from %.0f s: the presenter's "
+                                "body is in view in %.0f %% of the last %.0f s",
+                                source.name,
+                                next_report,
+                                100.0 * body_det.coverage(),
+                                opts.gesture_window_s,
+                            )
                 next_report += 1.0
             if warn_at == -math.inf:
                 warn_at, warned_at_t = t + 10.0, t
@@ -764,9 +1036,11 @@ def run(
         streams.close()
         if estimator is not None:
             estimator.close()
+        if tracker is not None:
+            tracker.close()
     if estimator is not None and not gaze.calibrated:
         log.warning("%s: too few faces to find the audience direction", source.name)
-    summary.bursts = list(gestures.bursts)
+    summary.bursts = sorted(body_det.bursts if tracker is not None else motion.bursts)
     if source.stats.not_analysed:
         log.warning(
             "%s: %d of %d frames were not analysed (the analysis fell behind real time)",
@@ -775,12 +1049,15 @@ def run(
             source.stats.frames,
         )
     log.info(
-        "%s: %.1f s, %d frames analysed, %d with a face, %d gesture bursts",
+        "%s: %.1f s, %d frames analysed, %d with a face, %d gestures (%s)",
         source.name,
         last_t,
         summary.analysed,
         summary.faces,
         len(summary.bursts),
+        {"body": "from the body's wrists", "motion": "from the frame difference"}.get(
+            summary.gesture_source, "gestures off"
+        ),
     )
     return summary
 
@@ -815,7 +1092,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--calibrate-s", type=float, default=3.0, help="seconds (default %(default)s)")
     p.add_argument("--audience-yaw", type=float, default=None, help="degrees, camera frame")
     p.add_argument("--audience-pitch", type=float, default=None, help="degrees, camera frame")
-    p.add_argument("--fps", type=float, default=10.0, help="analysed fps at most; 0 = all")
+    p.add_argument("--fps", type=float, default=8.0, help="analysed fps at most; 0 = all")
     p.add_argument("--facing-window", type=float, default=5.0, help="seconds")
     p.add_argument(
         "--facing-tolerance", type=float, nargs=2, default=(20.0, 15.0), metavar=("YAW", "PITCH")
@@ -825,6 +1102,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-head", action="store_true", help="gestures only (no mediapipe needed)")
     p.add_argument("--no-gestures", action="store_true", help="head pose only")
     p.add_argument("--no-reexec", action="store_true", help="do not switch to the vision env")
+    p.add_argument(
+        "--gesture-source",
+        choices=("auto", "body", "motion"),
+        default="auto",
+        help="body: wrist keypoints of the pose model; motion: frame difference (fallback); "
+        "auto: body when mediapipe is here (default)",
+    )
     return p
 
 
@@ -854,8 +1138,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.no_head and args.no_gestures:
         print("error: --no-head and --no-gestures leave nothing to measure", file=sys.stderr)
         return 2
-    if not args.no_head and not args.no_reexec:
-        _maybe_reexec(argv)
+    if not args.no_reexec and (not args.no_head or args.gesture_source != "motion"):
+        _maybe_reexec(argv)  # head pose and the body's keypoints both need mediapipe
     audience = None
     if args.audience_yaw is not None or args.audience_pitch is not None:
         audience = (args.audience_yaw or 0.0, args.audience_pitch or 0.0)
@@ -870,6 +1154,7 @@ def main(argv: list[str] | None = None) -> int:
             tolerance=(args.facing_tolerance[0], args.facing_tolerance[1]),
             gesture_window_s=args.gesture_window,
             duration_s=args.duration,
+            gesture_source=args.gesture_source,
         )
         kind, where = parse_source(args.video)
         source: FileSource | CameraSource

@@ -1,0 +1,217 @@
+"""Gestures from the body: the wrist rule on made-up keypoints, then the module on rendered
+presenters with known gestures (``material_video/gestures_a.mp4``, tuned on, and
+``gestures_b.mp4``, held out), where the head turns, the background pans and a hand rests at
+the face without any of it being a gesture.
+
+The video tests need mediapipe's pose model, which lives in the vision env: they run the module
+there as a subprocess and skip, naming the install command, when that env does not exist.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from prezence.modules import vision_env
+from prezence.modules.vision import BodyGestureDetector, BodyKeypoints
+
+MATERIAL = Path(__file__).parent / "material_video"
+MANIFEST: dict[str, Any] = json.loads((MATERIAL / "manifest.json").read_text())
+MATCH_S = 0.6  # a gesture found within this of a true start is a hit
+
+# --------------------------------------------------------------------------------------------
+# The rule on made-up keypoints (pixels; shoulders 100 px apart, nose 90 px above them)
+
+
+def body(
+    left: tuple[float, float] = (120.0, 300.0),
+    right: tuple[float, float] = (80.0, 300.0),
+    nose: tuple[float, float] = (100.0, 110.0),
+    shift: float = 0.0,
+) -> BodyKeypoints:
+    """A presenter facing the camera; ``shift`` moves the whole body sideways."""
+    s = np.array([shift, 0.0])
+    return BodyKeypoints(
+        nose=np.array(nose) + s,
+        shoulders=(np.array([150.0, 200.0]) + s, np.array([50.0, 200.0]) + s),
+        wrists=(np.array(left) + s, np.array(right) + s),
+        wrist_visibility=(0.9, 0.9),
+    )
+
+
+def feed(det: BodyGestureDetector, frames: list[BodyKeypoints | None], fps: float = 8.0) -> None:
+    for i, b in enumerate(frames):
+        det.update(i / fps, b)
+
+
+def swing(n: int, hz: float = 2.0, fps: float = 8.0, side: int = 1) -> list[BodyKeypoints]:
+    """The left (side 1) or right hand beating out to the side, ``n`` frames."""
+    out = []
+    for i in range(n):
+        dx = 40.0 * math.sin(2 * math.pi * hz * i / fps + 0.5)
+        if side == 1:
+            out.append(body(left=(190.0 + dx, 250.0)))
+        else:
+            out.append(body(right=(10.0 - dx, 250.0)))
+    return out
+
+
+def rest(n: int) -> list[BodyKeypoints]:
+    return [body() for _ in range(n)]
+
+
+def test_a_hand_beating_away_from_the_face_is_one_gesture() -> None:
+    det = BodyGestureDetector()
+    feed(det, rest(16) + swing(12) + rest(16))
+    assert det.bursts == [pytest.approx(2.0)]  # the frame the hand leaves its rest
+
+
+def test_both_hands_together_are_one_gesture_and_two_apart_are_two() -> None:
+    det = BodyGestureDetector()
+    both = [
+        body(left=(190.0 + 40 * math.sin(i), 250.0), right=(10.0 - 40 * math.sin(i), 250.0))
+        for i in range(10)
+    ]
+    feed(det, rest(16) + both + rest(16) + swing(8, side=-1) + rest(16))
+    assert len(det.bursts) == 2
+
+
+def test_head_motion_and_body_sway_are_not_gestures() -> None:
+    det = BodyGestureDetector()
+    frames = []
+    for i in range(80):
+        nod = 30.0 * math.sin(2 * math.pi * 1.5 * i / 8)  # the head shakes fast
+        sway = 40.0 * math.sin(2 * math.pi * 0.5 * i / 8)  # the whole body sways
+        frames.append(body(nose=(100.0 + nod, 110.0), shift=sway))
+    feed(det, frames)
+    assert det.bursts == []
+
+
+def test_a_hand_going_to_the_face_scratching_and_back_is_not_a_gesture() -> None:
+    det = BodyGestureDetector()
+    up = [body(left=(120.0 - 4 * k, 300.0 - 40 * k)) for k in range(5)]  # to (100, 140)
+    scratch = [body(left=(100.0 + 8 * math.sin(2 * i), 140.0)) for i in range(24)]
+    feed(det, rest(16) + up + scratch + up[::-1] + rest(16))
+    assert det.bursts == []
+
+
+def test_a_single_glitch_of_the_keypoints_is_not_a_gesture() -> None:
+    det = BodyGestureDetector()
+    glitch = body(left=(300.0, 100.0))
+    feed(det, rest(16) + [glitch] + rest(16))
+    assert det.bursts == []
+
+
+def test_no_body_in_view_is_not_measured_rather_than_zero_gestures() -> None:
+    det = BodyGestureDetector(window_s=30.0, min_window_s=10.0)
+    frames: list[BodyKeypoints | None] = [*rest(8 * 12), *([None] * (8 * 20))]
+    rates = {}
+    for i, b in enumerate(frames):
+        det.update(i / 8, b)
+        rates[i / 8] = det.rate(i / 8)
+    assert rates[11.0] == 0.0  # in view: truly no gesture
+    assert rates[20.0] == 0.0  # 12 s of the 20 seen had the body: still measured
+    assert rates[31.875] is None  # 20 s of the last 30 without a body
+
+
+# --------------------------------------------------------------------------------------------
+# The module on rendered presenters (vision env)
+
+VISION_PY = vision_env.find_python()
+needs_vision_env = pytest.mark.skipif(
+    VISION_PY is None,
+    reason=f"no vision env (mediapipe 0.10.21); create it with: {vision_env.INSTALL_HINT}",
+)
+VIDEOS = ("gestures_a", "gestures_b")
+
+
+def read_stream(path: Path) -> list[tuple[float, float]]:
+    return [(float(t), float(v)) for t, v in (ln.split() for ln in path.read_text().splitlines())]
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
+    assert VISION_PY is not None
+    out: dict[str, dict[str, Any]] = {}
+    for key in VIDEOS:
+        entry = MANIFEST[key]
+        session = tmp_path_factory.mktemp(key)
+        env = dict(os.environ)
+        env.pop("PREZENCE_VISION_REEXEC", None)
+        proc = subprocess.run(
+            [str(VISION_PY), "-m", "prezence.modules.vision", "-v"]
+            + ["--video", str(MATERIAL / entry["file"]), "--out", str(session)]
+            + ["--gesture-window", str(entry["duration_s"])],
+            capture_output=True,
+            text=True,
+            timeout=600,
+            check=False,
+            env=env,
+        )
+        assert proc.returncode == 0, proc.stderr
+        found = [float(x) for x in re.findall(r"gesture at ([0-9.]+) s", proc.stderr)]
+        streams = session / "streams"
+        out[key] = {
+            "entry": entry,
+            "stderr": proc.stderr,
+            "found": found,
+            "rate": read_stream(streams / "cv_gestures.txt"),
+            "source": read_stream(streams / "cv_gestures_source.txt"),
+        }
+    return out
+
+
+@needs_vision_env
+@pytest.mark.slow
+@pytest.mark.parametrize("key", VIDEOS)
+def test_the_stream_and_log_say_the_rate_comes_from_the_body(
+    runs: dict[str, dict[str, Any]], key: str
+) -> None:
+    r = runs[key]
+    assert {v for _, v in r["source"]} == {1.0}
+    assert [t for t, _ in r["source"]] == [t for t, _ in r["rate"]]
+    assert "gesture rate from the body" in r["stderr"]
+
+
+@needs_vision_env
+@pytest.mark.slow
+@pytest.mark.parametrize("key", VIDEOS)
+def test_every_true_gesture_is_found(runs: dict[str, dict[str, Any]], key: str) -> None:
+    r = runs[key]
+    truth = [g["start"] for g in r["entry"]["gestures"]]
+    missed = [t for t in truth if all(abs(f - t) > MATCH_S for f in r["found"])]
+    assert len(missed) <= 1, (missed, r["found"])
+
+
+@needs_vision_env
+@pytest.mark.slow
+@pytest.mark.parametrize("key", VIDEOS)
+def test_head_turns_a_panning_background_and_hands_at_the_face_are_not_gestures(
+    runs: dict[str, dict[str, Any]], key: str
+) -> None:
+    r = runs[key]
+    truth = [(g["start"], g["end"]) for g in r["entry"]["gestures"]]
+    false = [f for f in r["found"] if all(not (s - MATCH_S <= f <= e) for s, e in truth)]
+    assert len(false) <= 1, (false, r["found"])
+
+
+@needs_vision_env
+@pytest.mark.slow
+@pytest.mark.parametrize("key", VIDEOS)
+def test_the_gesture_rate_over_the_whole_video_is_within_one_gesture(
+    runs: dict[str, dict[str, Any]], key: str
+) -> None:
+    r = runs[key]
+    entry = r["entry"]
+    t_end, rate = r["rate"][-1]
+    n_true = sum(1 for g in entry["gestures"] if g["start"] <= t_end)
+    one = 60.0 / entry["duration_s"]  # one gesture in the window, per minute
+    assert rate == pytest.approx(n_true * one, abs=one + 1e-6)
