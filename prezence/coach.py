@@ -183,6 +183,7 @@ class Coach:
             # The robot is gone: drop the cue (never queue it); the talk goes on.
             log.warning("cue %s at %.1f s dropped: %s", cue.command, now, e)
             perf.dropped = str(e)
+            self.processor.cue_dropped(cue)  # not given: no refractory, still due
         self._current = perf
         self._free_since = None
         if self.on_cue is not None and perf.dropped is None:

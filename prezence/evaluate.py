@@ -20,7 +20,15 @@ Figures per talk (one row):
 - ``backlog_s``: the largest delay between a cue's decision and the robot starting it, and
   ``waited``: the cues with any delay. The processor decides only when the robot is free, so both
   are 0 by design; they are measured (at the backend's ``play`` call) to show it;
-- ``violations``: joint-limit violations reported by the backend.
+- ``violations``: joint-limit violations reported by the backend;
+- ``cues_per_minute_max``: the most cues (of any kind) the robot started in any 60 s.
+
+Every talk runs under a *presenter model* (``presenter`` column; see :mod:`prezence.synthetic.presenters`):
+``free`` (a cue costs nothing), ``cost`` (a presenter who pays for every interruption),
+``cost:K`` (its assumptions × K), each with ``+measured`` for module noise set from the modules'
+measured errors. The summary adds, per presenter model, the *gain per corrective cue*: the
+policy's time in range minus that of ``none`` on the same talks (same scenarios and seeds), in
+percentage points, divided by its corrective cues per talk.
 
 ``prezence evaluate`` calls :func:`evaluate_main`. ``sim`` is imported only inside the workers.
 """
@@ -31,6 +39,7 @@ import argparse
 import bisect
 import csv
 import io
+import json
 import logging
 import math
 import statistics
@@ -68,7 +77,16 @@ COLUMNS = (
     "backlog_s",
     "waited",
     "violations",
+    "cues_per_minute_max",
+    "presenter",
 )
+
+#: The anchors (other systems' published policies), compared with Prezence's default.
+ANCHORS = ("pz16", "presentation_trainer", "rhema")
+#: Prezence's default policy.
+DEFAULT_POLICY = "weighted"
+#: Presenter models run by default: both, with the modules' measured noise.
+DEFAULT_PRESENTERS = ("free+measured", "cost+measured")
 
 
 @dataclass(frozen=True, order=True)
@@ -80,6 +98,7 @@ class Task:
     seed: int
     backend: str = "fake"
     keep: str | None = None  # a folder to keep the session in (None: a temp folder)
+    presenter: str = "free"  # the presenter model (prezence.synthetic.presenters.parse_presenter_model)
 
 
 # -- scoring -----------------------------------------------------------------------------------
@@ -184,7 +203,25 @@ def score_talk(
         "backlog_s": round(max(backlog, default=0.0), 6),
         "waited": sum(1 for b in backlog if b > 1e-9),
         "violations": int(summary["counts"].get("joint_limit_violations", 0)),
+        "cues_per_minute_max": max_in_window([float(c["t"]) for c in cues], 60.0),
     }
+
+
+def max_in_window(times: Sequence[float], window_s: float) -> int:
+    """The most of ``times`` inside any half-open window ``[t, t + window_s)``.
+
+    Example:
+        >>> max_in_window([0.0, 10.0, 59.0, 60.0, 200.0], 60.0)
+        3
+    """
+    ts = sorted(times)
+    best = 0
+    j = 0
+    for i, t in enumerate(ts):
+        while ts[j] <= t - window_s:
+            j += 1
+        best = max(best, i - j + 1)
+    return best
 
 
 # -- running -----------------------------------------------------------------------------------
@@ -195,6 +232,7 @@ def run_task(task: Task) -> dict[str, Any]:
     from prezence.backends.registry import make_backend
     from prezence.processor import Decision
     from prezence.session import read_jsonl
+    from prezence.synthetic.presenters import presenter_model
     from prezence.synthetic.runner import run_talk
 
     backend = make_backend(task.backend)
@@ -214,18 +252,19 @@ def run_task(task: Task) -> dict[str, Any]:
 
     with tempfile.TemporaryDirectory(prefix="prezence-eval-") as tmp:
         out = (
-            Path(task.keep) / f"{task.scenario}-{task.policy}-{task.seed}"
+            Path(task.keep) / f"{task.scenario}-{task.policy}-{task.seed}-{task.presenter}"
             if task.keep
             else Path(tmp) / "talk"
         )
-        result = run_talk(
-            task.scenario,
-            out=out,
-            seed=task.seed,
-            backend=backend,
-            policy=task.policy,
-            on_decision=on_decision,
-        )
+        with presenter_model(task.presenter):
+            result = run_talk(
+                task.scenario,
+                out=out,
+                seed=task.seed,
+                backend=backend,
+                policy=task.policy,
+                on_decision=on_decision,
+            )
         truth = read_jsonl(result.session.truth)
         sides: dict[str, str] = {}
         from prezence.config.load import load_config
@@ -235,8 +274,9 @@ def run_task(task: Task) -> dict[str, Any]:
                 sides.setdefault(r.below, "below")
             if r.above:
                 sides.setdefault(r.above, "above")
-        row = {"scenario": task.scenario, "policy": task.policy, "seed": task.seed}
+        row: dict[str, Any] = {"scenario": task.scenario, "policy": task.policy, "seed": task.seed}
         row.update(score_talk(result.summary, truth, result.cues, sides, started, decided))
+        row["presenter"] = task.presenter
     return row
 
 
@@ -252,15 +292,17 @@ def _grid(
     seeds: int | Iterable[int],
     backend: str,
     keep: Path | None,
+    presenters: Sequence[str] = ("free",),
 ) -> list[Task]:
     seed_list = list(range(seeds)) if isinstance(seeds, int) else list(seeds)
     if not seed_list:
         raise ValueError("no seeds")
     return sorted(
-        Task(s, p, int(seed), backend, str(keep) if keep else None)
+        Task(s, p, int(seed), backend, str(keep) if keep else None, m)
         for s in scenarios
         for p in policies
         for seed in seed_list
+        for m in presenters
     )
 
 
@@ -288,8 +330,9 @@ def evaluate(
     ray: str | None = None,
     keep_sessions: Path | None = None,
     progress: Callable[[int, int], None] | None = None,
+    presenters: Sequence[str] = ("free",),
 ) -> list[dict[str, Any]]:
-    """Run every scenario × policy × seed and return one scored row per talk, sorted.
+    """Run every scenario × policy × seed × presenter model; one scored row per talk, sorted.
 
     Args:
         scenarios: scenario names or paths.
@@ -301,19 +344,23 @@ def evaluate(
             address to use a running Ray cluster (needs the ``ray`` extra).
         keep_sessions: keep each talk's session folder under this folder.
         progress: called with (talks done, talks in all).
+        presenters: presenter models (``free``, ``cost``, ``cost:K``, ``…+measured``).
 
     Raises:
-        ValueError: ``jobs`` < 1 or no seeds.
+        ValueError: ``jobs`` < 1, no seeds or an unknown presenter model.
         UnknownName: an unknown scenario or policy (raised by the first talk).
     """
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")
     from prezence.processor import make_policy
+    from prezence.synthetic.presenters import parse_presenter_model
 
     policies = list(policies)
     for p in policies:
         make_policy(p)  # an unknown name fails here, before any talk runs
-    tasks = _grid(scenarios, policies, seeds, backend, keep_sessions)
+    for m in presenters:
+        parse_presenter_model(m)
+    tasks = _grid(scenarios, policies, seeds, backend, keep_sessions, presenters)
     if keep_sessions is not None:
         keep_sessions.mkdir(parents=True, exist_ok=True)
     rows: list[dict[str, Any]] = []
@@ -336,7 +383,9 @@ def evaluate(
                 rows.append(row)
                 if progress is not None:
                     progress(i + 1, len(tasks))
-    return sorted(rows, key=lambda r: (r["scenario"], r["policy"], r["seed"]))
+    return sorted(
+        rows, key=lambda r: (r.get("presenter", ""), r["scenario"], r["policy"], r["seed"])
+    )
 
 
 # -- tables ------------------------------------------------------------------------------------
@@ -346,33 +395,63 @@ def _mean(xs: Sequence[float]) -> float | None:
     return sum(xs) / len(xs) if xs else None
 
 
-def aggregate(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """One row per policy, over every scenario and seed (policies in first-seen order)."""
-    order: list[str] = []
+def _presenters(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    out: list[str] = []
     for r in rows:
-        if r["policy"] not in order:
-            order.append(r["policy"])
+        m = str(r.get("presenter", "free"))
+        if m not in out:
+            out.append(m)
+    return out
+
+
+def aggregate(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """One row per policy (per presenter model when there are several), over every scenario
+    and seed, in first-seen order, with the gain per corrective cue against ``none``."""
     out = []
-    for p in order:
-        rs = [r for r in rows if r["policy"] == p]
-        tirs = [r["time_in_range"] for r in rs if r["time_in_range"] is not None]
-        lats = [x for r in rs for x in r["latencies"]]
-        n = len(rs)
-        out.append(
-            {
-                "policy": p,
-                "talks": n,
-                "time_in_range": _mean(tirs),
-                "cues_per_talk": sum(r["cues"] for r in rs) / n,
-                "corrective_per_talk": sum(r["corrective"] for r in rs) / n,
-                "latency_s": statistics.median(lats) if lats else None,
-                "false_alarms": sum(r["false_alarms"] for r in rs),
-                "stale": sum(r["stale"] for r in rs),
-                "backlog_s": max(r["backlog_s"] for r in rs),
-                "waited": sum(r["waited"] for r in rs),
-                "violations": sum(r["violations"] for r in rs),
-            }
-        )
+    for model in _presenters(rows):
+        mrows = [r for r in rows if str(r.get("presenter", "free")) == model]
+        order: list[str] = []
+        for r in mrows:
+            if r["policy"] not in order:
+                order.append(r["policy"])
+        silent = {
+            (r["scenario"], r["seed"]): r["time_in_range"]
+            for r in mrows
+            if r["policy"] == "none" and r["time_in_range"] is not None
+        }
+        for p in order:
+            rs = [r for r in mrows if r["policy"] == p]
+            tirs = [r["time_in_range"] for r in rs if r["time_in_range"] is not None]
+            lats = [x for r in rs for x in r["latencies"]]
+            n = len(rs)
+            paired = [
+                r["time_in_range"] - silent[(r["scenario"], r["seed"])]
+                for r in rs
+                if r["time_in_range"] is not None and (r["scenario"], r["seed"]) in silent
+            ]
+            corrective = sum(r["corrective"] for r in rs) / n
+            gain = _mean(paired) if len(paired) == n else None
+            out.append(
+                {
+                    "presenter": model,
+                    "policy": p,
+                    "talks": n,
+                    "time_in_range": _mean(tirs),
+                    "gain_vs_none": gain,
+                    "gain_per_corrective": (
+                        gain / corrective if gain is not None and corrective > 0 else None
+                    ),
+                    "cues_per_talk": sum(r["cues"] for r in rs) / n,
+                    "corrective_per_talk": corrective,
+                    "latency_s": statistics.median(lats) if lats else None,
+                    "false_alarms": sum(r["false_alarms"] for r in rs),
+                    "stale": sum(r["stale"] for r in rs),
+                    "cues_per_minute_max": max(int(r.get("cues_per_minute_max", 0)) for r in rs),
+                    "backlog_s": max(r["backlog_s"] for r in rs),
+                    "waited": sum(r["waited"] for r in rs),
+                    "violations": sum(r["violations"] for r in rs),
+                }
+            )
     return out
 
 
@@ -388,42 +467,178 @@ def _secs(x: float | None) -> str:
     return "–" if x is None else f"{x:.1f} s"
 
 
-def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    """The per-policy table (Markdown), then time in range per scenario × policy."""
-    agg = aggregate(rows)
+def _pp(x: float | None) -> str:
+    return "–" if x is None else f"{100 * x:+.2f}"
+
+
+def conclusions(
+    agg: Sequence[Mapping[str, Any]],
+    *,
+    default: str = DEFAULT_POLICY,
+    anchors: Sequence[str] = ANCHORS,
+) -> list[dict[str, Any]]:
+    """Per presenter model: does the default policy beat every anchor on gain per corrective
+    cue, with 0 stale cues and no more false alarms than any anchor? And which policy has the
+    most gain per cue, the most time in range, the fewest false alarms (ties: all listed)."""
+    out = []
+    for model in dict.fromkeys(a["presenter"] for a in agg):
+        rows = {a["policy"]: a for a in agg if a["presenter"] == model}
+        d = rows.get(default)
+        present = [rows[a] for a in anchors if a in rows]
+
+        def best(key: str, rows_: Mapping[str, Mapping[str, Any]], low: bool = False) -> str:
+            vals = {p: r[key] for p, r in rows_.items() if r[key] is not None and p != "none"}
+            if not vals:
+                return "–"
+            top = min(vals.values()) if low else max(vals.values())
+            return ", ".join(p for p, v in vals.items() if v == top)
+
+        rec: dict[str, Any] = {
+            "presenter": model,
+            "most_gain_per_cue": best("gain_per_corrective", rows),
+            "most_time_in_range": best("time_in_range", rows),
+            "fewest_false_alarms": best("false_alarms", rows, low=True),
+        }
+        if d is not None and present:
+            g = d["gain_per_corrective"]
+            rec["default_beats_anchors_per_cue"] = g is not None and all(
+                a["gain_per_corrective"] is None or g > a["gain_per_corrective"] for a in present
+            )
+            rec["default_stale"] = d["stale"]
+            rec["default_false_alarms_le_anchors"] = d["false_alarms"] <= min(
+                a["false_alarms"] for a in present
+            )
+        out.append(rec)
+    return out
+
+
+def _summary_lines(agg: Sequence[Mapping[str, Any]]) -> list[str]:
     lines = [
-        "| policy | talks | time in range | cues / talk | corrective / talk | median latency "
-        "| false alarms | stale | backlog (max) | cues that waited | joint-limit violations |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| policy | talks | time in range | gain vs none (pp) | gain per corrective cue (pp) "
+        "| cues / talk | corrective / talk | median latency | false alarms | stale "
+        "| max cues in 60 s | backlog (max) | joint-limit violations |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for a in agg:
         lines.append(
             f"| {a['policy']} | {a['talks']} | {_pct(a['time_in_range'])} "
+            f"| {_pp(a['gain_vs_none'])} | {_pp(a['gain_per_corrective'])} "
             f"| {a['cues_per_talk']:.1f} | {a['corrective_per_talk']:.1f} "
             f"| {_secs(a['latency_s'])} | {a['false_alarms']} | {a['stale']} "
-            f"| {a['backlog_s']:g} s | {a['waited']} | {a['violations']} |"
+            f"| {a['cues_per_minute_max']} | {a['backlog_s']:g} s | {a['violations']} |"
         )
-    policies = [a["policy"] for a in agg]
+    return lines
+
+
+def _scenario_lines(rows: Sequence[Mapping[str, Any]], policies: Sequence[str]) -> list[str]:
     scenarios = sorted({r["scenario"] for r in rows})
-    lines += [
-        "",
-        "Time in range (truth, mean over metrics and seeds) per scenario:",
-        "",
+    lines = [
         "| scenario | " + " | ".join(policies) + " |",
         "|---|" + "---:|" * len(policies),
     ]
     for s in scenarios:
         cells = []
         for p in policies:
-            tirs = [
-                r["time_in_range"]
-                for r in rows
-                if r["scenario"] == s and r["policy"] == p and r["time_in_range"] is not None
-            ]
+            rs = [r for r in rows if r["scenario"] == s and r["policy"] == p]
+            tirs = [r["time_in_range"] for r in rs if r["time_in_range"] is not None]
             m = _mean(tirs)
-            cells.append(_f(None if m is None else 100 * m, ".1f"))
+            cell = _f(None if m is None else 100 * m, ".1f")
+            if rs and m is not None and p != "none":
+                n = len(rs)
+                cell += (
+                    f" ({sum(r['corrective'] for r in rs) / n:.1f}"
+                    f"/{sum(r['false_alarms'] + r['stale'] for r in rs) / n:.1f})"
+                )
+            cells.append(cell)
         lines.append(f"| {s} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    return lines
+
+
+def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
+    """Per presenter model: the summary per policy, then policies × scenarios; then, with
+    several models, which conclusions hold under each (the sensitivity table)."""
+    agg = aggregate(rows)
+    models = _presenters(rows)
+    lines: list[str] = []
+    for model in models:
+        magg = [a for a in agg if a["presenter"] == model]
+        mrows = [r for r in rows if str(r.get("presenter", "free")) == model]
+        if len(models) > 1:
+            lines += [f"### Presenter model `{model}`", ""]
+        lines += _summary_lines(magg)
+        lines += [
+            "",
+            "Time in range % (truth, mean over metrics and seeds) per scenario; in brackets "
+            "corrective cues per talk / false alarms + stale cues per talk:",
+            "",
+        ]
+        lines += _scenario_lines(mrows, [a["policy"] for a in magg])
+        lines.append("")
+    if len(models) > 1:
+        lines += conclusion_lines(conclusions(agg))
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def conclusion_lines(concl: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The sensitivity table: one row per presenter model, the conclusions under it."""
+
+    def yn(x: Any) -> str:
+        return "–" if x is None else ("yes" if x else "no")
+
+    lines = [
+        "Conclusions under each presenter model (a row per model; `cost:0.5` / `cost:1.5` scale "
+        "every assumed cost by 0.5 / 1.5):",
+        "",
+        f"| presenter model | most gain per cue | most time in range | fewest false alarms "
+        f"| {DEFAULT_POLICY} beats every anchor per cue | {DEFAULT_POLICY} stale "
+        f"| {DEFAULT_POLICY} false alarms <= anchors' |",
+        "|---|---|---|---|---|---:|---|",
+    ]
+    for c in concl:
+        lines.append(
+            f"| {c['presenter']} | {c['most_gain_per_cue']} | {c['most_time_in_range']} "
+            f"| {c['fewest_false_alarms']} | {yn(c.get('default_beats_anchors_per_cue'))} "
+            f"| {c.get('default_stale', '–')} | {yn(c.get('default_false_alarms_le_anchors'))} |"
+        )
+    return lines
+
+
+def evaluation_json(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """``evaluation.json``: ``policies`` (under the first ``cost`` presenter model, else the
+    first model) and every model's in ``presenters``; time in range as a fraction."""
+    agg = aggregate(rows)
+    models = _presenters(rows)
+    primary = next((m for m in models if m.startswith("cost") and ":" not in m), models[0])
+
+    def table(model: str) -> dict[str, Any]:
+        mrows = [r for r in rows if str(r.get("presenter", "free")) == model]
+        pols = {
+            a["policy"]: {k: v for k, v in a.items() if k not in ("policy", "presenter")}
+            for a in agg
+            if a["presenter"] == model
+        }
+        for p, rec in pols.items():
+            rec["scenarios"] = {
+                s: _mean(
+                    [
+                        r["time_in_range"]
+                        for r in mrows
+                        if r["policy"] == p
+                        and r["scenario"] == s
+                        and r["time_in_range"] is not None
+                    ]
+                )
+                for s in sorted({r["scenario"] for r in mrows})
+            }
+        return pols
+
+    return {
+        "presenter": primary,
+        "policies": table(primary),
+        "presenters": {m: {"policies": table(m)} for m in models},
+        "conclusions": conclusions(agg),
+        "talks": len(rows),
+    }
 
 
 def csv_text(rows: Sequence[Mapping[str, Any]]) -> str:
@@ -439,11 +654,15 @@ def csv_text(rows: Sequence[Mapping[str, Any]]) -> str:
 
 
 def write_tables(rows: Sequence[Mapping[str, Any]], out: Path) -> tuple[Path, Path]:
-    """Write ``evaluation.csv`` and ``evaluation.md`` into ``out``; returns their paths."""
+    """Write ``evaluation.csv``, ``evaluation.md`` and ``evaluation.json`` into ``out``;
+    returns the paths of the first two."""
     out.mkdir(parents=True, exist_ok=True)
     c, m = out / "evaluation.csv", out / "evaluation.md"
     c.write_text(csv_text(rows), encoding="utf-8")
     m.write_text(markdown_table(rows), encoding="utf-8")
+    (out / "evaluation.json").write_text(
+        json.dumps(evaluation_json(rows), indent=1, sort_keys=True) + "\n", encoding="utf-8"
+    )
     return c, m
 
 
@@ -456,7 +675,18 @@ def build_parser() -> argparse.ArgumentParser:
         description="Closed-loop evaluation: scenarios × policies × seeds of synthetic talks.",
     )
     p.add_argument("--scenarios", nargs="+", help="scenario names or files (default: all)")
-    p.add_argument("--policies", nargs="+", help="policy names (default: all)")
+    p.add_argument(
+        "--policies",
+        nargs="+",
+        help="policy specs, e.g. weighted pz16 rhema 'weighted:escalate_after=3' (default: all)",
+    )
+    p.add_argument(
+        "--presenters",
+        nargs="+",
+        default=list(DEFAULT_PRESENTERS),
+        help="presenter models: free, cost, cost:K (assumptions x K), each optionally "
+        "+measured (module noise from the measured errors) (default: %(default)s)",
+    )
     p.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1 per pair (default 3)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--backend", default="fake", help="robot backend (default fake)")
@@ -472,12 +702,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def evaluate_main(argv: Sequence[str] | None = None) -> int:
     """``prezence evaluate``: run the grid, write the tables, print the Markdown; returns 0."""
-    from prezence.processor.resolve import POLICIES
+    from prezence.processor import policy_names
     from prezence.synthetic.scenario import list_scenarios
 
     args = build_parser().parse_args(argv)
     scenarios = args.scenarios or list_scenarios()
-    policies = args.policies or list(POLICIES)
+    policies = args.policies or policy_names()
     out = Path(args.out)
     t0 = time.perf_counter()
 
@@ -493,13 +723,14 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
         ray=args.ray,
         keep_sessions=out / "sessions" if args.keep_sessions else None,
         progress=show if sys.stderr.isatty() else None,
+        presenters=args.presenters,
     )
     wall = time.perf_counter() - t0
     c, m = write_tables(rows, out)
     print(markdown_table(rows), end="")
     print(
         f"{len(rows)} talks in {wall:.1f} s ({len(rows) / wall:.2f} talks/s, jobs {args.jobs}); "
-        f"wrote {c} and {m}",
+        f"wrote {c}, {m} and {out / 'evaluation.json'}",
         file=sys.stderr,
     )
     return 0

@@ -83,7 +83,10 @@ def complete_rules(rules: Sequence[Rule]) -> tuple[tuple[Rule, ...], list[str]]:
 
     The seed writes rules without commands (``speech_speed inRange 140 180``): such a rule on a
     metric of the built-in configuration takes that rule's commands (for the sides its check
-    has). A rule on a metric no shipped module writes is kept (your own module may write it) but
+    has). A rule on such a metric that gives no deviation scale takes the built-in rule's scale
+    too (``speech_volume min 60`` judges 54 dB as 100 % below, as the built-in 6 dB scale says,
+    not as 10 % of 60), since the scale belongs to the metric's unit, not to the bound.
+    A rule on a metric no shipped module writes is kept (your own module may write it) but
     noted with a "did you mean", as is a rule that has no command at all (it can never cue).
 
     Returns:
@@ -102,6 +105,9 @@ def complete_rules(rules: Sequence[Rule]) -> tuple[tuple[Rule, ...], list[str]]:
                 below=d.below if "below" in slots else None,
                 above=d.above if "above" in slots else None,
             )
+        d_scale = defaults[r.metric].scale if r.metric in defaults else None
+        if r.scale is None and d_scale is not None:
+            r = dataclasses.replace(r, scale=d_scale)
         if r.metric not in KNOWN_METRICS:
             close = difflib.get_close_matches(r.metric, KNOWN_METRICS, n=1, cutoff=0.6)
             hint = f"; did you mean '{close[0]}'?" if close else ""

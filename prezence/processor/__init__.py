@@ -1,7 +1,14 @@
 """The Central Processor: rules, weights, conflict resolution, decisions."""
 
-from prezence.processor.core import Processor
-from prezence.processor.resolve import POLICIES, ConflictPolicy, make_policy
+from prezence.processor.core import Processor, end_of_talk_notes
+from prezence.processor.resolve import (
+    POLICIES,
+    ConflictPolicy,
+    make_policy,
+    parse_spec,
+    policy_names,
+    register_policy,
+)
 from prezence.processor.types import Candidate, Cue, Decision, Kind
 
 __all__ = [
@@ -12,5 +19,9 @@ __all__ = [
     "Decision",
     "Kind",
     "Processor",
+    "end_of_talk_notes",
     "make_policy",
+    "parse_spec",
+    "policy_names",
+    "register_policy",
 ]

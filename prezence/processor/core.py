@@ -12,13 +12,28 @@ than the metric's newest one are dropped and counted too (``MetricState.late``).
 
 No backlog: a cue is chosen only when the robot is free (``free_since`` is not None), from the
 latest data at that moment. Nothing is queued behind a cue being performed; a problem that ended
-while the robot was busy is simply no longer a candidate.
+while the robot was busy is simply no longer a candidate, and a strict warning whose newest
+out-of-range sample is older than the metric's stale time is dropped, not given late.
+
+A cue the robot could not give (:meth:`Processor.cue_dropped`) leaves the metric as it was
+before: no refractory, no reset of its weight, no spent time mark.
+
+Escalation (policy parameter ``escalate_after`` = N > 0): once a metric has been cued N times
+without coming back in range for ``effect_s`` in between, the coach stops cueing it for the rest
+of the talk and records it in :attr:`Processor.escalations`, to be said once at the end and in
+the report (:func:`end_of_talk_notes`).
+
+Whole policies (:attr:`ConflictPolicy.whole`, the anchors of :mod:`prezence.processor.anchors`)
+keep their own books: they see every accepted sample and decide on their own timing; the
+processor still keeps the metric views for the decision log.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Iterable
+from typing import Any
 
 from prezence.config.model import Config
 from prezence.processor.resolve import ConflictPolicy
@@ -39,16 +54,26 @@ class Processor:
         self.config = config
         self.policy = policy
         s = config.processor
+        #: The settings in force: the config's, with the policy's overrides applied.
+        self.settings = policy.settings(s)
+        s = self.settings
         if not s.decay_half_life_s > 0:
             raise ValueError("processor.decay_half_life_s must be > 0")
+        self.persistence_s = float(policy.params.get("persistence_s", 0.0))
+        self.escalate_after = int(policy.params.get("escalate_after", 0))
+        effect_s = float(policy.params.get("effect_s", 10.0))
         self._states: dict[str, MetricState] = {
             r.metric: MetricState(
                 rule=r,
                 stale_after_s=r.stale_after_s if r.stale_after_s is not None else s.stale_after_s,
                 half_life_s=s.decay_half_life_s,
+                persistence_s=self.persistence_s,
+                effect_s=effect_s,
+                rearm_after_s=s.refractory_s,
             )
             for r in config.rules
         }
+        policy.start(config)
         self._order = tuple(r.metric for r in config.rules)
         # A mark at or above the allocated time (a 90 s talk has no "2 min left") is never due.
         alloc = config.time.allocated_s
@@ -60,6 +85,10 @@ class Processor:
         self._last_cue: Cue | None = None
         self.unknown_samples = 0
         self.cues: list[Cue] = []
+        #: Metrics the coach stopped cueing (escalation): one record each, in order.
+        self.escalations: list[dict[str, Any]] = []
+        self._escalated: set[str] = set()
+        self._undo: tuple[Cue, str | None, MetricState | None, set[float], float] | None = None
 
     # -- input -----------------------------------------------------------------------------
     def ingest(self, samples: Iterable[Sample], *, now: float | None = None) -> None:
@@ -71,6 +100,7 @@ class Processor:
                 and counted. None takes every sample's time as it is.
         """
         states = self._states
+        whole = self.policy.whole
         horizon = math.inf if now is None else now + MAX_AHEAD_S
         for s in samples:
             st = states.get(s.metric)
@@ -80,7 +110,8 @@ class Processor:
             if s.t > horizon:
                 st.ahead += 1
                 continue
-            st.ingest(s.t, s.value)
+            if st.ingest(s.t, s.value) and whole:
+                self.policy.feed(st.rule, s.t, s.value)
 
     def counts(self) -> dict[str, dict[str, int]]:
         """Per metric: samples used, and samples dropped as ``late`` or ``ahead`` of the clock."""
@@ -122,9 +153,16 @@ class Processor:
         for st in self._states.values():
             st.advance(now)
         views = self.views(now) if with_views else ()
+        if self.policy.whole:
+            chosen = self.policy.decide(now, free_since is not None)
+            if chosen is None:
+                why = "robot busy" if free_since is None else f"policy {self.policy.name}: no cue"
+                return Decision(now, None, why, free_since is None, (), views)
+            cue = self._fire(chosen, [chosen], now)
+            return Decision(now, cue, cue.reason, False, (chosen,), views)
         if free_since is None:
             return Decision(now, None, "robot busy", True, (), views)
-        gap = self.config.processor.min_gap_s
+        gap = self.settings.min_gap_s
         if self._last_cue is not None and now - free_since < gap:
             return Decision(
                 now, None, f"min gap ({gap:g} s) since the robot became free", False, (), views
@@ -163,12 +201,12 @@ class Processor:
             deviation=st.deviation(),
             weight=st.weight,
             stale=st.stale(now),
-            refractory=now - st.last_fired < self.config.processor.refractory_s,
+            refractory=now - st.last_fired < self.settings.refractory_s,
             strict_pending=st.strict_pending,
         )
 
     def _candidates(self, now: float) -> list[Candidate]:
-        s = self.config.processor
+        s = self.settings
         out: list[Candidate] = []
         out.extend(self._time_candidates(now))
         all_out = self.policy.wants_all_out_of_range
@@ -181,12 +219,20 @@ class Processor:
                 any_problem_recent = True
             if now - st.last_fired < s.refractory_s:
                 continue
+            if r.metric in self._escalated:
+                continue
             dev = st.deviation()
             side = r.side(st.value)
+            if r.strict and st.strict_pending and now - st.last_problem_t > st.stale_after_s:
+                # The excursion ended longer ago than the stale time: too old to be worth a cue.
+                st.strict_pending = False
+                st.strict_onset = None
+                st.strict_peak = 0.0
+                st.strict_side = None
             if r.strict and st.strict_pending:
                 strict_side = side or st.strict_side
                 command = r.below if strict_side == "below" else r.above
-                if command is None:
+                if command is None or self._escalate(st, now, command):
                     continue
                 out.append(
                     Candidate(
@@ -209,6 +255,8 @@ class Processor:
             if command is None:
                 continue
             eligible = st.weight >= s.threshold
+            if eligible and self._escalate(st, now, command):
+                continue
             if eligible or all_out:
                 out.append(
                     Candidate(
@@ -278,8 +326,50 @@ class Processor:
             )
         ]
 
+    def _escalate(self, st: MetricState, now: float, command: str) -> bool:
+        """True (and the metric escalated) once it has had ``escalate_after`` unheeded cues."""
+        n = self.escalate_after
+        if n <= 0 or st.unheeded < n:
+            return False
+        self._escalated.add(st.rule.metric)
+        self.escalations.append(
+            {
+                "t": now,
+                "metric": st.rule.metric,
+                "command": command,
+                "cues": st.unheeded,
+                "value": st.value,
+            }
+        )
+        return True
+
+    def cue_dropped(self, cue: Cue) -> None:
+        """The robot could not give ``cue`` (backend gone): undo what choosing it changed.
+
+        The metric keeps its weight and strict warning and starts no refractory, a time mark
+        stays due, so the cue can be given once the robot is back. The minimum gap still
+        counts from the attempt, so a lost robot is retried at that pace, not at every tick.
+        A cue that is not the last one chosen is ignored.
+        """
+        undo = self._undo
+        if undo is None or undo[0] is not cue:
+            return
+        _, metric, state, marks, overtime = undo
+        if metric is not None and state is not None:
+            self._states[metric] = state
+        self._time_marks_given = marks
+        self._last_overtime = overtime
+        self.policy.cue_dropped(cue)
+        self._undo = None
+
     def _fire(self, c: Candidate, cands: list[Candidate], now: float) -> Cue:
         reason = self._reason(c, cands)
+        saved_state = (
+            copy.copy(self._states[c.metric])
+            if c.metric is not None and c.metric in self._states
+            else None
+        )
+        saved = (set(self._time_marks_given), self._last_overtime)
         if c.kind == Kind.TIME:
             if c.command == self.config.time.overtime_command and "mark_s" not in c.params:
                 self._last_overtime = now
@@ -288,7 +378,7 @@ class Processor:
                 self._time_marks_given.update(
                     m for m in self.config.time.warn_at_s_left if m >= mark
                 )
-        elif c.metric is not None:
+        elif c.metric is not None and c.metric in self._states and not self.policy.whole:
             self._states[c.metric].fired(now)
         params = {k: v for k, v in c.params.items() if k != "mark_s"}
         cue = Cue(
@@ -305,17 +395,24 @@ class Processor:
         self._last_cue_t = now
         self._last_cue = cue
         self.cues.append(cue)
+        self._undo = (cue, c.metric, saved_state, *saved)
         return cue
 
     def _reason(self, c: Candidate, cands: list[Candidate]) -> str:
-        thr = self.config.processor.threshold
+        thr = self.settings.threshold
         if c.kind == Kind.TIME:
             if "minutes" in c.params:
                 why = f"{c.params['minutes']} min left of {self.config.time.allocated_s:g} s"
             else:
                 why = f"over the allocated {self.config.time.allocated_s:g} s"
         elif c.kind == Kind.PRAISE:
-            why = "every metric in range for a while"
+            why = (
+                "the mistake on show ended"
+                if self.policy.whole
+                else "every metric in range for a while"
+            )
+        elif c.metric not in self._states:
+            why = f"{c.command} ({c.metric})"
         else:
             assert c.metric is not None  # noqa: S101 - metric candidates always carry one
             r = self._states[c.metric].rule
@@ -338,4 +435,31 @@ class Processor:
                 )[:3]
             )
             why += f"; beat {beat} [{self.policy.name}]"
+        elif self.policy.whole:
+            why += f" [{self.policy.name}]"
         return why
+
+
+def end_of_talk_notes(processor: Processor) -> list[dict[str, Any]]:
+    """What the coach stopped repeating during the talk, to say once at the end and to report.
+
+    One record per escalated metric: ``metric``, ``command`` (the cue it stopped giving),
+    ``cues`` (how many were given without effect), ``t`` (when it stopped) and ``phrase``, a
+    sentence for the robot's closing summary and the report. Empty when nothing escalated.
+    """
+    from prezence.errors import UnknownName
+    from prezence.feedback.commands import get_command
+
+    out = []
+    for e in processor.escalations:
+        try:
+            said = get_command(e["command"]).say({})
+        except UnknownName:
+            said = e["command"]
+        phrase = (
+            f"I reminded you {e['cues']} times about {e['metric'].replace('_', ' ')} "
+            f'("{said}") and stopped repeating it after {e["t"] / 60:.0f} min: '
+            f"work on it before the next rehearsal."
+        )
+        out.append({**e, "phrase": phrase})
+    return out

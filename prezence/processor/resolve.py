@@ -2,18 +2,41 @@
 
 The seed's policy (:class:`WeightedPolicy`) is the default. The others are the simpler
 strategies the design report names (Bullinaria's list), kept so that closed-loop evaluation can
-measure the seed's choice against them.
+measure the seed's choice against them, and the anchors of :mod:`prezence.processor.anchors`
+(other systems' published rules: ``pz16``, ``presentation_trainer``, ``rhema``).
+
+A policy is named by a *spec*: its name, optionally followed by ``:`` and ``key=value`` pairs
+that override the processor's settings or set the policy's own parameters, e.g.
+``weighted:threshold=800,escalate_after=3``. Every command that takes ``--policy`` (run,
+replay, evaluate, the Gym env) goes through :func:`make_policy`, so a name registered here
+(:func:`register_policy`) is usable everywhere without touching them.
+
+Processor keys a spec may set (any policy): the fields of
+:class:`~prezence.config.model.ProcessorSettings` (``threshold``, ``decay_half_life_s``,
+``min_gap_s``, ``refractory_s``, ``stale_after_s``, ``praise_after_s``), plus
+``persistence_s`` (time constant of a metric's persistence, see
+:mod:`prezence.processor.state`; 0 = off), ``escalate_after`` (N unheeded cues about one metric
+stop its cues for the rest of the talk; 0 = never) and ``effect_s`` (seconds back in range that
+count as an effect and reset the unheeded count).
 """
 
 from __future__ import annotations
 
 import abc
-from collections.abc import Sequence
+import dataclasses
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from prezence.errors import UnknownName
-from prezence.processor.types import Candidate, Kind
+from prezence.errors import ConfigError, UnknownName
+from prezence.processor.types import Candidate, Cue, Kind
+
+if TYPE_CHECKING:
+    from prezence.config.model import Config, ProcessorSettings, Rule
+
+#: Spec keys that are not ProcessorSettings fields but processor features every policy has.
+PROCESSOR_KEYS = ("persistence_s", "escalate_after", "effect_s")
 
 
 class ConflictPolicy(abc.ABC):
@@ -24,6 +47,46 @@ class ConflictPolicy(abc.ABC):
     #: If True the processor offers every out-of-range metric (the rule's condition holds now),
     #: not only those whose seed firing condition (strict / weight over threshold) holds.
     wants_all_out_of_range: bool = False
+
+    #: A *whole* policy keeps its own books and timing (:meth:`feed`, :meth:`decide`); the
+    #: processor's weights, refractory and minimum gap do not apply to it.
+    whole: bool = False
+
+    #: Defaults of the spec keys this policy understands (overridden by ``name:key=value``).
+    defaults: ClassVar[Mapping[str, float]] = {}
+
+    #: Overrides from the spec (processor settings and the policy's own parameters).
+    params: dict[str, float]
+
+    def __init__(self, **params: float) -> None:
+        self.params = {**self.defaults, **params}
+
+    @property
+    def spec(self) -> str:
+        """The name with the parameters that differ from the defaults (as given)."""
+        extra = {k: v for k, v in self.params.items() if self.defaults.get(k) != v}
+        return self.name + (
+            ":" + ",".join(f"{k}={v:g}" for k, v in sorted(extra.items())) if extra else ""
+        )
+
+    def settings(self, base: ProcessorSettings) -> ProcessorSettings:
+        """``base`` with this policy's processor-setting overrides applied."""
+        names = {f.name for f in dataclasses.fields(base)}
+        over: dict[str, Any] = {k: v for k, v in self.params.items() if k in names}
+        return dataclasses.replace(base, **over) if over else base
+
+    def start(self, config: Config) -> None:  # noqa: B027 - optional hook
+        """The talk's rules are known (called by the processor)."""
+
+    def feed(self, rule: Rule, t: float, value: float) -> None:  # noqa: B027 - whole policies
+        """A whole policy's input: one accepted sample (each metric in time order)."""
+
+    def decide(self, now: float, robot_free: bool) -> Candidate | None:
+        """A whole policy's decision at ``now``; a cue only when ``robot_free``."""
+        return None
+
+    def cue_dropped(self, cue: Cue) -> None:  # noqa: B027 - optional hook
+        """The robot could not give the cue just chosen."""
 
     @abc.abstractmethod
     def choose(self, candidates: Sequence[Candidate], order: Sequence[str]) -> Candidate | None:
@@ -48,6 +111,9 @@ class WeightedPolicy(ConflictPolicy):
     highest weight (∝ deviation % × time); ties go to the most recent data."""
 
     name = "weighted"
+    #: persistence_s: ours (see prezence.processor.state): a held deviation reaches full weight
+    #: in a few seconds, a 1-in-2 s flicker never does; tuned by the closed-loop evaluation.
+    defaults: ClassVar[Mapping[str, float]] = {"persistence_s": 5.0}
 
     def choose(self, candidates: Sequence[Candidate], order: Sequence[str]) -> Candidate | None:
         ok = [c for c in candidates if c.eligible]
@@ -90,7 +156,8 @@ class RandomPolicy(ConflictPolicy):
     name = "random"
     wants_all_out_of_range = True
 
-    def __init__(self, seed: int = 0) -> None:
+    def __init__(self, seed: int = 0, **params: float) -> None:
+        super().__init__(**params)
         self._rng = np.random.default_rng(seed)
 
     def reset(self, seed: int | None = None) -> None:
@@ -135,6 +202,7 @@ class SilentPolicy(ConflictPolicy):
         return None
 
 
+#: Registered policies: name → class. Extend with :func:`register_policy`.
 POLICIES: dict[str, type[ConflictPolicy]] = {
     p.name: p
     for p in (
@@ -147,14 +215,89 @@ POLICIES: dict[str, type[ConflictPolicy]] = {
     )
 }
 
+#: Other names for registered policies (``pt`` for ``presentation_trainer``).
+ALIASES: dict[str, str] = {}
+
+
+def register_policy(cls: type[ConflictPolicy], *aliases: str) -> type[ConflictPolicy]:
+    """Add a policy class under its ``name`` (and ``aliases``); returns it (a decorator)."""
+    POLICIES[cls.name] = cls
+    for a in aliases:
+        ALIASES[a] = cls.name
+    return cls
+
+
+def parse_spec(spec: str) -> tuple[str, dict[str, float]]:
+    """``"name:key=value,key=value"`` → (name, {key: value}).
+
+    Raises:
+        ConfigError: a pair that is not ``key=number``.
+
+    Example:
+        >>> parse_spec("weighted:threshold=800,escalate_after=3")
+        ('weighted', {'threshold': 800.0, 'escalate_after': 3.0})
+    """
+    name, _, rest = spec.strip().partition(":")
+    params: dict[str, float] = {}
+    for part in filter(None, (x.strip() for x in rest.split(","))):
+        key, eq, raw = part.partition("=")
+        try:
+            if not eq:
+                raise ValueError
+            params[key.strip()] = float(raw)
+        except ValueError:
+            raise ConfigError(
+                f"policy {spec!r}: expected key=number after ':', found {part!r}"
+            ) from None
+    return ALIASES.get(name, name), params
+
 
 def make_policy(name: str, *, seed: int = 0) -> ConflictPolicy:
-    """Build a policy by name (``weighted``, ``first_rule``, ``recent``, ``random``,
-    ``most_conditions``, ``none``)."""
+    """Build a policy from its spec (``weighted``, ``first_rule``, ``recent``, ``random``,
+    ``most_conditions``, ``none``, ``pz16``, ``presentation_trainer``/``pt``, ``rhema``,
+    optionally with ``:key=value,…``; see the module doc).
+
+    Raises:
+        UnknownName: no such policy.
+        ConfigError: a malformed or unknown parameter.
+    """
+    import prezence.processor.anchors  # noqa: F401 - registers the anchors
+
+    base, params = parse_spec(name)
     try:
-        cls = POLICIES[name]
+        cls = POLICIES[base]
     except KeyError:
-        raise UnknownName("policy", name, POLICIES) from None
+        raise UnknownName("policy", base, [*POLICIES, *ALIASES]) from None
+    from prezence.config.model import ProcessorSettings
+
+    known = {f.name for f in dataclasses.fields(ProcessorSettings)} | set(PROCESSOR_KEYS)
+    known |= set(cls.defaults)
+    bad = sorted(set(params) - known)
+    if bad:
+        raise ConfigError(
+            f"policy {name!r}: unknown parameter(s) {', '.join(bad)} "
+            f"(known: {', '.join(sorted(known))})"
+        )
+    make: Callable[..., ConflictPolicy] = cls
     if cls is RandomPolicy:
-        return RandomPolicy(seed)
-    return cls()
+        return RandomPolicy(seed, **params)
+    return make(**params)
+
+
+def policy_names() -> list[str]:
+    """Every registered policy name (anchors included), for help texts and ``evaluate``."""
+    import prezence.processor.anchors  # noqa: F401 - registers the anchors
+
+    return list(POLICIES)
+
+
+__all__ = [
+    "ALIASES",
+    "POLICIES",
+    "PROCESSOR_KEYS",
+    "ConflictPolicy",
+    "make_policy",
+    "parse_spec",
+    "policy_names",
+    "register_policy",
+]

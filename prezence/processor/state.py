@@ -2,9 +2,18 @@
 
 The weight of a non-strict rule is an integral over time, not a count of samples:
 
-    while out of range:  dW/dt = gain × deviation%            (unit: %·s)
+    while out of range:  dW/dt = gain × deviation% × P        (unit: %·s)
     while in range:      W halves every ``decay_half_life_s``
     while stale:         W decays the same way (the module went quiet; we cannot tell)
+
+``P`` is the metric's *persistence*, the share of the recent past it spent out of range: an
+exponential average of "out of range" (1) and "in range" (0) with time constant
+``persistence_s``, so ``dP/dt = (out - P) / persistence_s``. A deviation held for a while has
+P near 1 and weighs its full deviation × time; a flicker (out 1 s of every 2 s) has P near 0.5,
+so each of its out-of-range seconds weighs about half, and the decay in between takes back most
+of it: the seed's "a brief or intermittent deviation weighs less". With ``persistence_s = 0``
+P is 1 at once (the plain integral). Both W and P are integrated in closed form over each
+interval, so the batching of samples does not change the result.
 
 The held value (the newest sample) applies from its timestamp until the next sample, so a module
 that writes twice as often reaches the threshold at the same time, not twice as soon.
@@ -25,17 +34,28 @@ class MetricState:
     rule: Rule
     stale_after_s: float
     half_life_s: float
+    persistence_s: float = 0.0
+    effect_s: float = 10.0
     value: float | None = None
     last_sample_t: float = -math.inf
     integrated_to: float = 0.0
     weight: float = 0.0
+    persistence: float = 0.0  # share of the recent past out of range (see the module doc)
     out_since: float | None = None  # onset of the current out-of-range stretch (sample time)
     last_problem_t: float = -math.inf  # newest sample time that was out of range
     strict_pending: bool = False
     strict_onset: float | None = None
     strict_peak: float = 0.0
     strict_side: str | None = None
+    # A strict rule warns once per excursion: cueing it disarms it; an in-range sample re-arms
+    # it, and so does a sample still out of range once ``rearm_after_s`` has passed since the
+    # cue (the processor sets it to the refractory time: a held strict problem is reminded).
+    strict_armed: bool = True
+    rearm_after_s: float = math.inf
     last_fired: float = -math.inf
+    # Escalation: cues about this metric since it last came back in range for ``effect_s``.
+    unheeded: int = 0
+    in_range_since: float | None = None
     samples: int = 0
     late: int = 0  # samples older than the newest one already seen: dropped
     ahead: int = 0  # samples stamped too far ahead of the talk clock: dropped
@@ -51,21 +71,34 @@ class MetricState:
         fresh_until = self.last_sample_t + self.stale_after_s
         dev = self.rule.deviation(self.value)
         w = self.weight
+        p = self.persistence
+        tau = self.persistence_s
         # Fresh part of the interval: grow (out of range) or decay (in range).
         t_fresh_end = min(to_t, fresh_until)
         if t_fresh_end > t0:
             dt = t_fresh_end - t0
             if dev > 0.0:
-                w += self.rule.gain * dev * dt
+                if tau > 0.0:
+                    # integral of P over dt, P relaxing from p toward 1
+                    k = math.exp(-dt / tau)
+                    w += self.rule.gain * dev * (dt - (1.0 - p) * tau * (1.0 - k))
+                    p = 1.0 - (1.0 - p) * k
+                else:
+                    w += self.rule.gain * dev * dt
+                    p = 1.0
             else:
                 w *= 0.5 ** (dt / self.half_life_s)
+                p = p * math.exp(-dt / tau) if tau > 0.0 else 0.0
             t0 = t_fresh_end
-        # Stale part: decay.
-        if to_t > t0 and w > 0.0:
-            w *= 0.5 ** ((to_t - t0) / self.half_life_s)
+        # Stale part: decay (nothing is known, so nothing counts as out of range).
+        if to_t > t0:
+            if w > 0.0:
+                w *= 0.5 ** ((to_t - t0) / self.half_life_s)
+            p = p * math.exp(-(to_t - t0) / tau) if tau > 0.0 else 0.0
         self.weight = w
+        self.persistence = p
 
-    def ingest(self, t: float, value: float) -> None:
+    def ingest(self, t: float, value: float) -> bool:
         """Take a new sample at time ``t``.
 
         A sample older than the newest one already taken is counted in ``late`` and dropped:
@@ -75,7 +108,7 @@ class MetricState:
         """
         if t < self.last_sample_t:
             self.late += 1
-            return
+            return False
         self.advance(t)
         self.value = value
         self.last_sample_t = t
@@ -85,7 +118,14 @@ class MetricState:
             if self.out_since is None:
                 self.out_since = t
             self.last_problem_t = t
-            if self.rule.strict:
+            self.in_range_since = None
+            if (
+                self.rule.strict
+                and not self.strict_armed
+                and t - self.last_fired >= (self.rearm_after_s)
+            ):
+                self.strict_armed = True
+            if self.rule.strict and self.strict_armed:
                 if not self.strict_pending:
                     self.strict_pending = True
                     self.strict_onset = t
@@ -96,6 +136,12 @@ class MetricState:
                     self.strict_side = self.rule.side(value)
         else:
             self.out_since = None
+            self.strict_armed = True
+            if self.in_range_since is None:
+                self.in_range_since = t
+            if t - self.in_range_since >= self.effect_s:
+                self.unheeded = 0  # back in range for a while: the cues had an effect
+        return True
 
     def stale(self, now: float) -> bool:
         """True if there is no sample, or the newest one is older than the stale time."""
@@ -111,4 +157,6 @@ class MetricState:
         self.strict_onset = None
         self.strict_peak = 0.0
         self.strict_side = None
+        self.strict_armed = False
         self.last_fired = now
+        self.unheeded += 1

@@ -30,14 +30,31 @@ only after the presenter's current time when it was scheduled.
 Randomness: every metric has its own streams derived from ``(seed, crc32(metric name))``, and the
 reactions have one more, so adding a metric changes no other metric's samples. Noise, dropouts
 and garbage are drawn once at construction, which keeps :meth:`advance` cheap.
+
+Presenter models (:class:`PresenterModel`, chosen with :func:`presenter_model` or the
+``model`` argument):
+
+- ``free``: the scenario as written; a cue costs nothing (the model of the first evaluations).
+- ``cost``: a presenter who pays for every interruption (:class:`InterruptionCost`): while the
+  robot performs a cue they pause and look at it, they may slip on another metric, repeated
+  cues about one metric lose effect (habituation) and a correction fades sooner without
+  follow-up. ``cost:0.5`` / ``cost:1.5`` scale every assumed number by that factor (the
+  sensitivity analysis).
+- ``+measured`` (e.g. ``cost+measured``): each metric's noise is the scenario's behavioural
+  noise combined (root sum of squares) with the module's measured error
+  (:data:`MEASURED_ERROR`).
+
+The cost model draws from its own random stream, so a ``free`` presenter's samples and reactions
+are exactly what they were before the cost model existed.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import zlib
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -87,6 +104,148 @@ _GARBAGE_FORMS = ("{t:.3f} ???", "{t:.3f} nan", "{t:.3f} 1 2", "garbage")
 
 _NOISE, _GARBAGE = 0, 1  # the two random streams of each metric
 _REACTIONS_KEY = zlib.crc32(b"reactions")
+_COST_KEY = zlib.crc32(b"interruption-cost")
+
+#: One standard deviation of each module's measurement error, in the metric's unit, from the
+#: figures measured on the shipped modules (README, "Measured"; docs/modules.md).
+MEASURED_ERROR: Mapping[str, float] = {
+    # per 30 s window within +-10 % of the truth in 96-100 % of windows (bench_speech --part
+    # windows): +-10 % ~ 2 sigma, so sigma ~ 5 % of 160 wpm
+    SPEECH_SPEED: 8.0,
+    # a -6 / -12 dB gain step measured within 0.2 dB (tests/modules): sigma 0.2 dB
+    SPEECH_VOLUME: 0.2,
+    # clean speech scores 0.71-0.91 over 30 s windows (bench_speech --part clarity): the spread
+    # of a constant quality, ~ +-2 sigma, so sigma ~ 0.05
+    SPEECH_ACCURACY: 0.05,
+    # head pitch after calibration within 2.4 deg over +-20 deg (tests/modules): ~ 2 sigma
+    HEAD_GAZE: 1.2,
+    # gesture bursts: 10 of 10 found (tests/modules); a missed or extra burst in a minute is
+    # +-1 per minute, taken as 2 sigma (assumption: the test has only 10 bursts)
+    GESTURES: 0.5,
+}
+
+
+@dataclass(frozen=True)
+class InterruptionCost:
+    """What a cue costs the synthetic presenter. Every number is a source or an *assumption*.
+
+    Attributes:
+        pause_s: the presenter stops talking while attending to the robot: speech speed falls
+            for this long after the cue starts. Assumption 2.0 s, about the robot's phrase (the
+            gestures last 1.5-3.5 s at 60 % speed, bench_gestures; a phrase of 2-4 words at
+            TTS pace, ~1.5 s): dual-task interference, the speaker listens instead of speaking.
+        pause_speed_drop: the fraction speech speed falls during the pause (assumption 0.5:
+            half the words of those seconds, a pause with a few words over it).
+        attend_s: the presenter looks at the robot for this long (assumption 2.5 s: the
+            gesture's length).
+        attend_gaze_deg: head pitch while looking at the robot (geometry, assumptions: eyes at
+            1.6 m, the NAO's head at 0.5 m on a table or stand 2 m away: atan(1.1 / 2) ≈ 29°
+            down, so -29°); a robot at eye level would cost nothing here.
+        slip_probability: chance that attending to the robot makes another metric slip
+            (assumption 0.3; "robot motion distracts in its own right", issue 14).
+        slip_s: how long such a slip lasts (assumption 10 s).
+        slip_scales: how far it slips, in deviation scales of that metric's rule, toward its
+            nearer bound (assumption 0.5: half a scale, e.g. 3 dB quieter).
+        habituation: each earlier cue about the same metric multiplies the chance and size
+            of the reaction by this (assumption 0.75; habituation to repeated alerts and the
+            guidance hypothesis, Winstein et al. 1994, frequent feedback helps less).
+        fade: multiplies how long a correction is held before it drifts back (assumption
+            0.6: without follow-up a correction fades sooner than the scenario's own figure).
+    """
+
+    pause_s: float = 2.0
+    pause_speed_drop: float = 0.5
+    attend_s: float = 2.5
+    attend_gaze_deg: float = -29.0
+    slip_probability: float = 0.3
+    slip_s: float = 10.0
+    slip_scales: float = 0.5
+    habituation: float = 0.75
+    fade: float = 0.6
+
+    def scaled(self, k: float) -> InterruptionCost:
+        """Every assumption scaled by ``k`` (the sensitivity analysis): durations, sizes and
+        probabilities by ``k`` (a probability capped at 1); habituation's *loss* per cue
+        (1 - habituation) and fade's *loss* (1 - fade) by ``k``; the gaze pitch's distance
+        below the band's bound (-15) by ``k``."""
+        return InterruptionCost(
+            pause_s=self.pause_s * k,
+            pause_speed_drop=min(1.0, self.pause_speed_drop * k),
+            attend_s=self.attend_s * k,
+            attend_gaze_deg=-15.0 + (self.attend_gaze_deg + 15.0) * k,
+            slip_probability=min(1.0, self.slip_probability * k),
+            slip_s=self.slip_s * k,
+            slip_scales=self.slip_scales * k,
+            habituation=max(0.0, 1.0 - (1.0 - self.habituation) * k),
+            fade=max(0.0, 1.0 - (1.0 - self.fade) * k),
+        )
+
+
+@dataclass(frozen=True)
+class PresenterModel:
+    """A synthetic presenter's model: what cues cost and how noisy the modules are."""
+
+    name: str = "free"
+    cost: InterruptionCost | None = None
+    measured_noise: bool = False
+
+
+def parse_presenter_model(spec: str) -> PresenterModel:
+    """``free``, ``cost``, ``cost:K`` (assumptions × K), each optionally ``+measured``.
+
+    Raises:
+        ValueError: an unknown model or a bad factor.
+
+    Example:
+        >>> m = parse_presenter_model("cost:1.5+measured")
+        >>> (m.cost.pause_s, m.measured_noise)
+        (3.0, True)
+    """
+    base, plus, extra = spec.partition("+")
+    if plus and extra != "measured":
+        raise ValueError(f"presenter model {spec!r}: only '+measured' may follow")
+    kind, colon, factor = base.partition(":")
+    if kind == "free" and not colon:
+        cost = None
+    elif kind == "cost":
+        try:
+            k = float(factor) if colon else 1.0
+        except ValueError:
+            raise ValueError(f"presenter model {spec!r}: {factor!r} is not a number") from None
+        if not k >= 0:
+            raise ValueError(f"presenter model {spec!r}: the factor must be >= 0")
+        cost = InterruptionCost().scaled(k)
+    else:
+        raise ValueError(
+            f"presenter model {spec!r}: expected free, cost or cost:K, with optional +measured"
+        )
+    return PresenterModel(spec, cost, bool(plus))
+
+
+_MODEL = PresenterModel()
+
+
+@contextlib.contextmanager
+def presenter_model(model: PresenterModel | str) -> Iterator[PresenterModel]:
+    """Within the block, presenters built without a ``model`` use this one (the evaluation
+    sets it around :func:`prezence.synthetic.runner.run_talk`)."""
+    global _MODEL
+    m = parse_presenter_model(model) if isinstance(model, str) else model
+    old, _MODEL = _MODEL, m
+    try:
+        yield m
+    finally:
+        _MODEL = old
+
+
+@dataclass(frozen=True)
+class _Slip:
+    """A temporary change of one metric caused by attending to the robot."""
+
+    start: float
+    end: float
+    delta: float = 0.0  # added to the value
+    to: float | None = None  # or: the value is at most (gaze) this while it lasts
 
 
 @dataclass(frozen=True)
@@ -211,13 +370,22 @@ class SyntheticPresenter:
         config: the rules (ideal bands) that reactions aim for and ground truth is judged by.
         seed: seeds noise, faults and reactions; the same scenario, config and seed give
             identical samples and truth for the same cues.
+        model: the presenter model (see the module doc); None: the one set with
+            :func:`presenter_model` (``free`` unless set).
 
     Raises:
         ValueError: a negative seed.
         TypeError: a seed that is not an integer.
     """
 
-    def __init__(self, scenario: Scenario, config: Config, *, seed: int) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        config: Config,
+        *,
+        seed: int,
+        model: PresenterModel | str | None = None,
+    ) -> None:
         if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
             raise TypeError(f"seed must be an int, got {seed!r}")
         if seed < 0:
@@ -225,6 +393,14 @@ class SyntheticPresenter:
         self.scenario = scenario
         self.config = config
         self.seed = int(seed)
+        if model is None:
+            model = _MODEL
+        self.model = parse_presenter_model(model) if isinstance(model, str) else model
+        self._cost_rng = np.random.default_rng(
+            np.random.SeedSequence(self.seed, spawn_key=(_COST_KEY,))
+        )
+        self._slips: dict[str, list[_Slip]] = {}
+        self._cued: dict[str, int] = {}  # cues so far about each metric (habituation)
         self.duration_s = scenario.duration_s
         self._now = -math.inf
         self._rules = {r.metric: r for r in config.rules}
@@ -271,7 +447,10 @@ class SyntheticPresenter:
         noise_rng = np.random.default_rng(
             np.random.SeedSequence(self.seed, spawn_key=(key, _NOISE))
         )
-        noise = noise_rng.standard_normal(times.shape) * ms.noise
+        sigma = ms.noise
+        if self.model.measured_noise:
+            sigma = math.hypot(sigma, MEASURED_ERROR.get(ms.metric, 0.0))
+        noise = noise_rng.standard_normal(times.shape) * sigma
         writes = np.ones(times.shape, dtype=bool)
         for w in ms.dropout:
             writes &= ~((times >= w.start) & (times < w.end))
@@ -392,14 +571,25 @@ class SyntheticPresenter:
             "reacted": False,
         }
         key = (target_metric or "", sign)
+        cost = self.model.cost
+        keep = 1.0
+        fade = 1.0
+        if cost is not None:
+            self._pay(float(t), target_metric, cost, record)
+            if target_metric is not None and sign != 0:
+                seen = self._cued.get(target_metric, 0)
+                self._cued[target_metric] = seen + 1
+                keep = cost.habituation**seen
+                record["habituation"] = round(keep, 4)
+            fade = cost.fade
         if sign == 0 or target_metric not in self._scripts or key not in self._targets:
             record["why"] = "nothing to change"
-        elif u[0] >= reaction.probability:
+        elif u[0] >= reaction.probability * keep:
             record["why"] = "ignored the cue"
         else:
             delay = _lerp(reaction.delay_s, u[1])
-            size = _lerp(reaction.size, u[2])
-            lasts = _lerp(reaction.lasts_s, u[3])
+            size = _lerp(reaction.size, u[2]) * keep
+            lasts = _lerp(reaction.lasts_s, u[3]) * fade
             start = max(float(t) + delay, self._now)
             pull = _Pull(start, start + lasts, start + lasts + reaction.drift_s, size)
             self._pulls.setdefault(key, []).append(pull)
@@ -413,8 +603,64 @@ class SyntheticPresenter:
         log.debug("cue %s at %.1f: %s", command, t, record)
         self.reactions.append(record)
 
+    def _pay(
+        self, t: float, cued: str | None, cost: InterruptionCost, record: dict[str, Any]
+    ) -> None:
+        """The interruption's cost: a pause, a look at the robot, maybe a slip elsewhere.
+
+        Draws three numbers from the cost stream per cue whatever happens.
+        """
+        u = self._cost_rng.random(3)
+        start = max(t, self._now)
+        paid: list[str] = []
+        speed = self._rules.get(SPEECH_SPEED)
+        if speed is not None and SPEECH_SPEED in self._scripts and cost.pause_s > 0:
+            ref = speed.low if speed.low is not None else (speed.high or 0.0)
+            if speed.low is not None and speed.high is not None:
+                ref = 0.5 * (speed.low + speed.high)
+            drop = -cost.pause_speed_drop * ref
+            self._slips.setdefault(SPEECH_SPEED, []).append(
+                _Slip(start, start + cost.pause_s, delta=drop)
+            )
+            paid.append("pause")
+        if HEAD_GAZE in self._scripts and cost.attend_s > 0:
+            self._slips.setdefault(HEAD_GAZE, []).append(
+                _Slip(start, start + cost.attend_s, to=cost.attend_gaze_deg)
+            )
+            paid.append("looked at the robot")
+        others = [m for m in self._truth if m != cued]
+        if others and u[0] < cost.slip_probability and cost.slip_s > 0:
+            m = others[int(u[1] * len(others)) % len(others)]
+            rule = self._rules[m]
+            lo, hi = rule.low, rule.high
+            ref_lo = rule.scale if rule.scale is not None else (abs(lo) * 0.1 if lo else 1.0)
+            ref_hi = rule.scale if rule.scale is not None else (abs(hi) * 0.1 if hi else 1.0)
+            if lo is not None and (hi is None or u[2] < 0.5):
+                delta = -cost.slip_scales * ref_lo
+            else:
+                delta = cost.slip_scales * ref_hi
+            self._slips.setdefault(m, []).append(_Slip(start, start + cost.slip_s, delta=delta))
+            paid.append(f"slipped on {m}")
+        record["cost"] = paid
+
+    def _with_slips(self, metric: str, t: FloatArray, v: FloatArray) -> FloatArray:
+        for s in self._slips.get(metric, ()):
+            if s.start > t[-1] or s.end < t[0]:
+                continue
+            on = (t > s.start) & (t <= s.end)
+            if s.to is not None:
+                v = np.where(on, np.minimum(v, s.to), v)
+            else:
+                v = np.where(on, v + s.delta, v)
+        return v
+
     def _with_reactions(self, metric: str, t: FloatArray, script: FloatArray) -> FloatArray:
-        """Layer 2: the scripted values ``script`` at times ``t`` with every pull applied."""
+        """Layer 2: the scripted values ``script`` at times ``t`` with every pull (and, for a
+        presenter who pays for interruptions, every slip) applied."""
+        out = self._with_reactions_only(metric, t, script)
+        return self._with_slips(metric, t, out) if self._slips else out
+
+    def _with_reactions_only(self, metric: str, t: FloatArray, script: FloatArray) -> FloatArray:
         out = script
         for sign in (+1, -1):
             pulls = self._pulls.get((metric, sign))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 from pathlib import Path
 
 import pytest
@@ -12,10 +13,13 @@ from prezence.errors import UnknownName
 from prezence.evaluate import (
     aggregate,
     classify_cue,
+    conclusions,
     csv_text,
     evaluate,
     evaluate_main,
+    evaluation_json,
     markdown_table,
+    max_in_window,
     score_talk,
 )
 
@@ -92,13 +96,106 @@ def test_aggregate_pools_over_scenarios_and_seeds() -> None:
     assert agg["weighted"]["cues_per_talk"] == pytest.approx(3.0)
     assert agg["weighted"]["latency_s"] == pytest.approx(30.0)  # median of 10, 30, 40
     assert agg["none"]["latency_s"] is None
+    # s2 has no "none" talk to pair with: no gain is claimed from unpaired talks
+    assert agg["weighted"]["gain_vs_none"] is None
+
+
+def paired_rows() -> list[dict[str, object]]:
+    base = {
+        "talk_s": 600.0,
+        "relevant": 1,
+        "backlog_s": 0.0,
+        "waited": 0,
+        "violations": 0,
+        "latency_s": None,
+        "latencies": [],
+        "cues_per_minute_max": 1,
+    }
+    rows = []
+    for model in ("free", "cost"):
+        for seed in (0, 1):
+            rows += [
+                dict(
+                    base,
+                    presenter=model,
+                    scenario="s",
+                    seed=seed,
+                    policy="none",
+                    time_in_range=0.80,
+                    cues=0,
+                    corrective=0,
+                    false_alarms=0,
+                    stale=0,
+                ),
+                dict(
+                    base,
+                    presenter=model,
+                    scenario="s",
+                    seed=seed,
+                    policy="weighted",
+                    time_in_range=0.86,
+                    cues=3,
+                    corrective=2,
+                    false_alarms=0,
+                    stale=0,
+                ),
+                dict(
+                    base,
+                    presenter=model,
+                    scenario="s",
+                    seed=seed,
+                    policy="rhema",
+                    time_in_range=0.88 if model == "free" else 0.82,
+                    cues=4,
+                    corrective=4,
+                    false_alarms=1,
+                    stale=0,
+                ),
+            ]
+    return rows  # fmt: skip
+
+
+def test_gain_per_corrective_cue_is_paired_against_none() -> None:
+    agg = {(a["presenter"], a["policy"]): a for a in aggregate(paired_rows())}
+    w = agg[("free", "weighted")]
+    assert w["gain_vs_none"] == pytest.approx(0.06)
+    assert w["gain_per_corrective"] == pytest.approx(0.03)
+    assert agg[("free", "rhema")]["gain_per_corrective"] == pytest.approx(0.02)
+    assert agg[("cost", "rhema")]["gain_per_corrective"] == pytest.approx(0.005)
+    assert agg[("free", "none")]["gain_per_corrective"] is None
+
+
+def test_conclusions_per_presenter_model() -> None:
+    concl = {c["presenter"]: c for c in conclusions(aggregate(paired_rows()), anchors=["rhema"])}
+    assert concl["free"]["most_time_in_range"] == "rhema"
+    assert concl["cost"]["most_time_in_range"] == "weighted"
+    assert concl["free"]["default_beats_anchors_per_cue"] is True
+    assert concl["free"]["default_false_alarms_le_anchors"] is True
+    assert concl["free"]["default_stale"] == 0
+
+
+def test_evaluation_json_holds_fractions_per_policy() -> None:
+    doc = evaluation_json(paired_rows())
+    assert doc["presenter"] == "cost"
+    pol = doc["policies"]
+    assert set(pol) == {"none", "weighted", "rhema"}
+    for key in ("time_in_range", "corrective_per_talk", "false_alarms", "stale",
+                "cues_per_minute_max", "gain_per_corrective"):  # fmt: skip
+        assert key in pol["weighted"]
+    assert pol["rhema"]["time_in_range"] == pytest.approx(0.82)
+    assert set(doc["presenters"]) == {"free", "cost"}
+
+
+def test_max_cues_in_a_minute() -> None:
+    assert max_in_window([], 60.0) == 0
+    assert max_in_window([5.0, 30.0, 64.0, 66.0, 200.0], 60.0) == 3
 
 
 def test_tables_have_a_row_per_policy_and_per_talk() -> None:
     md = markdown_table(fake_rows())
     policy_rows = [line.split(" | ")[0] for line in md.splitlines()[2:4]]
     assert policy_rows == ["| weighted", "| none"]
-    assert "| s2 | 70.0 | – |" in md
+    assert "| s2 | 70.0 (1.0/1.0) | – |" in md
     parsed = list(csv.DictReader(io.StringIO(csv_text(fake_rows()))))
     assert [r["scenario"] for r in parsed] == ["s1", "s2", "s1"]
     assert parsed[1]["latencies"] == "30;40"
@@ -127,11 +224,16 @@ def test_small_grid_is_deterministic_and_independent_of_jobs(tmp_path: Path) -> 
 def test_evaluate_main_writes_csv_and_markdown(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    argv = ["--scenarios", "ideal", "--policies", "none", "--seeds", "1", "--out", str(tmp_path)]
+    argv = ["--scenarios", "ideal", "--policies", "none", "rhema", "--seeds", "1",
+            "--out", str(tmp_path), "--presenters", "cost+measured"]  # fmt: skip
     assert evaluate_main(argv) == 0
     assert "| none | 1 |" in capsys.readouterr().out
     assert (tmp_path / "evaluation.md").read_text().startswith("| policy |")
     assert (tmp_path / "evaluation.csv").read_text().startswith("scenario,policy,seed")
+    doc = json.loads((tmp_path / "evaluation.json").read_text())
+    assert set(doc["policies"]) == {"none", "rhema"}
+    assert 0.0 <= doc["policies"]["none"]["time_in_range"] <= 1.0
+    assert doc["policies"]["none"]["corrective_per_talk"] == 0
 
 
 def test_ray_runs_the_grid_on_a_local_instance() -> None:

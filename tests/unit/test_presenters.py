@@ -12,7 +12,16 @@ from prezence.config.model import Check, Config, Rule
 from prezence.errors import UnknownName
 from prezence.samples import Sample
 from prezence.streams.codec import StreamLineError, parse_line
-from prezence.synthetic.presenters import TRUTH_STEP_S, SyntheticPresenter, comfortable_values
+from prezence.synthetic.presenters import (
+    MEASURED_ERROR,
+    TRUTH_STEP_S,
+    InterruptionCost,
+    PresenterModel,
+    SyntheticPresenter,
+    comfortable_values,
+    parse_presenter_model,
+    presenter_model,
+)
 from prezence.synthetic.scenario import Scenario
 
 # The default rule set's bands, written out so these tests do not depend on the shipped file.
@@ -47,6 +56,7 @@ def make(
     duration: str = "10:00",
     seed: int = 0,
     config: Config = CONFIG,
+    model: str | PresenterModel | None = None,
 ) -> SyntheticPresenter:
     doc: dict[str, Any] = {
         "format": 1,
@@ -57,7 +67,7 @@ def make(
         "episodes": episodes or [],
         "reactions": reactions or {"default": SURE},
     }
-    return SyntheticPresenter(Scenario.from_dict(doc), config, seed=seed)
+    return SyntheticPresenter(Scenario.from_dict(doc), config, seed=seed, model=model)
 
 
 def run(p: SyntheticPresenter, until: float, step: float = 1.0) -> list[Sample]:
@@ -417,3 +427,82 @@ def test_metric_without_a_rule_has_no_truth() -> None:
     p = make([NOTES], config=config)
     run(p, 600)
     assert p.truth() == []
+
+
+# -- presenter models: a presenter who pays for interruptions ----------------------------------
+
+FAST = {"metric": "speech_speed", "kind": "step", "at": "3:00", "value": 215.0}
+
+
+def test_the_free_model_is_the_presenter_as_before() -> None:
+    a, b = make([FAST]), make([FAST], model="free")
+    for p in (a, b):
+        run(p, 210)
+        p.on_cue(210.0, "slowDown", "speech_speed", {})
+    assert a.advance(400.0) == b.advance(400.0)
+    assert a.truth() == b.truth()
+
+
+def test_a_cue_costs_a_pause_and_a_look_at_the_robot() -> None:
+    cost = InterruptionCost(slip_probability=0.0)
+    p = make(model=PresenterModel("no slips", cost))
+    run(p, 100)
+    p.on_cue(100.0, "timeLeft", None, {"minutes": 2})  # even a neutral cue costs
+    assert p.true_value("speech_speed", 101.0) == pytest.approx(160.0 * (1 - 0.5))
+    assert p.true_value("speech_speed", 100.0 + cost.pause_s + 0.5) == 160.0
+    assert p.true_value("cv_headGaze", 101.0) == cost.attend_gaze_deg
+    assert p.true_value("cv_headGaze", 100.0 + cost.attend_s + 0.5) == -3.0
+    assert "pause" in p.reactions[-1]["cost"]
+    p.advance(120.0)
+    out = [x for x in p.truth() if x["metric"] in ("speech_speed", "cv_headGaze")]
+    assert {x["metric"] for x in out} == {"speech_speed", "cv_headGaze"}
+
+
+def test_repeated_cues_about_one_metric_lose_effect() -> None:
+    p = make([FAST], model="cost")
+    for k in range(3):
+        t = 200.0 + 100.0 * k
+        p.advance(t)
+        p.on_cue(t, "slowDown", "speech_speed", {})
+    hab = [r["habituation"] for r in p.reactions]
+    assert hab == pytest.approx([1.0, 0.75, 0.75**2])
+
+
+def test_a_correction_fades_sooner_under_the_cost_model() -> None:
+    free, cost = make([FAST]), make([FAST], model="cost")
+    for p in (free, cost):
+        run(p, 210)
+        p.on_cue(210.0, "slowDown", "speech_speed", {})
+    assert cost.reactions[-1]["lasts_s"] == pytest.approx(0.6 * free.reactions[-1]["lasts_s"])
+
+
+def test_slips_happen_at_about_their_probability() -> None:
+    p = make(model="cost")
+    n = 200
+    for k in range(n):
+        t = 1.0 + 2.9 * k
+        p.advance(t)
+        p.on_cue(t, "encourage", None, {})
+    slips = sum(any(c.startswith("slipped") for c in r["cost"]) for r in p.reactions)
+    assert 0.2 * n < slips < 0.4 * n  # probability 0.3
+
+
+def test_measured_noise_adds_the_module_error() -> None:
+    quiet = dict(METRICS, speech_speed={"baseline": 160.0, "noise": 0.0, "rate_hz": 1.0})
+    p = make(metrics=quiet, model="free+measured")
+    xs = np.array([s.value for s in of(run(p, 600), "speech_speed")])
+    assert xs.std() == pytest.approx(MEASURED_ERROR["speech_speed"], rel=0.15)
+
+
+def test_presenter_model_specs() -> None:
+    assert parse_presenter_model("free").cost is None
+    half = parse_presenter_model("cost:0.5").cost
+    assert half is not None and half.pause_s == pytest.approx(1.0)
+    assert half.habituation == pytest.approx(0.875)
+    with pytest.raises(ValueError, match="expected free"):
+        parse_presenter_model("costly")
+    with pytest.raises(ValueError, match="measured"):
+        parse_presenter_model("cost+noisy")
+    with presenter_model("cost"):
+        assert make().model.cost is not None
+    assert make().model.cost is None

@@ -82,11 +82,23 @@ def test_in_range_gives_no_cue() -> None:
 
 
 def test_non_strict_weight_grows_with_deviation_times_time() -> None:
-    # 25 % above 180 wpm: weight grows 25 %·s per second and fires at threshold 600 → 24 s.
-    p = make(SPEED, threshold=600)
+    # 25 % above 180 wpm: without persistence the weight grows 25 %·s per second and fires at
+    # threshold 600 → 24 s after the onset.
+    p = make(SPEED, threshold=600, policy="weighted:persistence_s=0")
     ds = talk(p, {"speech_speed": lambda t: 225.0 if t >= 10 else 160.0}, until=60)
     assert cues(ds)[0][1] == "slowDown"
     assert cues(ds)[0][0] == pytest.approx(34.0, abs=0.6)
+
+
+def test_persistence_delays_a_held_deviation_by_at_most_its_time_constant() -> None:
+    # With persistence P(t) = 1 - exp(-t/tau) the weight is 25 (t - tau (1 - exp(-t/tau))):
+    # it reaches 600 at t = 29.0 s for tau = 5 s (24 s plus almost one tau).
+    p = make(SPEED, threshold=600, policy="weighted:persistence_s=5")
+    ds = talk(p, {"speech_speed": lambda t: 225.0 if t >= 10 else 160.0}, until=60)
+    tau, t = 5.0, 24.0
+    for _ in range(50):
+        t = 24.0 + tau * (1 - math.exp(-t / tau))
+    assert cues(ds)[0][0] == pytest.approx(10.0 + t, abs=0.6)
 
 
 def test_bigger_deviation_fires_sooner() -> None:

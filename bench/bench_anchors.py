@@ -1,0 +1,136 @@
+"""The anchors inside Prezence against the peers' reference replay, on the shared workload.
+
+    python bench/bench_anchors.py [--n 200000] [--duration 4] [--tick 0.5] [--peers ../shared/peers]
+
+Writes the peers' throughput workload (``mkload.py``) into a temporary folder, replays it through
+``peers/replay.py --policy pz16|pt|rhema`` (the reference, run as its own process) and through
+Prezence's processor with the same anchor (``pz16``, ``presentation_trainer``, ``rhema``), the same
+decision tick and a robot that is busy for the same fixed time per cue; prints the cue counts and
+their ratio, and the wall time of both. Prezence reads the folder's streams and ``rules.conf``
+with its own readers (seed line format, the room's ANGLE = -15).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from prezence.config.lines import parse_lines
+from prezence.config.load import complete_rules, default_config
+from prezence.config.model import Config
+from prezence.processor import Cue, Processor, make_policy
+from prezence.samples import Sample
+from prezence.streams.tail import read_stream
+
+#: Prezence's name for each peers' policy name.
+PAIRS = {"pz16": "pz16", "pt": "presentation_trainer", "rhema": "rhema"}
+
+
+def load_folder(folder: Path) -> tuple[Config, list[Sample]]:
+    base = default_config()
+    rules = parse_lines((folder / "rules.conf").read_text(), path=folder / "rules.conf")
+    rules, _ = complete_rules(rules)
+    cfg = Config(rules=rules, processor=base.processor, time=base.time, room=base.room)
+    cfg = cfg.with_allocated(None)
+    samples: list[Sample] = []
+    for r in rules:
+        ss, _ = read_stream(folder / "streams" / f"{r.metric}.txt", r.metric)
+        samples.extend(ss)
+    samples.sort(key=lambda s: s.t)
+    return cfg, samples
+
+
+def run_prezence(
+    cfg: Config, samples: list[Sample], policy: str, *, duration: float, tick: float
+) -> list[Cue]:
+    """Decisions every ``tick`` s over ``samples``; each cue keeps the robot busy ``duration``."""
+    p = Processor(cfg, policy=make_policy(policy))
+    busy_until = -math.inf
+    i, n = 0, len(samples)
+    end = samples[-1].t if samples else 0.0
+    out: list[Cue] = []
+    k = 0
+    while True:
+        k += 1
+        now = round(k * tick, 9)
+        if now > end + tick:
+            break
+        j = i
+        while j < n and samples[j].t <= now + 1e-9:
+            j += 1
+        free = now >= busy_until - 1e-9
+        d = p.step(now, samples[i:j], free_since=busy_until if free else None)
+        i = j
+        if d.cue is not None:
+            out.append(d.cue)
+            busy_until = now + duration
+    return out
+
+
+def run_peers(peers: Path, folder: Path, policy: str, *, duration: float, tick: float) -> int:
+    out = folder / f"peers-{policy}.jsonl"
+    subprocess.run(
+        [
+            sys.executable,
+            str(peers / "replay.py"),
+            str(folder),
+            "--policy",
+            policy,
+            "--duration",
+            str(duration),
+            "--tick",
+            str(tick),
+            "--allocated",
+            "0",
+            "--out",
+            str(out),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    return sum(1 for line in out.read_text().splitlines() if json.loads(line))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--n", type=int, default=200_000, help="samples in the workload")
+    ap.add_argument("--duration", type=float, default=4.0, help="seconds the robot is busy per cue")
+    ap.add_argument("--tick", type=float, default=0.5, help="decision period, s")
+    ap.add_argument(
+        "--peers",
+        type=Path,
+        default=Path(__file__).resolve().parents[1].parent / "shared" / "peers",
+    )
+    a = ap.parse_args()
+    if not (a.peers / "replay.py").is_file():
+        print(f"no peers folder at {a.peers}", file=sys.stderr)
+        return 2
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / "load"
+        subprocess.run(
+            [sys.executable, str(a.peers / "mkload.py"), str(folder), str(a.n)],
+            check=True,
+            capture_output=True,
+        )
+        cfg, samples = load_folder(folder)
+        print(f"workload: {len(samples)} samples, {samples[-1].t:.0f} s, cue {a.duration:g} s")
+        print("| policy | peers' replay.py cues | Prezence cues | ratio | peers s | Prezence s |")
+        print("|---|---:|---:|---:|---:|---:|")
+        for peer, ours in PAIRS.items():
+            t0 = time.perf_counter()
+            ref = run_peers(a.peers, folder, peer, duration=a.duration, tick=a.tick)
+            t1 = time.perf_counter()
+            got = len(run_prezence(cfg, samples, ours, duration=a.duration, tick=a.tick))
+            t2 = time.perf_counter()
+            print(f"| {ours} | {ref} | {got} | {got / ref:.3f} | {t1 - t0:.2f} | {t2 - t1:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,188 @@
+"""The anchors (pz16, presentation_trainer, rhema) as policies of the processor."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from prezence.config.lines import parse_lines
+from prezence.config.load import complete_rules, default_config, load_config
+from prezence.config.model import Config
+from prezence.errors import ConfigError, UnknownName
+from prezence.processor import Cue, Kind, Processor, make_policy, policy_names
+from prezence.samples import Sample
+from prezence.streams.tail import read_stream
+
+PEERS = Path(__file__).resolve().parents[2].parent / "shared" / "peers"
+PAIRS = {"pz16": "pz16", "pt": "presentation_trainer", "rhema": "rhema"}
+
+
+def builtin() -> Config:
+    return load_config(None).with_allocated(None)
+
+
+def drive(
+    cfg: Config,
+    samples: list[Sample],
+    policy: str,
+    *,
+    duration: float = 4.0,
+    tick: float = 0.5,
+    end: float | None = None,
+) -> list[Cue]:
+    """Decisions every ``tick``; each cue keeps the robot busy ``duration`` (peers' replay.py)."""
+    p = Processor(cfg, policy=make_policy(policy))
+    busy_until = -math.inf
+    i, n = 0, len(samples)
+    end = end if end is not None else (samples[-1].t if samples else 0.0)
+    out: list[Cue] = []
+    k = 0
+    while (now := round((k := k + 1) * tick, 9)) <= end + tick:
+        j = i
+        while j < n and samples[j].t <= now + 1e-9:
+            j += 1
+        free = now >= busy_until - 1e-9
+        d = p.step(now, samples[i:j], free_since=busy_until if free else None)
+        i = j
+        if d.cue is not None:
+            out.append(d.cue)
+            busy_until = now + duration
+    return out
+
+
+def series(until: float, **signals: Callable[[float], float]) -> list[Sample]:
+    return sorted(
+        (Sample(m, float(t), f(float(t))) for m, f in signals.items() for t in range(int(until))),
+        key=lambda s: s.t,
+    )
+
+
+OK = {
+    "speech_speed": lambda t: 160.0,
+    "speech_volume": lambda t: 66.0,
+    "speech_accuracy": lambda t: 0.8,
+    "cv_headGaze": lambda t: 0.0,
+    "cv_gestures": lambda t: 6.0,
+}
+
+
+def test_the_anchors_are_registered_under_their_names() -> None:
+    names = policy_names()
+    for name in ("pz16", "presentation_trainer", "rhema"):
+        assert name in names
+        assert make_policy(name).name == name
+    assert make_policy("pt").name == "presentation_trainer"
+    assert make_policy("rhema:window_s=30").params["window_s"] == 30.0
+
+
+def test_a_bad_spec_names_the_problem() -> None:
+    with pytest.raises(UnknownName):
+        make_policy("rhemaa")
+    with pytest.raises(ConfigError, match="unknown parameter"):
+        make_policy("rhema:windows=3")
+    with pytest.raises(ConfigError, match="key=number"):
+        make_policy("weighted:threshold")
+
+
+def test_pz16_waits_for_more_concerns_than_the_allowance_and_prefers_low_priority() -> None:
+    # Gaze (allowance 2, priority 2) and speed (allowance 1, priority 4) both out from 20 s:
+    # speed is eligible first (2 concerns > 1, at 21 s; gaze needs 3); at the next chance,
+    # after the 10 s robot delay, both are and gaze's lower priority number wins.
+    sig = dict(OK, speech_speed=lambda t: 230.0 if t >= 20 else 160.0)
+    sig["cv_headGaze"] = lambda t: -30.0 if t >= 20 else 0.0
+    cs = drive(builtin(), series(60, **sig), "pz16")
+    assert (cs[0].t, cs[0].command) == (21.0, "slowDown")
+    assert cs[1].command == "lookUp"
+    assert all(b.t - a.t > 10.0 for a, b in zip(cs, cs[1:], strict=False))
+
+
+def test_pz16_is_silent_in_its_warm_up() -> None:
+    sig = dict(OK, speech_speed=lambda t: 230.0)
+    cs = drive(builtin(), series(30, **sig), "pz16")
+    assert cs and cs[0].t >= 9.0
+
+
+def test_presentation_trainer_praises_when_the_mistake_on_show_ends() -> None:
+    sig = dict(OK, speech_speed=lambda t: 230.0 if 10 <= t < 20 else 160.0)
+    cs = drive(builtin(), series(40, **sig), "presentation_trainer")
+    assert [c.command for c in cs] == ["slowDown", "encourage"]
+    assert cs[1].kind == Kind.PRAISE and cs[1].metric is None
+    assert 20.0 <= cs[1].t <= 21.5
+
+
+def test_rhema_decides_once_per_window_on_the_majority() -> None:
+    # Too fast for 15 of the 20 samples of the second window, for 8 of the third's: one cue,
+    # at the end of the second window.
+    sig = dict(OK, speech_speed=lambda t: 230.0 if 25 <= t < 48 else 160.0)
+    cs = drive(builtin(), series(80, **sig), "rhema")
+    assert [(c.t, c.command) for c in cs] == [(40.0, "slowDown")]
+
+
+def test_the_anchors_ignore_the_processor_refractory() -> None:
+    # 40 s refractory in the config; PT's own 3.5 s pace sets its rhythm instead.
+    sig = dict(OK, speech_speed=lambda t: 230.0 if (t // 5) % 2 else 160.0)
+    cs = drive(builtin(), series(60, **sig), "presentation_trainer")
+    slow = [c.t for c in cs if c.command == "slowDown"]
+    assert len(slow) >= 4
+
+
+@pytest.mark.skipif(
+    not (PEERS / "replay.py").is_file(),
+    reason=f"the peers' reference replay is not at {PEERS} (it lives outside the repository)",
+)
+@pytest.mark.parametrize("peer", sorted(PAIRS))
+def test_cue_counts_match_the_peers_reference_on_the_shared_workload(
+    peer: str, tmp_path: Path
+) -> None:
+    folder = tmp_path / "load"
+    subprocess.run(
+        [sys.executable, str(PEERS / "mkload.py"), str(folder), "20000"],
+        check=True,
+        capture_output=True,
+    )
+    out = tmp_path / "cues.jsonl"
+    subprocess.run(
+        [
+            sys.executable,
+            str(PEERS / "replay.py"),
+            str(folder),
+            "--policy",
+            peer,
+            "--tick",
+            "0.5",
+            "--duration",
+            "4",
+            "--allocated",
+            "0",
+            "--out",
+            str(out),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    ref = [json.loads(line) for line in out.read_text().splitlines()]
+    rules, _ = complete_rules(parse_lines((folder / "rules.conf").read_text()))
+    base = default_config()
+    cfg = Config(rules=rules, processor=base.processor, time=base.time, room=base.room)
+    samples: list[Sample] = []
+    for r in rules:
+        samples += read_stream(folder / "streams" / f"{r.metric}.txt", r.metric)[0]
+    samples.sort(key=lambda s: s.t)
+    got = drive(cfg.with_allocated(None), samples, PAIRS[peer])
+    assert len(ref) > 50
+    assert abs(len(got) - len(ref)) <= 0.03 * len(ref)
+    by_metric_ref: dict[str, int] = {}
+    by_metric_got: dict[str, int] = {}
+    for c in ref:
+        by_metric_ref[c["command"]] = by_metric_ref.get(c["command"], 0) + 1
+    for g in got:
+        key = "good" if g.kind == Kind.PRAISE else g.command
+        by_metric_got[key] = by_metric_got.get(key, 0) + 1
+    for cmd, n in by_metric_ref.items():
+        assert abs(by_metric_got.get(cmd, 0) - n) <= max(2, 0.05 * n), cmd
