@@ -24,7 +24,7 @@ from typing import Any
 from prezence.config.model import Config, Rule
 from prezence.errors import ConfigError
 from prezence.samples import Sample
-from prezence.session import SessionDir, read_jsonl
+from prezence.session import SessionDir, read_jsonl, sample_time_limit
 from prezence.summary import build_summary
 
 log = logging.getLogger(__name__)
@@ -210,8 +210,8 @@ def rank_priorities(
 def _read_meta(session: SessionDir) -> dict[str, Any]:
     try:
         return session.read_meta()
-    except json.JSONDecodeError as e:  # torn while being written: the rest still tells a lot
-        log.warning("%s: unreadable (%s); going on without it", session.meta, e)
+    except ConfigError as e:  # torn while being written: the rest still tells a lot
+        log.warning("%s; going on without it", e)
         return {}
 
 
@@ -314,14 +314,18 @@ def _rebuild(
         raise no_streams_error(session.root, cfg)
     streams: dict[str, list[Sample]] = {}
     stats: dict[str, dict[str, Any]] = {}
+    limit = sample_time_limit(session, meta)  # a stamp of 1e9 s is not a 30-year talk
     for rule in cfg.rules:
-        samples, st = read_stream(paths.get(rule.metric, session.stream(rule.stream)), rule.metric)
+        samples, st = read_stream(
+            paths.get(rule.metric, session.stream(rule.stream)), rule.metric, max_t=limit
+        )
         streams[rule.metric] = sorted(samples, key=lambda s: s.t)
         stats[rule.metric] = st.to_dict()
     cues = read_jsonl(session.cues)
     truth = read_jsonl(session.truth) if session.truth.exists() else None
     stale_default = cfg.processor.stale_after_s
     talk_s, complete = _talk_length(meta, streams, cues, stale_default)
+    talk_s = min(talk_s, limit)
     if not complete:
         log.warning(
             "%s: the record stops at %.1f s of a planned %.1f s; reporting what was recorded",
