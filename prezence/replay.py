@@ -133,7 +133,8 @@ def replay(
     out = Path(out)
     if overlaps(out, src):
         raise ConfigError(
-            f"--out must be outside the recording {src}: replay never writes into or over it",
+            f"--out must be another folder, outside the recording {src}: replay never writes "
+            "into or over it",
             path=out,
         )
     src_session = SessionDir(src)

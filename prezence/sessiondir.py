@@ -42,6 +42,7 @@ def claim_session_dir(
     force: bool = False,
     root: Path = SESSIONS_ROOT,
     protect: tuple[Path, ...] = (),
+    default: Path | None = None,
 ) -> Path:
     """Create and return a new, empty session folder.
 
@@ -51,14 +52,20 @@ def claim_session_dir(
         force: move an existing non-empty ``out`` aside (``out.old-<stamp>``) instead of refusing.
         protect: folders that must not be moved aside nor written into (a replay's source):
             ``out`` may be none of them, nor inside one, nor hold one.
+        default: the folder to use when ``out`` is None (suffixed ``-2``, ``-3`` … when it
+            exists); None: ``root/<kind>-<time>``.
 
     Raises:
         ConfigError: ``out`` exists and is not empty (without ``force``), is a file, or
             overlaps a protected folder.
     """
     if out is None:
-        path = default_session_dir(kind, root=root)
-        path.mkdir(parents=True, exist_ok=False)
+        path = default_session_dir(kind, root=root) if default is None else default
+        n = 1
+        while path.exists() and not _is_empty_dir(path):
+            n += 1
+            path = path.with_name(f"{(default or path).name}-{n}")
+        path.mkdir(parents=True, exist_ok=True)
         return path
     path = Path(out)
     for p in protect:

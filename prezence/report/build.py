@@ -14,7 +14,6 @@ on, and the talk's length when the record ends early.
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 from collections.abc import Mapping, Sequence
