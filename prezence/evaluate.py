@@ -264,14 +264,30 @@ def _grid(
     )
 
 
+#: With it set to 0 before ``import ray``, Ray takes the node's address to be loopback and
+#: every server of a local cluster (GCS, raylet, workers) listens on 127.0.0.1 only (checked
+#: with ``ss -ltnp``; without it they listen on all interfaces).
+RAY_LOOPBACK_ENV = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
+
+
 def _run_ray(tasks: Sequence[Task], address: str, jobs: int) -> list[dict[str, Any]]:
+    if address == "local":
+        import os
+
+        os.environ.setdefault(RAY_LOOPBACK_ENV, "0")
     try:
         import ray
     except ImportError as e:
         raise PrezenceError('--ray needs ray: pip install "prezence[ray]"') from e
     if not ray.is_initialized():
         if address == "local":
-            ray.init(num_cpus=max(1, jobs), include_dashboard=False, log_to_driver=False)
+            # a local cluster listens on loopback only: nothing of it is reachable from outside
+            ray.init(
+                num_cpus=max(1, jobs),
+                include_dashboard=False,
+                log_to_driver=False,
+                dashboard_host="127.0.0.1",
+            )
         else:
             ray.init(address=address, log_to_driver=False)
     remote = ray.remote(run_task)
