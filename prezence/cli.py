@@ -272,7 +272,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 def cmd_rehearse(args: argparse.Namespace) -> int:
     from prezence.rehearse import module_args, rehearse
-    from prezence.sessiondir import SESSIONS_ROOT, claim_session_dir
+    from prezence.sessiondir import claim_session_dir
 
     rec = Path(args.recording)
     config = _config_or_default(args)
@@ -282,7 +282,10 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
         "vision": module_args("--vision-args", "vision", args.vision_args),
     }
     out = claim_session_dir(
-        args.out, "rehearsal", force=args.force, default=SESSIONS_ROOT / f"rehearsal-{rec.stem}"
+        args.out,
+        "rehearsal",
+        force=args.force,
+        default=_speaker_root(args) / f"rehearsal-{rec.stem}",
     )
     with _drop_if_left_empty(out):
         result = rehearse(
@@ -336,7 +339,7 @@ def cmd_up(args: argparse.Namespace) -> int:
     kw = _backend_kwargs(args)
     check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
     backend = make_backend(args.backend, **kw)
-    out = claim_session_dir(args.out, "live", force=args.force)
+    out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
     with _drop_if_left_empty(out):
         try:
             result = up(
@@ -488,6 +491,36 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
     p.add_argument("--no-report", action="store_true", help="skip the post-talk report")
 
 
+def _speaker_root(args: argparse.Namespace) -> Path:
+    """``sessions/NAME`` with ``--speaker NAME`` (one folder per speaker: progress across
+    rehearsals reads it), else ``sessions``."""
+    from prezence.sessiondir import SESSIONS_ROOT
+
+    name = getattr(args, "speaker", None)
+    if not name:
+        return SESSIONS_ROOT
+    if "/" in name or name.startswith(".") or not name.strip():
+        raise PrezenceError(f"--speaker {name!r}: want a plain name such as 'ana'")
+    return SESSIONS_ROOT / name.strip()
+
+
+def cmd_progress(args: argparse.Namespace) -> int:
+    from prezence.progress import format_progress, progress
+
+    folder = Path(args.folder) if args.folder else _speaker_root(args)
+    print(format_progress(progress(folder)))
+    return 0
+
+
+def _add_speaker(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--speaker",
+        metavar="NAME",
+        help="whose rehearsal this is: sessions go to sessions/NAME/ and the report shows "
+        "the progress across NAME's rehearsals",
+    )
+
+
 def _add_force(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--force",
@@ -596,15 +629,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--grace", type=float, default=30.0, help="seconds after the allocated time")
     p.add_argument("--duration", type=parse_seconds, help="stop after this long (seconds)")
     p.add_argument("--seed", type=int, default=0, help="seed of policies that use chance")
-    _add_robot_args(p, out_help="a new sessions/live-YYYYMMDD-HHMMSS")
+    _add_robot_args(p, out_help="a new sessions/[NAME/]live-YYYYMMDD-HHMMSS")
     _add_force(p)
+    _add_speaker(p)
     p.set_defaults(func=cmd_up)
 
     p = add(sub, "rehearse", help="coach a recorded rehearsal (audio or video file)")
     p.add_argument("recording")
     _add_module_args(p)
-    _add_robot_args(p, out_help="sessions/rehearsal-<recording>, -2, -3 ... when taken")
+    _add_robot_args(p, out_help="sessions/[NAME/]rehearsal-<recording>, -2, -3 ... when taken")
     _add_force(p)
+    _add_speaker(p)
     _add_recorded_args(p)
     p.set_defaults(func=cmd_rehearse)
 
@@ -612,6 +647,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("session")
     p.add_argument("--config", help="judge by this config instead of the folder's")
     p.set_defaults(func=cmd_report)
+
+    p = add(sub, "progress", help="progress across rehearsals: each metric's trend")
+    p.add_argument(
+        "folder",
+        nargs="?",
+        help="a folder of one speaker's sessions, or one session (its folder's sessions)",
+    )
+    _add_speaker(p)
+    p.set_defaults(func=cmd_progress)
 
     p = sub.add_parser(
         "evaluate",

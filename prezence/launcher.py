@@ -180,6 +180,8 @@ class ModuleProcess:
     log_file: IO[str]
     backoff_s: float = 1.0
     max_backoff_s: float = 30.0
+    #: A run at least this long before a crash was healthy: the backoff starts again.
+    healthy_after_s: float = HEALTHY_RUN_S
     proc: subprocess.Popen[str] | None = None
     restarts: int = 0
     crashes: list[dict[str, Any]] = field(default_factory=list)
@@ -292,7 +294,7 @@ class ModuleProcess:
             self._kill()
         self.crashes.append({"t": round(now, 3), "why": why})
         self.restarts += 1
-        if now - self.started_at >= HEALTHY_RUN_S:
+        if now - self.started_at >= self.healthy_after_s:
             self.streak = 0  # it had been running well: not a crash loop
         self.streak += 1
         delay = min(self.max_backoff_s, self.backoff_s * 2 ** (self.streak - 1))
