@@ -7,10 +7,11 @@ A :class:`PrezenceError` prints ``error: …`` and exits 2 with no traceback; ``
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -111,6 +112,11 @@ def _progress_printer() -> Callable[[float, float], None] | None:
 
 def _backend_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     kw: dict[str, Any] = {}
+    if getattr(args, "robot", None) and args.backend != "naoqi":
+        raise PrezenceError(
+            f"--robot is only used with --backend naoqi (the backend is {args.backend}); add "
+            "--backend naoqi, or leave --robot out"
+        )
     if args.backend == "sim":
         kw["gui"] = bool(getattr(args, "gui", False))
     if args.backend == "naoqi":
@@ -242,39 +248,64 @@ def cmd_replay(args: argparse.Namespace) -> int:
             "--room gives named values to --config rules; give --config too (the recording's "
             "config.toml holds numbers only)"
         )
+    from prezence.sessiondir import claim_session_dir, overlaps
+
     src = Path(args.session)
-    out = Path(args.out) if args.out else src.parent / f"{src.name}-replay-{args.policy}"
-    result = replay(
-        src,
-        out=out,
-        options=_options(args),
-        config=_load_config(args),
-        backend=args.backend,
-        backend_kwargs=_backend_kwargs(args),
-        allocated_s=args.allocated,
+    if args.out and overlaps(Path(args.out), src):
+        raise PrezenceError(
+            f"--out {args.out} overlaps the recording {src}: replay never writes into or over it"
+        )
+    config = _load_config(args)
+    kw = _backend_kwargs(args)
+    out = claim_session_dir(
+        args.out,
+        "replay",
+        force=args.force,
+        protect=(src,),
+        default=src.parent / f"{src.name}-replay-{args.policy}",
     )
+    with _drop_if_left_empty(out):
+        result = replay(
+            src,
+            out=out,
+            options=_options(args),
+            config=config,
+            backend=args.backend,
+            backend_kwargs=kw,
+            allocated_s=args.allocated,
+        )
     _finish_session(result.session.root, result.summary, args, report=result.report)
     return 0
 
 
 def cmd_rehearse(args: argparse.Namespace) -> int:
     from prezence.rehearse import module_args, rehearse
+    from prezence.sessiondir import claim_session_dir
 
     rec = Path(args.recording)
-    out = Path(args.out) if args.out else Path("sessions") / f"rehearsal-{rec.stem}"
-    result = rehearse(
-        rec,
-        out=out,
-        options=_options(args),
-        config=_config_or_default(args),
-        backend=args.backend,
-        backend_kwargs=_backend_kwargs(args),
-        module_args={
-            "speech": module_args("--speech-args", "speech", args.speech_args),
-            "vision": module_args("--vision-args", "vision", args.vision_args),
-        },
-        allocated_s=args.allocated,
+    config = _config_or_default(args)
+    kw = _backend_kwargs(args)
+    margs = {
+        "speech": module_args("--speech-args", "speech", args.speech_args),
+        "vision": module_args("--vision-args", "vision", args.vision_args),
+    }
+    out = claim_session_dir(
+        args.out,
+        "rehearsal",
+        force=args.force,
+        default=_speaker_root(args) / f"rehearsal-{rec.stem}",
     )
+    with _drop_if_left_empty(out):
+        result = rehearse(
+            rec,
+            out=out,
+            options=_options(args),
+            config=config,
+            backend=args.backend,
+            backend_kwargs=kw,
+            module_args=margs,
+            allocated_s=args.allocated,
+        )
     _finish_session(result.session.root, result.summary, args, report=result.report)
     return 0
 
@@ -306,23 +337,44 @@ def cmd_up(args: argparse.Namespace) -> int:
         raise PrezenceError(str(e)) from None
     if not specs:
         raise PrezenceError("nothing to listen to: give --audio, --video or --module")
-    out = Path(args.out) if args.out else Path("sessions") / "live"
-    backend = make_backend(args.backend, **_backend_kwargs(args))
-    try:
-        result = up(
-            config,
-            session_dir=out,
-            modules=specs,
-            backend=backend,
-            options=_options(args),
-            grace_s=args.grace,
-            duration_s=args.duration,
-            view=None if args.quiet else LiveView(config),
-        )
-    except ValueError as e:  # two modules of the same name
-        raise PrezenceError(str(e)) from None
+    from prezence.inputs import check_up_inputs
+    from prezence.sessiondir import claim_session_dir
+
+    kw = _backend_kwargs(args)
+    check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
+    backend = make_backend(args.backend, **kw)
+    out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
+    with _drop_if_left_empty(out):
+        try:
+            result = up(
+                config,
+                session_dir=out,
+                modules=specs,
+                backend=backend,
+                options=_options(args),
+                grace_s=args.grace,
+                duration_s=args.duration,
+                view=None if args.quiet else LiveView(config),
+            )
+        except ValueError as e:  # two modules of the same name
+            raise PrezenceError(str(e)) from None
     _finish_session(result.session.root, result.summary, args, report=result.report)
+    if result.error is not None:
+        print(f"error: the talk stopped: {result.error}", file=sys.stderr)
+        return 2
     return 0
+
+
+@contextlib.contextmanager
+def _drop_if_left_empty(folder: Path) -> Iterator[None]:
+    """Remove ``folder`` again when the command fails before writing anything into it (an
+    empty folder only: ``rmdir`` never deletes a file)."""
+    try:
+        yield
+    except BaseException:
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+        raise
 
 
 def _finish_session(
@@ -386,7 +438,7 @@ def _is_room_file(path: Path) -> bool:
         return False
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError):
         return False
     return "room" in doc and "rules" not in doc and "rules_file" not in doc
 
@@ -449,6 +501,45 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
     )
     p.add_argument("--json", action="store_true", help="print summary.json instead")
     p.add_argument("--no-report", action="store_true", help="skip the post-talk report")
+
+
+def _speaker_root(args: argparse.Namespace) -> Path:
+    """``sessions/NAME`` with ``--speaker NAME`` (one folder per speaker: progress across
+    rehearsals reads it), else ``sessions``."""
+    from prezence.sessiondir import SESSIONS_ROOT
+
+    name = getattr(args, "speaker", None)
+    if not name:
+        return SESSIONS_ROOT
+    if "/" in name or name.startswith(".") or not name.strip():
+        raise PrezenceError(f"--speaker {name!r}: want a plain name such as 'ana'")
+    return SESSIONS_ROOT / name.strip()
+
+
+def cmd_progress(args: argparse.Namespace) -> int:
+    from prezence.progress import format_progress, progress
+
+    folder = Path(args.folder) if args.folder else _speaker_root(args)
+    print(format_progress(progress(folder)))
+    return 0
+
+
+def _add_speaker(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--speaker",
+        metavar="NAME",
+        help="whose rehearsal this is: sessions go to sessions/NAME/ and the report shows "
+        "the progress across NAME's rehearsals",
+    )
+
+
+def _add_force(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="when --out exists and is not empty, move it aside to OUT.old-<time> (nothing is "
+        "ever deleted) instead of refusing",
+    )
 
 
 def _add_run_args(p: argparse.ArgumentParser) -> None:
@@ -530,7 +621,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add(sub, "replay", help="re-run the processor over a recorded session's streams")
     p.add_argument("session", help="a session folder (or any folder with stream files)")
-    _add_robot_args(p, out_help="<session>-replay-<policy>")
+    _add_robot_args(p, out_help="<session>-replay-<policy>, -2, -3 ... when taken")
+    _add_force(p)
     _add_recorded_args(p)
     p.set_defaults(func=cmd_replay)
 
@@ -549,13 +641,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--grace", type=float, default=30.0, help="seconds after the allocated time")
     p.add_argument("--duration", type=parse_seconds, help="stop after this long (seconds)")
     p.add_argument("--seed", type=int, default=0, help="seed of policies that use chance")
-    _add_robot_args(p, out_help="sessions/live")
+    _add_robot_args(p, out_help="a new sessions/[NAME/]live-YYYYMMDD-HHMMSS")
+    _add_force(p)
+    _add_speaker(p)
     p.set_defaults(func=cmd_up)
 
     p = add(sub, "rehearse", help="coach a recorded rehearsal (audio or video file)")
     p.add_argument("recording")
     _add_module_args(p)
-    _add_robot_args(p, out_help="sessions/rehearsal-<recording>")
+    _add_robot_args(p, out_help="sessions/[NAME/]rehearsal-<recording>, -2, -3 ... when taken")
+    _add_force(p)
+    _add_speaker(p)
     _add_recorded_args(p)
     p.set_defaults(func=cmd_rehearse)
 
@@ -563,6 +659,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("session")
     p.add_argument("--config", help="judge by this config instead of the folder's")
     p.set_defaults(func=cmd_report)
+
+    p = add(sub, "progress", help="progress across rehearsals: each metric's trend")
+    p.add_argument(
+        "folder",
+        nargs="?",
+        help="a folder of one speaker's sessions, or one session (its folder's sessions)",
+    )
+    _add_speaker(p)
+    p.set_defaults(func=cmd_progress)
 
     p = sub.add_parser(
         "evaluate",
@@ -635,6 +740,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:
+        return _broken_pipe()
+
+
+#: Exit status after the reader of our output went away (``prezence … | head``): 128 + SIGPIPE.
+EXIT_BROKEN_PIPE = 141
+
+
+def _broken_pipe() -> int:
+    """The reader of stdout is gone: stop quietly (no traceback, no second error at exit)."""
+    import os
+
+    with contextlib.suppress(OSError, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    return EXIT_BROKEN_PIPE
 
 
 if __name__ == "__main__":

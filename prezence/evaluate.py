@@ -23,7 +23,8 @@ Figures per talk (one row):
 - ``violations``: joint-limit violations reported by the backend;
 - ``cues_per_minute_max``: the most cues (of any kind) the robot started in any 60 s.
 
-Every talk runs under a *presenter model* (``presenter`` column; see :mod:`prezence.synthetic.presenters`):
+Every talk runs under a *presenter model* (``presenter`` column; see
+:mod:`prezence.synthetic.presenters`):
 ``free`` (a cue costs nothing), ``cost`` (a presenter who pays for every interruption),
 ``cost:K`` (its assumptions × K), each with ``+measured`` for module noise set from the modules'
 measured errors. The summary adds, per presenter model, the *gain per corrective cue*: the
@@ -98,7 +99,8 @@ class Task:
     seed: int
     backend: str = "fake"
     keep: str | None = None  # a folder to keep the session in (None: a temp folder)
-    presenter: str = "free"  # the presenter model (prezence.synthetic.presenters.parse_presenter_model)
+    # the presenter model (prezence.synthetic.presenters.parse_presenter_model)
+    presenter: str = "free"
 
 
 # -- scoring -----------------------------------------------------------------------------------
@@ -306,14 +308,30 @@ def _grid(
     )
 
 
+#: With it set to 0 before ``import ray``, Ray takes the node's address to be loopback and
+#: every server of a local cluster (GCS, raylet, workers) listens on 127.0.0.1 only (checked
+#: with ``ss -ltnp``; without it they listen on all interfaces).
+RAY_LOOPBACK_ENV = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
+
+
 def _run_ray(tasks: Sequence[Task], address: str, jobs: int) -> list[dict[str, Any]]:
+    if address == "local":
+        import os
+
+        os.environ.setdefault(RAY_LOOPBACK_ENV, "0")
     try:
         import ray
     except ImportError as e:
         raise PrezenceError('--ray needs ray: pip install "prezence[ray]"') from e
     if not ray.is_initialized():
         if address == "local":
-            ray.init(num_cpus=max(1, jobs), include_dashboard=False, log_to_driver=False)
+            # a local cluster listens on loopback only: nothing of it is reachable from outside
+            ray.init(
+                num_cpus=max(1, jobs),
+                include_dashboard=False,
+                log_to_driver=False,
+                dashboard_host="127.0.0.1",
+            )
         else:
             ray.init(address=address, log_to_driver=False)
     remote = ray.remote(run_task)

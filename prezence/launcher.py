@@ -56,6 +56,17 @@ HEARTBEAT_ENV = "PREZENCE_HEARTBEAT"
 DEFAULT_HANG_S = 20.0
 #: Modules are looked at (exit status, signs of life) at most this often, seconds.
 SUPERVISE_PERIOD_S = 0.2
+#: The exit status with which a module says it cannot use its input (a missing file, no
+#: microphone): restarting cannot help, so the talk stops with the module's own message.
+BAD_INPUT_STATUS = 2
+#: A module that ran at least this long before it exited was healthy: its restart backoff
+#: starts again from the first delay.
+HEALTHY_RUN_S = 30.0
+#: Set to ``1`` in every module's environment: open stream files for appending, never
+#: replace them (a restarted module continues the talk's record).
+APPEND_ENV = "PREZENCE_APPEND"
+#: ``prctl`` option that sends the child a signal when its parent dies (Linux).
+PR_SET_PDEATHSIG = 1
 
 #: A stream the speech module writes every hop, in silence too (its heartbeat). A speech
 #: module whose ``METRICS`` has it can be watched for hangs; one that writes nothing while the
@@ -166,9 +177,15 @@ class ModuleProcess:
     log_file: IO[str]
     backoff_s: float = 1.0
     max_backoff_s: float = 30.0
+    #: A run at least this long before a crash was healthy: the backoff starts again.
+    healthy_after_s: float = HEALTHY_RUN_S
     proc: subprocess.Popen[str] | None = None
     restarts: int = 0
     crashes: list[dict[str, Any]] = field(default_factory=list)
+    #: Crashes in a row since its last healthy run (the backoff's exponent).
+    streak: int = 0
+    #: Set when it exited with :data:`BAD_INPUT_STATUS`: its own message; it is not restarted.
+    fatal: str | None = None
     next_start: float = 0.0
     finished: bool = False
     started_at: float = 0.0
@@ -200,8 +217,9 @@ class ModuleProcess:
             stderr=subprocess.STDOUT,
             stdin=subprocess.DEVNULL,
             text=True,
-            env={**os.environ, HEARTBEAT_ENV: str(self.heartbeat)},
+            env={**os.environ, HEARTBEAT_ENV: str(self.heartbeat), APPEND_ENV: "1"},
             start_new_session=True,  # Ctrl-C in the terminal reaches the launcher only
+            preexec_fn=die_with_parent_hook(),  # and a killed coach leaves no module behind
         )
         self.started_at = now
         self.last_life = now
@@ -257,6 +275,13 @@ class ModuleProcess:
             self.finished = True
             self.proc = None
             return f"module {self.spec.name} finished its input"
+        if rc == BAD_INPUT_STATUS:
+            self.fatal = self.last_error() or f"exited with status {rc} (bad input)"
+            self.finished = True
+            self.proc = None
+            self.crashes.append({"t": round(now, 3), "why": self.fatal})
+            log.error("module %s cannot use its input: %s", self.spec.name, self.fatal)
+            return f"module {self.spec.name} cannot use its input: {self.fatal}; the talk stops"
         why = (
             f"exited with status {rc}"
             if rc is not None
@@ -266,11 +291,29 @@ class ModuleProcess:
             self._kill()
         self.crashes.append({"t": round(now, 3), "why": why})
         self.restarts += 1
-        delay = min(self.max_backoff_s, self.backoff_s * 2 ** (self.restarts - 1))
+        if now - self.started_at >= self.healthy_after_s:
+            self.streak = 0  # it had been running well: not a crash loop
+        self.streak += 1
+        delay = min(self.max_backoff_s, self.backoff_s * 2 ** (self.streak - 1))
         self.next_start = now + delay
         self.proc = None
         log.warning("module %s %s; restarting in %.1f s", self.spec.name, why, delay)
         return f"module {self.spec.name} {why}; restart in {delay:.0f} s (metrics stale meanwhile)"
+
+    def last_error(self) -> str | None:
+        """The module's own last ``error: …`` line in its log (else its last line), or None."""
+        try:
+            self.log_file.flush()
+            with open(self.log_path, "rb") as f:
+                f.seek(max(0, f.seek(0, os.SEEK_END) - 8192))
+                lines = f.read().decode("utf-8", errors="replace").splitlines()
+        except OSError:
+            return None
+        lines = [ln.strip() for ln in lines if ln.strip()]
+        for ln in reversed(lines):
+            if ln.startswith("error:"):
+                return ln[len("error:") :].strip()
+        return lines[-1] if lines else None
 
     def _kill(self) -> None:
         if self.proc is None:
@@ -297,6 +340,28 @@ class ModuleProcess:
         self._kill()
 
 
+def die_with_parent_hook() -> Callable[[], None] | None:
+    """A ``preexec_fn`` that has the kernel SIGKILL the child when the coach dies (Linux's
+    ``prctl(PR_SET_PDEATHSIG)``), so a killed coach leaves no module holding the mic or the
+    camera; None where that is not available (the modules then outlive a SIGKILLed coach)."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        import ctypes
+
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+    parent = os.getpid()
+
+    def hook() -> None:
+        prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        if os.getppid() != parent:  # the coach died before the prctl: do not outlive it
+            os._exit(1)
+
+    return hook
+
+
 @dataclass
 class UpResult:
     """What a live talk leaves: its folder, its summary, the supervision events, the report."""
@@ -306,6 +371,8 @@ class UpResult:
     events: list[str]
     #: ``report/report.html``, when the report was written.
     report: Path | None = None
+    #: Why the talk stopped early: a module's own message about its input (None: it did not).
+    error: str | None = None
 
 
 class LiveView:
@@ -404,7 +471,16 @@ class LiveSource(SourceBase):
         return bool(self._tailer.wait(timeout_s))
 
     def ended(self, now: float) -> bool:
-        return self.end_at is not None and now >= self.end_at
+        if self.end_at is not None and now >= self.end_at:
+            return True
+        fatal = next((p for p in self.procs if p.fatal), None)
+        if fatal is not None:
+            self.error = f"module {fatal.spec.name}: {fatal.fatal}"
+            return True
+        if self.procs and all(p.spec.finite and p.finished for p in self.procs):
+            log.info("every input has ended: the talk ends")
+            return True
+        return False
 
     def events(self, now: float) -> list[str]:
         if now < self._next_look:
@@ -432,6 +508,7 @@ class LiveSource(SourceBase):
     def summary_extra(self) -> dict[str, Any]:
         return {
             "kind": "live",
+            **({"error": self.error} if self.error is not None else {}),
             "modules": {
                 p.spec.name: {"restarts": p.restarts, "crashes": p.crashes} for p in self.procs
             },
@@ -487,4 +564,4 @@ def up(
         view=view,
         stop=stop,
     )
-    return UpResult(run.session, run.summary, run.events, run.report)
+    return UpResult(run.session, run.summary, run.events, run.report, source.error)

@@ -23,7 +23,7 @@ from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError, PrezenceError
 from prezence.replay import ReplayResult, find_streams, load_samples, process_recorded
-from prezence.session import SessionDir
+from prezence.session import MAX_TALK_S, SessionDir
 from prezence.talk import RunOptions
 
 log = logging.getLogger(__name__)
@@ -205,7 +205,7 @@ def rehearse(
     if len(failures) == len(procs):
         raise PrezenceError("; ".join(f"{n}: {m}" for n, m in failures.items()))
     paths = find_streams(session.root, config)
-    samples = load_samples(paths)
+    samples = load_samples(paths, max_t=MAX_TALK_S)
     talk_s = samples[-1].t if samples else 0.0
     return process_recorded(
         session,

@@ -20,7 +20,8 @@ from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.errors import ConfigError
 from prezence.samples import Sample
-from prezence.session import SessionDir, read_jsonl
+from prezence.session import SessionDir, read_jsonl, sample_time_limit
+from prezence.sessiondir import overlaps
 from prezence.streams.tail import read_stream
 from prezence.talk import RecordedSource, RunOptions, run_talk
 
@@ -117,9 +118,11 @@ def replay(
     """
     src = Path(src)
     out = Path(out)
-    if out.resolve() == src.resolve():
+    if overlaps(out, src):
         raise ConfigError(
-            "--out must be another folder: replay never overwrites a recording", path=out
+            f"--out must be another folder, outside the recording {src}: replay never writes "
+            "into or over it",
+            path=out,
         )
     src_session = SessionDir(src)
     recorded = load_config(src_session.config) if src_session.config.exists() else None
@@ -129,8 +132,13 @@ def replay(
         config = config.with_allocated(allocated_s)
     meta = src_session.read_meta()
     paths = find_streams(src, config)
-    samples = load_samples(paths)
-    talk_s = float(meta.get("talk_s") or (samples[-1].t if samples else 0.0))
+    # the talk's length by its own record (a streams/ folder given: its session's record)
+    rec = src_session
+    if not rec.meta.exists() and src.name == "streams" and SessionDir(src.parent).meta.exists():
+        rec = SessionDir(src.parent)
+    limit = sample_time_limit(rec, rec.read_meta())
+    samples = load_samples(paths, max_t=limit)
+    talk_s = float(meta.get("talk_s") or min(limit, samples[-1].t if samples else 0.0))
 
     truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
     extra: dict[str, Any] = {
@@ -170,13 +178,23 @@ def replay(
     )
 
 
-def load_samples(paths: dict[str, Path]) -> list[Sample]:
-    """Every sample of the given stream files, in time order (file order kept for ties)."""
+def load_samples(paths: dict[str, Path], *, max_t: float | None = None) -> list[Sample]:
+    """Every sample of the given stream files, in time order (file order kept for ties).
+
+    Samples stamped after ``max_t`` (the talk's end plus a margin) are skipped and counted.
+    """
     samples: list[Sample] = []
     for metric, path in paths.items():
-        ss, tail_stats = read_stream(path, metric)
+        ss, tail_stats = read_stream(path, metric, max_t=max_t)
         if tail_stats.malformed:
             log.warning("%s: %d malformed lines skipped", path, tail_stats.malformed)
+        if tail_stats.beyond_talk:
+            log.warning(
+                "%s: %d samples stamped after the talk's end (%.0f s) skipped",
+                path,
+                tail_stats.beyond_talk,
+                max_t,
+            )
         samples.extend(ss)
     samples.sort(key=lambda s: s.t)
     return samples

@@ -21,11 +21,60 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from prezence.errors import ConfigError, PrezenceError
+
 SESSION_FORMAT = 1
+#: The largest session.json / JSONL file read whole (a 3-hour talk's decisions.jsonl is ~10 MB).
+MAX_JSON_BYTES = 256 * 1024 * 1024
+
+
+def read_regular(path: Path, *, limit: int = MAX_JSON_BYTES) -> bytes:
+    """The bytes of ``path``, which must be a regular file of at most ``limit`` bytes.
+
+    A FIFO, a device (a link to ``/dev/zero``) or a folder is refused before it is opened, so
+    nothing blocks and nothing unbounded is read.
+
+    Raises:
+        ConfigError: not a regular file, too big, or unreadable (the message names it).
+        FileNotFoundError: it does not exist.
+    """
+    st = os.stat(path)
+    if not stat.S_ISREG(st.st_mode):
+        raise ConfigError("not a regular file (a FIFO, a device or a folder?)", path=path)
+    if st.st_size > limit:
+        raise ConfigError(f"{st.st_size} bytes, more than the {limit} read", path=path)
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with os.fdopen(fd, "rb") as f:
+        data = f.read(limit + 1)
+    if len(data) > limit:
+        raise ConfigError(f"more than the {limit} bytes read", path=path)
+    return data
+
+
+def read_json_object(path: Path) -> dict[str, Any]:
+    """A JSON file that must hold one object; a clear :class:`ConfigError` otherwise."""
+    try:
+        text = read_regular(path).decode("utf-8")
+        data = json.loads(text)
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"not UTF-8 text ({e.reason})", path=path) from None
+    except json.JSONDecodeError as e:
+        raise ConfigError(
+            f"not valid JSON ({e.msg}; truncated?)", path=path, line=e.lineno, col=e.colno
+        ) from None
+    except RecursionError:
+        raise ConfigError("JSON nested too deeply", path=path) from None
+    except OSError as e:
+        raise ConfigError(f"cannot read it ({e.strerror or e})", path=path) from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"expected a JSON object {{...}}, found {type(data).__name__}", path=path)
+    return data
 
 
 @dataclass(frozen=True)
@@ -69,9 +118,42 @@ class SessionDir:
     def stream(self, filename: str) -> Path:
         return self.streams / filename
 
+    def holds_recording(self) -> bool:
+        """Whether the folder holds a talk that cannot be made again: anything but a synthetic
+        talk (which its scenario and seed rebuild) with a ``session.json``, stream files or cues.
+        """
+        if not self.root.is_dir():
+            return False
+        recorded = (
+            self.meta.exists()
+            or self.cues.exists()
+            or (self.streams.is_dir() and any(self.streams.glob("*.txt")))
+        )
+        if not recorded:
+            return False
+        try:
+            kind = self.read_meta().get("kind")
+        except PrezenceError:
+            return True
+        return kind != "synthetic"
+
     def create(self, *, keep_streams: bool = False) -> SessionDir:
-        """Make the folder (and ``streams/``); an existing session's files are replaced
-        (its stream files too, unless ``keep_streams``: they are the talk's input)."""
+        """Make the folder (and ``streams/``) for a new talk.
+
+        A synthetic talk's old files are replaced (its scenario and seed make them again);
+        a folder that holds anything recorded is refused, never overwritten.
+
+        ``keep_streams``: the folder's stream files are this talk's own input (a rehearsal just
+        recorded into it): they are kept, and they do not make the folder refused.
+
+        Raises:
+            ConfigError: the folder holds a recorded talk (see :meth:`holds_recording`).
+        """
+        if not keep_streams and self.holds_recording():
+            raise ConfigError(
+                "holds a recorded talk; it is never overwritten: use another folder",
+                path=self.root,
+            )
         self.streams.mkdir(parents=True, exist_ok=True)
         for p in (self.decisions, self.cues, self.truth, self.summary):
             if p.exists():
@@ -86,9 +168,15 @@ class SessionDir:
         self.meta.write_text(dumps(data, indent=2, sort_keys=True) + "\n")
 
     def read_meta(self) -> dict[str, Any]:
+        """``session.json`` as a dict ({} when there is none).
+
+        Raises:
+            ConfigError: it is not a readable JSON object (truncated, a list, too big); the
+                message names the file.
+        """
         if not self.meta.exists():
             return {}
-        data: dict[str, Any] = json.loads(self.meta.read_text())
+        data = read_json_object(self.meta)
         return data
 
 
@@ -159,18 +247,103 @@ class JsonlWriter:
 
 
 def read_jsonl(path: Path) -> list[dict[str, Any]]:
-    """Read a JSONL file; a torn last line (crash mid-write) is ignored."""
+    """Read a JSONL file of objects; a torn last line (crash mid-write) is ignored.
+
+    Raises:
+        ConfigError: a line before the last is not a JSON object (``file:line: why``), or the
+            file is not a regular file of bounded size.
+    """
     out: list[dict[str, Any]] = []
     if not path.exists():
         return out
-    lines = path.read_text(encoding="utf-8").splitlines()
+    try:
+        text = read_regular(path).decode("utf-8", errors="replace")
+    except OSError as e:
+        raise ConfigError(f"cannot read it ({e.strerror or e})", path=path) from None
+    lines = text.splitlines()
     for i, line in enumerate(lines):
         if not line.strip():
             continue
         try:
-            out.append(json.loads(line))
-        except json.JSONDecodeError:
-            if i == len(lines) - 1:
-                break
-            raise
+            obj = json.loads(line)
+        except (json.JSONDecodeError, RecursionError) as e:
+            if i == len(lines) - 1 and not text.endswith("\n"):
+                break  # torn last line
+            why = e.msg if isinstance(e, json.JSONDecodeError) else "nested too deeply"
+            raise ConfigError(f"not a JSON line ({why})", path=path, line=i + 1) from None
+        if not isinstance(obj, dict):
+            raise ConfigError(
+                f"expected a JSON object {{...}}, found {type(obj).__name__}",
+                path=path,
+                line=i + 1,
+            )
+        out.append(obj)
     return out
+
+
+#: No talk is longer than this (seconds): the cap when a folder has no record of its length.
+MAX_TALK_S = 6 * 3600.0
+#: Samples stamped up to this long after the talk's recorded end are still read (a module's
+#: last window is written after the coach stopped).
+TALK_MARGIN_S = 30.0
+
+
+def _last_decision_t(path: Path) -> float | None:
+    """The ``t`` of the last complete line of ``decisions.jsonl`` (reads its last 64 KB)."""
+    try:
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            return None
+        with open(path, "rb") as f:
+            f.seek(max(0, st.st_size - 65536))
+            tail = f.read(65536)
+    except OSError:
+        return None
+    for line in reversed(tail.splitlines()):
+        try:
+            t = json.loads(line).get("t")
+            return float(t) if t is not None and math.isfinite(float(t)) else None
+        except (ValueError, AttributeError, TypeError, RecursionError):
+            continue
+    return None
+
+
+def recorded_talk_s(session: SessionDir, meta: dict[str, Any]) -> float | None:
+    """How long the talk lasted by the session's own record, not by its samples' stamps.
+
+    ``session.json``'s ``talk_s``; after a coach crash (no ``talk_s``), the last write to the
+    folder's files minus the talk's start (``t0_epoch``) or the last decision's time; None when
+    the folder keeps no such record (stream files from elsewhere). At most :data:`MAX_TALK_S`.
+    """
+    t = meta.get("talk_s")
+    if isinstance(t, int | float) and not isinstance(t, bool) and math.isfinite(t) and t >= 0:
+        return min(float(t), MAX_TALK_S)
+    found: list[float] = []
+    t0 = meta.get("t0_epoch")
+    if isinstance(t0, int | float) and not isinstance(t0, bool) and math.isfinite(t0):
+        files = [session.cues, session.decisions]
+        if session.streams.is_dir():
+            files += [p for p in session.streams.glob("*.txt")]
+        mtimes = []
+        for p in files:
+            try:
+                st = os.stat(p)
+            except OSError:
+                continue
+            if stat.S_ISREG(st.st_mode):
+                mtimes.append(st.st_mtime)
+        if mtimes:
+            found.append(max(mtimes) - float(t0))
+    last = _last_decision_t(session.decisions)
+    if last is not None:
+        found.append(last)
+    if not found:
+        return None
+    return min(max(0.0, max(found)), MAX_TALK_S)
+
+
+def sample_time_limit(session: SessionDir, meta: dict[str, Any]) -> float:
+    """The latest sample time worth reading: the recorded length plus :data:`TALK_MARGIN_S`,
+    or :data:`MAX_TALK_S` when the folder keeps no record of its length."""
+    rec = recorded_talk_s(session, meta)
+    return MAX_TALK_S if rec is None else rec + TALK_MARGIN_S

@@ -97,6 +97,8 @@ class SampleSource(Protocol):
     kind: str
     #: The samples come from the session's own stream files: creating the session keeps them.
     keep_streams: bool
+    #: Why the source stopped the talk early (None: it did not).
+    error: str | None
 
     @property
     def talk_s(self) -> float | None:
@@ -155,6 +157,9 @@ class SampleSource(Protocol):
 
 class SourceBase:
     """Defaults for the optional parts of :class:`SampleSource`."""
+
+    #: Why the source stopped the talk early: a module's own message about its input.
+    error: str | None = None
 
     kind = "source"
     keep_streams = False
@@ -457,7 +462,7 @@ class Talk:
             extra=extra,
         )
         page = None
-        if self.options.report:
+        if self.options.report and completed:
             from prezence.report.build import write_report
 
             page = write_report(self.session.root, config=self.config)
@@ -580,7 +585,7 @@ def run_talk(
                     events.append(f"{now:.1f} {ev}")
                     if view is not None:
                         view.event(now, ev)
-        completed = True
+        completed = source.error is None  # a module's bad input: no post-talk summary
     except KeyboardInterrupt:
         completed = interrupted = True
         talk_s = now

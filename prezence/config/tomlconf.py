@@ -242,22 +242,70 @@ def _plain(conv: Callable[[object], Any]) -> Converter:
     return lambda v, ctx: conv(v)
 
 
+def _between(lo: float, hi: float, *, zero: bool = False) -> Converter:
+    """A number in ``[lo, hi]`` (``zero``: 0 is allowed too, meaning "off")."""
+
+    def conv(v: object, ctx: _Ctx) -> float:
+        x = _num(v)
+        if zero and x == 0:
+            return x
+        if not lo <= x <= hi:
+            off = " (or 0: off)" if zero else ""
+            raise _Bad(f"must be between {lo:g} and {hi:g}{off}, found {x:g}")
+        return x
+
+    return conv
+
+
+#: Sane bounds of the settings (seconds unless said): a decision period of 1e-4 s would write
+#: hundreds of megabytes a minute, one of 1e-300 never end; a day is longer than any talk.
+DAY_S = 86400.0
+SETTING_BOUNDS: dict[str, tuple[float, float]] = {
+    "threshold": (1e-3, 1e9),
+    "decay_half_life_s": (0.1, DAY_S),
+    "min_gap_s": (0.0, DAY_S),
+    "refractory_s": (0.0, DAY_S),
+    "stale_after_s": (0.1, DAY_S),
+    "decision_period_s": (0.02, 10.0),
+    "praise_after_s": (1.0, DAY_S),
+    "allocated_s": (1.0, DAY_S),
+    "overtime_repeat_s": (1.0, DAY_S),
+}
+
+
+def _bounded(key: str, *, zero: bool = False) -> Converter:
+    lo, hi = SETTING_BOUNDS[key]
+    return _between(lo, hi, zero=zero)
+
+
+def _allocated(v: object, ctx: _Ctx) -> float | None:
+    return None if v is False else _bounded("allocated_s")(v, ctx)
+
+
+def _warn_times_bounded(v: object, ctx: _Ctx) -> tuple[float, ...]:
+    out = _warn_times(v, ctx)
+    for x in out:
+        if x > DAY_S:
+            raise _Bad(f"each time must be at most {DAY_S:g} s, found {x:g}")
+    return out
+
+
 _PROCESSOR: dict[str, Converter] = {
-    "threshold": _plain(_positive),
-    "decay_half_life_s": _plain(_positive),
-    "min_gap_s": _plain(_nonneg),
-    "refractory_s": _plain(_nonneg),
-    "stale_after_s": _plain(_positive),
-    "decision_period_s": _plain(_positive),
-    "praise_after_s": _plain(_nonneg),
+    "threshold": _bounded("threshold"),
+    "decay_half_life_s": _bounded("decay_half_life_s"),
+    "min_gap_s": _bounded("min_gap_s"),
+    "refractory_s": _bounded("refractory_s"),
+    "stale_after_s": _bounded("stale_after_s"),
+    "decision_period_s": _bounded("decision_period_s"),
+    "praise_after_s": _bounded("praise_after_s", zero=True),
     "praise_command": _command_or_false,
 }
 _TIME: dict[str, Converter] = {
-    "allocated_s": _positive_or_false,
-    "warn_at_s_left": _warn_times,
+    "allocated_s": _allocated,
+    "warn_at_s_left": _warn_times_bounded,
     "warn_command": _command,
     "overtime_command": _command,
-    "overtime_repeat_s": _plain(_nonneg),
+    "overtime_repeat_s": _bounded("overtime_repeat_s", zero=True),
 }
 
 

@@ -136,7 +136,8 @@ class StreamSet:
         self.session.streams.mkdir(parents=True, exist_ok=True)
         for m in self.metrics:
             path = self.session.stream(f"{m}.txt")
-            if self.fresh and path.exists():
+            # under the launcher ($PREZENCE_APPEND=1) a restart appends: the talk's record stays
+            if self.fresh and path.exists() and os.environ.get("PREZENCE_APPEND") != "1":
                 path.unlink()
             self._writers[m] = StreamWriter(path).open()
         return self

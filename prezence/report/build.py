@@ -14,7 +14,6 @@ on, and the talk's length when the record ends early.
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -24,7 +23,7 @@ from typing import Any
 from prezence.config.model import Config, Rule
 from prezence.errors import ConfigError
 from prezence.samples import Sample
-from prezence.session import SessionDir, read_jsonl
+from prezence.session import SessionDir, read_jsonl, sample_time_limit
 from prezence.summary import build_summary
 
 log = logging.getLogger(__name__)
@@ -43,7 +42,15 @@ METRIC_LABELS: Mapping[str, str] = {
     "speech_accuracy": "clarity",
     "cv_headGaze": "eye contact",
     "cv_gestures": "gestures",
+    "cv_headYaw": "head turn",
+    "cv_facingAudience": "facing the audience",
 }
+
+#: Head-turn streams the vision module writes, shown whether or not a rule uses them.
+HEAD_YAW = "cv_headYaw"
+FACING = "cv_facingAudience"
+#: |yaw| above this (degrees) counts as the head turned to one side.
+TURNED_DEG = 20.0
 
 #: What to work on, per metric and side of the band.
 ADVICE: Mapping[tuple[str, str], str] = {
@@ -210,8 +217,8 @@ def rank_priorities(
 def _read_meta(session: SessionDir) -> dict[str, Any]:
     try:
         return session.read_meta()
-    except json.JSONDecodeError as e:  # torn while being written: the rest still tells a lot
-        log.warning("%s: unreadable (%s); going on without it", session.meta, e)
+    except ConfigError as e:  # torn while being written: the rest still tells a lot
+        log.warning("%s; going on without it", e)
         return {}
 
 
@@ -254,10 +261,14 @@ def _why(rule: Rule, row: Mapping[str, Any]) -> str:
     side = str(row.get("side"))
     bound = rule.low if side == "below" else rule.high
     unit = f" {rule.unit}" if rule.unit else ""
-    dev = row.get("deviation")
-    how = f"{float(dev):.0f}% " if dev else ""
-    strict = "strict rule: " if row.get("kind") == "strict" else ""
-    return f"{strict}{metric_label(rule.metric)} {how}{side} {bound:g}{unit}"
+    strict = "must-keep limit: " if row.get("kind") == "strict" else ""
+    limit = "lowest" if side == "below" else "highest"
+    value = row.get("value")
+    was = f" ({float(value):.3g}{unit})" if isinstance(value, int | float) else ""
+    return (
+        f"{strict}{metric_label(rule.metric)} was {side} the {limit} good value, "
+        f"{bound:g}{unit}{was}"
+    )
 
 
 def _why_other(row: Mapping[str, Any]) -> str:
@@ -314,14 +325,18 @@ def _rebuild(
         raise no_streams_error(session.root, cfg)
     streams: dict[str, list[Sample]] = {}
     stats: dict[str, dict[str, Any]] = {}
+    limit = sample_time_limit(session, meta)  # a stamp of 1e9 s is not a 30-year talk
     for rule in cfg.rules:
-        samples, st = read_stream(paths.get(rule.metric, session.stream(rule.stream)), rule.metric)
+        samples, st = read_stream(
+            paths.get(rule.metric, session.stream(rule.stream)), rule.metric, max_t=limit
+        )
         streams[rule.metric] = sorted(samples, key=lambda s: s.t)
         stats[rule.metric] = st.to_dict()
     cues = read_jsonl(session.cues)
     truth = read_jsonl(session.truth) if session.truth.exists() else None
     stale_default = cfg.processor.stale_after_s
     talk_s, complete = _talk_length(meta, streams, cues, stale_default)
+    talk_s = min(talk_s, limit)
     if not complete:
         log.warning(
             "%s: the record stops at %.1f s of a planned %.1f s; reporting what was recorded",
@@ -348,7 +363,12 @@ def _rebuild(
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         dev_s[rule.metric] = deviation_seconds(rule, streams[rule.metric], talk_s, stale_s)
         m = dict(summary["metrics"][rule.metric])
+        # "not measured": no module wrote this metric's file at all; "no data": the file is
+        # there but holds no sample of the talk
+        measured = rule.metric in paths
         m.update(
+            measured=measured,
+            data="ok" if m.get("samples") else "no data" if measured else "not measured",
             label=metric_label(rule.metric),
             check=rule.check.value,
             low=rule.low,
@@ -366,10 +386,16 @@ def _rebuild(
         if cue_rule is not None:
             row["deviation"] = rec.get("deviation")
             row["side"] = "below" if row["command"] == cue_rule.below else "above"
+            row["value"] = _value_at(streams[cue_rule.metric], float(row["t"]))
             row["why"] = _why(cue_rule, row)
             row.update(cue_effect(cue_rule, streams[cue_rule.metric], float(row["t"])))
         else:
             row["why"] = _why_other(row)
+        # a cue about a metric that was in range is a false alarm: what followed it is no
+        # improvement the cue brought
+        row["false_alarm"] = row.get("relevant") is False and row.get("metric") is not None
+        if row["false_alarm"]:
+            row["improved"] = None
     helped = [r for r in cue_rows if r.get("improved") is not None]
 
     time_used = dict(summary["time"])
@@ -394,8 +420,55 @@ def _rebuild(
         "counts": counts,
         "has_truth": truth is not None,
         "effect_window_s": EFFECT_WINDOW_S,
+        "head": head_turns(session, talk_s=talk_s, limit=limit),
+        "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},
     }
     return report, streams
+
+
+def _value_at(samples: Sequence[Sample], t: float) -> float | None:
+    """The newest sample's value at ``t`` (None before the first)."""
+    v = None
+    for s in samples:
+        if s.t > t:
+            break
+        v = s.value
+    return v
+
+
+def head_turns(session: SessionDir, *, talk_s: float, limit: float) -> dict[str, Any]:
+    """Head turns from the vision module's ``cv_headYaw`` and ``cv_facingAudience`` streams.
+
+    Returns ``{"measured": False}`` when neither file is there; otherwise the share of samples
+    facing the audience, the share turned left / right by more than :data:`TURNED_DEG`, the
+    median |yaw| and how many times the head turned away (yaw crossing the threshold).
+    """
+    from prezence.streams.tail import read_stream
+
+    out: dict[str, Any] = {"measured": False}
+    yaw_path, facing_path = session.stream(f"{HEAD_YAW}.txt"), session.stream(f"{FACING}.txt")
+    if yaw_path.is_file():
+        yaw, _ = read_stream(yaw_path, HEAD_YAW, max_t=limit)
+        yaw = [s for s in yaw if s.t <= talk_s]
+        out["measured"] = True
+        if yaw:
+            vals = sorted(abs(s.value) for s in yaw)
+            out["yaw_samples"] = len(yaw)
+            out["median_abs_yaw_deg"] = round(vals[len(vals) // 2], 1)
+            out["left_share"] = round(sum(s.value > TURNED_DEG for s in yaw) / len(yaw), 3)
+            out["right_share"] = round(sum(s.value < -TURNED_DEG for s in yaw) / len(yaw), 3)
+            turned = [abs(s.value) > TURNED_DEG for s in yaw]
+            pairs = zip(turned, turned[1:], strict=False)
+            out["turns_away"] = sum(1 for a, b in pairs if b and not a)
+    if facing_path.is_file():
+        facing, _ = read_stream(facing_path, FACING, max_t=limit)
+        facing = [s for s in facing if s.t <= talk_s]
+        out["measured"] = True
+        if facing:
+            # each sample is the share of the last few seconds spent facing the audience
+            out["facing_share"] = round(sum(s.value for s in facing) / len(facing), 3)
+    out["turned_deg"] = TURNED_DEG
+    return out
 
 
 def finite(x: Any) -> Any:
@@ -430,6 +503,9 @@ def write_report(session_dir: str | Path, *, config: Config | None = None) -> Pa
 
     session = SessionDir(Path(session_dir))
     report, streams = _rebuild(session.root, config)
+    from prezence.progress import progress_for
+
+    report["progress"] = progress_for(session.root)
     report["phrase"] = summary_phrase(report)
     report["text"] = format_text(report)
     folder = session.report
@@ -453,6 +529,7 @@ def write_report(session_dir: str | Path, *, config: Config | None = None) -> Pa
             'matplotlib is not installed: report without plots (pip install "prezence[report]")'
         )
         report["plots"] = []
+        report["plots_missing"] = "matplotlib is not installed"
     write_json(folder / "report.json", finite(report))
     (folder / "summary.txt").write_text(report["text"], encoding="utf-8")
     (folder / "spoken.txt").write_text(report["phrase"] + "\n", encoding="utf-8")

@@ -34,7 +34,8 @@ th { background: #eef0f3; font-weight: 600; }
 td.l, th.l { text-align: left; }
 img { width: 100%; height: auto; background: #fff; border-radius: 6px; display: block;
       margin: 8px 0 14px; box-shadow: 0 1px 2px rgba(0,0,0,.08); }
-.yes { color: #2e7d32; font-weight: 600; } .no { color: #c62828; }
+.yes { color: #2e7d32; font-weight: 600; } .no { color: #5f6773; }
+.fa { color: #c62828; font-weight: 600; }
 .reason { color: #7a828e; font-size: 12px; }
 .nodata { color: #7a828e; }
 .said { font-style: italic; color: #37474f; }
@@ -130,14 +131,34 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             f"{_mmss(report.get('planned_s'))} (the coach stopped early). The figures cover "
             "what was recorded.</div>"
         )
+    beyond = report.get("beyond_talk") or {}
+    if beyond:
+        n = sum(beyond.values())
+        out.append(
+            f'<div class="note">{n} sample{"s" if n != 1 else ""} stamped after the end of the '
+            f"talk ({_e(', '.join(sorted(beyond)))}) were left out: a module's clock went "
+            "wrong.</div>"
+        )
+    if report.get("plots_missing"):
+        out.append(
+            f'<div class="note">No plots in this report: {_e(report["plots_missing"])}. '
+            'To get them: <code>pip install "prezence[report]"</code>, then '
+            f"<code>prezence report {_e(report.get('session'))}</code>.</div>"
+        )
     judged = counts.get("cues_judged", 0)
     out.append('<div class="cards">')
     out.append(_time_card(report))
+    fa = counts.get("false_alarms", 0)
+    fa_html = (
+        f'<div class="fa">{fa} false alarm{"s" if fa != 1 else ""} (cued while in range)</div>'
+        if fa
+        else ""
+    )
     out.append(
         f'<div class="card"><div class="lbl">cues from the robot</div>'
         f'<div class="big">{counts.get("cues", 0)}</div>'
-        f"<div>{counts.get('cues_improved', 0)} of {judged} corrections followed by an "
-        "improvement</div></div>"
+        f"<div>after {counts.get('cues_improved', 0)} of {judged} corrections you got "
+        f"better</div>{fa_html}</div>"
     )
     tirs = [m.get("time_in_range") for m in report["metrics"].values()]
     tirs_ok = [x for x in tirs if x is not None]
@@ -154,18 +175,18 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         out.append('<ol class="work">')
         for p in pri:
             m = report["metrics"][p["metric"]]
+            limit = "lowest" if p["side"] == "below" else "highest"
             out.append(
                 f"<li><b>{_e(p['advice'].capitalize())}</b> ({_e(p['label'])}). "
-                f'<span class="why">{_e(p["label"].capitalize())} was {_e(p["side"])} '
-                f"{_e(_num(p['bound']))} {_e(p['unit'] or '')} for "
-                f"{m.get('out_of_range_s', 0.0):.0f} s, longest stretch "
-                f"{m.get('longest_out_of_range_s', 0.0):.0f} s; score "
-                f"{p['score_per_min']:g} %·s per minute.</span></li>"
+                f'<span class="why">Your {_e(p["label"])} was {_e(p["side"])} the {limit} '
+                f"good value ({_e(_num(p['bound']))} {_e(p['unit'] or '')}) for "
+                f"{m.get('out_of_range_s', 0.0):.0f} s in all; the longest stretch lasted "
+                f"{m.get('longest_out_of_range_s', 0.0):.0f} s.</span></li>"
             )
         out.append("</ol>")
         out.append(
-            '<p class="sub">Ranked by time out of range × how far out: the deviation from the '
-            "ideal range (in %) integrated over the talk, per minute of talk.</p>"
+            '<p class="sub">First come the metrics that were out of their ideal range the '
+            "longest and the farthest.</p>"
         )
     else:
         out.append("<p>Every metric stayed in its ideal range. Well done.</p>")
@@ -181,10 +202,11 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         "<th>longest out</th><th>samples</th></tr>"
     )
     for m in report["metrics"].values():
+        state = m.get("data") or ("ok" if m.get("samples") else "no data")
         tir = (
             _pct(m.get("time_in_range"))
             if m.get("samples")
-            else '<span class="nodata">no data</span>'
+            else f'<span class="nodata">{_e(state)}</span>'
         )
         out.append(
             f'<tr><td class="l">{_e(m.get("label"))}</td><td class="l">{_e(_band(m))}</td>'
@@ -207,32 +229,43 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             m = report["metrics"][k]
             if png:
                 out.append(_img(png, f"{m.get('label')} over the talk"))
+            elif not m.get("samples") and m.get("data") == "not measured":
+                out.append(
+                    f'<p class="nodata"><b>{_e(m.get("label"))}</b>: not measured (no module '
+                    "wrote it in this session: was its camera or microphone module started?)</p>"
+                )
             elif not m.get("samples"):
                 out.append(
-                    f'<p class="nodata"><b>{_e(m.get("label"))}</b>: no data (its module wrote '
-                    "no sample during the talk)</p>"
+                    f'<p class="nodata"><b>{_e(m.get("label"))}</b>: no data (its module ran '
+                    "but wrote no sample during the talk)</p>"
                 )
 
+    out.append(_head_section(report.get("head") or {}))
+    out.append(_progress_section(report.get("progress")))
     out.append("<h2>Cues</h2>")
     cues = report.get("cues") or []
     if cues:
         w = report.get("effect_window_s", 30.0)
         out.append(
-            f'<p class="sub">Latency: from the start of the problem to the cue. Effect: mean '
-            f"deviation in the {w:g} s before vs the {w:g} s after the cue.</p>"
+            f'<p class="sub">Delay: from the start of the problem to the cue. Before / after: '
+            f"how far out of its ideal range the metric was, on average, in the {w:g} s "
+            f"before and the {w:g} s after the cue (0% = in range).</p>"
         )
         out.append(
             '<table><tr><th>time</th><th class="l">cue</th><th class="l">why</th>'
-            "<th>latency</th><th>deviation before</th><th>after</th><th>effect</th></tr>"
+            "<th>delay</th><th>out of range before</th><th>after</th><th>effect</th></tr>"
         )
         for c in cues:
             lat = c.get("latency_s")
             eff = c.get("improved")
             eff_html = {
-                True: '<span class="yes">improved</span>',
+                True: '<span class="yes">you got better</span>',
                 False: '<span class="no">no change</span>',
                 None: "–",
             }[eff]
+            if c.get("false_alarm"):
+                eff_html = '<span class="fa">false alarm: it was in range</span>'
+
             before, after = c.get("deviation_before"), c.get("deviation_after")
             out.append(
                 f'<tr><td>{_mmss(c["t"])}</td><td class="l">{_e(c["command"])}'
@@ -252,3 +285,52 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     )
     out.append("</main></body></html>")
     return "\n".join(out) + "\n"
+
+
+def _head_section(head: Mapping[str, Any]) -> str:
+    """Head turns: facing the audience, turned left / right (the vision module's yaw)."""
+    out = ["<h2>Head turns</h2>"]
+    if not head.get("measured"):
+        out.append(
+            '<p class="nodata">Not measured: no camera module ran (give <code>--video cam'
+            "</code> or a video file; head pose needs the vision env).</p>"
+        )
+        return "\n".join(out)
+    rows = []
+    if head.get("facing_share") is not None:
+        rows.append(("facing the audience", _pct(head["facing_share"])))
+    if head.get("yaw_samples"):
+        deg = head.get("turned_deg", 20.0)
+        rows.append((f"head turned to your left (more than {deg:g}°)", _pct(head["left_share"])))
+        rows.append((f"head turned to your right (more than {deg:g}°)", _pct(head["right_share"])))
+        rows.append(("times you turned away", str(head.get("turns_away", 0))))
+        rows.append(("typical turn (median)", f"{head['median_abs_yaw_deg']:.0f}°"))
+    if not rows:
+        out.append('<p class="nodata">No data: the camera module saw no face.</p>')
+        return "\n".join(out)
+    out.append('<table><tr><th class="l">head</th><th>share of the talk</th></tr>')
+    out += [f'<tr><td class="l">{_e(a)}</td><td>{_e(b)}</td></tr>' for a, b in rows]
+    out.append("</table>")
+    return "\n".join(out)
+
+
+def _progress_section(progress: Mapping[str, Any] | None) -> str:
+    """Each metric's time in range over the speaker's rehearsals, oldest first."""
+    if not progress or len(progress.get("sessions", [])) < 2:
+        return ""
+    sessions = progress["sessions"]
+    out = [
+        "<h2>Progress across rehearsals</h2>",
+        f'<p class="sub">{len(sessions)} rehearsals of {_e(progress.get("speaker") or "?")}, '
+        "oldest first: time in the ideal range.</p>",
+        '<table><tr><th class="l">metric</th>'
+        + "".join(f"<th>{_e(s['label'])}</th>" for s in sessions)
+        + "<th>trend</th></tr>",
+    ]
+    for row in progress["rows"]:
+        cells = "".join(f"<td>{_pct(v)}</td>" for v in row["values"])
+        out.append(
+            f'<tr><td class="l">{_e(row["label"])}</td>{cells}<td>{_e(row["trend"])}</td></tr>'
+        )
+    out.append("</table>")
+    return "\n".join(out)

@@ -27,6 +27,12 @@ def available() -> bool:
     return importlib.util.find_spec("matplotlib") is not None
 
 
+def plain(text: object) -> str:
+    """``text`` as matplotlib shows it literally: ``$`` would start math mode (a unit such as
+    ``US$ $5`` or ``$\\frac$`` made the whole report fail)."""
+    return str(text).replace("$", r"\$")
+
+
 def _png(fig: Any) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
@@ -122,7 +128,7 @@ def timeline_png(
         row = row + 1 if last_x is not None and tc - last_x < 0.12 * talk_s else 0
         last_x = tc
         ax.annotate(
-            str(c["command"]),
+            plain(c["command"]),
             (tc, 1.0),
             xycoords=("data", "axes fraction"),
             xytext=(-3 if right_edge else 3, -3 - 11 * (row % 3)),
@@ -138,8 +144,8 @@ def timeline_png(
     ax.set_ylim(y0, y1)
     _minutes_axis(ax, talk_s)
     unit = metric.get("unit") or ""
-    ax.set_ylabel(unit)
-    ax.set_title(str(metric.get("label", "")), loc="left", fontsize=11, fontweight="bold")
+    ax.set_ylabel(plain(unit))
+    ax.set_title(plain(metric.get("label", "")), loc="left", fontsize=11, fontweight="bold")
     ax.grid(axis="x", alpha=0.3)
     # Above the plot, right of the title: never over the data or the cue names.
     ax.legend(
@@ -158,9 +164,10 @@ def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
     from matplotlib.figure import Figure
 
     metrics = list(report["metrics"].values())
-    labels = [str(m.get("label")) for m in metrics]
+    labels = [plain(m.get("label")) for m in metrics]
     # A metric without data has no bar, and says so: 0% would read as "always out of range".
     measured = [m.get("time_in_range") is not None for m in metrics]
+    m_state = [m.get("data") if m.get("data") not in (None, "ok") else "no data" for m in metrics]
     tir = [100.0 * (m.get("time_in_range") or 0.0) for m in metrics]
     talk_min = max(float(report["talk_s"]) / 60.0, 1e-9)
     dev = [
@@ -177,7 +184,7 @@ def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
         a1.text(
             x - 1.5 if inside else x + 1.5,
             yi,
-            f"{x:.0f}%" if ok else "no data",
+            f"{x:.0f}%" if ok else str(m_state[yi]),
             va="center",
             fontsize=9,
             ha="right" if inside else "left",
@@ -194,12 +201,12 @@ def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
         a2.text(
             x + 0.01 * top,
             yi,
-            f"{x:.0f}" if ok else "no data",
+            f"{x:.0f}" if ok else str(m_state[yi]),
             va="center",
             fontsize=9,
             color="black" if ok else NEUTRAL,
         )
-    a2.set_title("deviation per minute of talk (%·s/min)", loc="left", fontsize=10)
+    a2.set_title("how far out of range, per minute of talk", loc="left", fontsize=10)
     for a in (a1, a2):
         a.grid(axis="x", alpha=0.3)
     return _png(fig)

@@ -120,9 +120,12 @@ def format_text(report: Mapping[str, Any]) -> str:
     if pri:
         lines.append("  Work on, first:")
         for i, p in enumerate(pri, 1):
+            m = report["metrics"].get(p["metric"], {})
+            limit = "lowest" if p["side"] == "below" else "highest"
             lines.append(
-                f"    {i}. {p['advice']} ({p['label']}: {p['score_per_min']:g} %·s of deviation "
-                "per minute of talk)"
+                f"    {i}. {p['advice']} (your {p['label']} was {p['side']} the {limit} good "
+                f"value, {_num(p['bound'])} {p.get('unit') or ''}, for "
+                f"{m.get('out_of_range_s', 0.0):.0f} s in all)".replace(" ,", ",")
             )
     else:
         lines.append("  Every metric stayed in its ideal range.")
@@ -131,7 +134,7 @@ def format_text(report: Mapping[str, Any]) -> str:
         f"  {'metric':<12} {'in range':>8} {'mean':>7} {'p10':>7} {'p90':>7} {'longest out':>12}"
     )
     for name, m in report["metrics"].items():
-        tir = _pct(m.get("time_in_range")) if m.get("samples") else "no data"
+        tir = _pct(m.get("time_in_range")) if m.get("samples") else m.get("data") or "no data"
         lines.append(
             f"  {m.get('label', name):<12} {tir:>8} "
             f"{_num(m.get('mean')):>7} {_num(m.get('p10')):>7} {_num(m.get('p90')):>7} "
@@ -140,13 +143,17 @@ def format_text(report: Mapping[str, Any]) -> str:
     lines.append("")
     cues = report.get("cues") or []
     judged = report["counts"].get("cues_judged", 0)
+    fa = report["counts"].get("false_alarms", 0)
     lines.append(
-        f"  {len(cues)} cues; {report['counts'].get('cues_improved', 0)} of {judged} corrective "
-        "cues were followed by an improvement"
+        f"  {len(cues)} cues; after {report['counts'].get('cues_improved', 0)} of {judged} "
+        "corrections you got better"
+        + (f"; {fa} false alarm{'s' if fa != 1 else ''} (cued while in range)" if fa else "")
     )
     for c in cues:
         eff = c.get("improved")
-        mark = {True: "improved", False: "no change", None: ""}[eff]
+        mark = {True: "you got better", False: "no change", None: ""}[eff]
+        if c.get("false_alarm"):
+            mark = "FALSE ALARM: it was in range"
         lat = c.get("latency_s")
         lat_s = f" {lat:.0f} s after onset" if lat is not None else ""
         lines.append(f"    {_mmss(c['t']):>5}  {c['command']:<12}{lat_s:<20} {mark}")

@@ -54,6 +54,7 @@ import logging
 import math
 import os
 import select
+import stat
 import struct
 import sys
 import time
@@ -88,6 +89,10 @@ log = logging.getLogger(__name__)
 MAX_LINE_BYTES = 4096
 #: Bad lines logged as warnings per stream; the rest are counted and kept, not logged.
 MAX_LOGGED_PROBLEMS = 20
+#: The most one poll reads (bytes); :func:`read_stream` reads at most :data:`MAX_STREAM_BYTES`.
+MAX_READ_BYTES = 16 * 1024 * 1024
+#: The most :func:`read_stream` reads of one file: ~100x a 3-hour talk's stream at 10 Hz.
+MAX_STREAM_BYTES = 256 * 1024 * 1024
 #: How many of the bytes before the read offset are compared to find a file rewritten in place.
 REWRITE_CHECK_BYTES = 64
 
@@ -113,6 +118,8 @@ class TailStats:
     replaced: int = 0
     out_of_order: int = 0
     missing: int = 0
+    #: samples stamped after the talk's end (plus a margin), skipped: a module's clock gone wrong
+    beyond_talk: int = 0
 
     def to_dict(self) -> dict[str, int]:
         return asdict(self)
@@ -166,6 +173,7 @@ class StreamTailer:
         max_problems: int = 100,
         max_ahead_s: float | None = None,
         record_stamps: bool = False,
+        max_t: float | None = None,
     ) -> None:
         if not metric:
             raise ValueError("metric must be a non-empty name")
@@ -174,6 +182,9 @@ class StreamTailer:
         self.path = Path(path)
         self.metric = metric
         self.max_ahead_s = max_ahead_s
+        #: samples stamped after this (the talk's end plus a margin) are skipped and counted
+        self.max_t = max_t
+        self._beyond = 0
         self._stamps_out = stamps_path(self.path) if record_stamps else None
         self._stamps_in: dict[int, float] = {}  # read_stream: line -> recorded stamp
         self._name = str(self.path)
@@ -246,6 +257,7 @@ class StreamTailer:
             replaced=self._replaced,
             out_of_order=self._out_of_order,
             missing=self._missing,
+            beyond_talk=self._beyond,
         )
 
     def problems(self) -> list[StreamProblem]:
@@ -275,6 +287,11 @@ class StreamTailer:
             if _key(st) == self._unreadable:
                 return []  # still the thing that failed: do not retry (and log) at every poll
             self._unreadable = None
+        if not stat.S_ISREG(st.st_mode):
+            # a FIFO would block the open, a device (a link to /dev/zero) never ends
+            why = "not a regular file (a FIFO, a device or a folder?)"
+            self._on_error(OSError(0, why), _key(st))
+            return []
         ident = (st.st_dev, st.st_ino)
         if ident != self._ident:
             self._adopt(ident)
@@ -283,8 +300,11 @@ class StreamTailer:
         elif st.st_size < self._offset:
             self._restart_truncated(f"file shrank from {self._offset} to {st.st_size} bytes")
         try:
-            with open(self.path, "rb") as f:
+            fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+            with os.fdopen(fd, "rb") as f:
                 fst = os.fstat(f.fileno())
+                if not stat.S_ISREG(fst.st_mode):  # swapped for a FIFO since the stat
+                    raise OSError(0, "not a regular file (a FIFO, a device or a folder?)")
                 if (fst.st_dev, fst.st_ino) != self._ident:  # replaced since the stat
                     self._adopt((fst.st_dev, fst.st_ino))
                 if fst.st_size < self._offset:
@@ -299,18 +319,20 @@ class StreamTailer:
         return self._feed(data, now) if data else []
 
     def _read_new(self, f: Any) -> bytes:
+        # At most MAX_READ_BYTES a poll: the rest is read at the next one (a stream file that
+        # grows without end cannot exhaust memory).
         if self._offset == 0:
-            return bytes(f.read())
+            return bytes(f.read(MAX_READ_BYTES))
         # Read from a few bytes early: if they are not the ones read there before, the file was
         # rewritten in place (truncated, then grew past our offset between two polls).
         n = len(self._tail)
         f.seek(self._offset - n)
-        data = bytes(f.read())
+        data = bytes(f.read(MAX_READ_BYTES + n))
         if data[:n] == self._tail:
             return data[n:]
         self._restart_truncated("file rewritten in place")
         f.seek(0)
-        return bytes(f.read())
+        return bytes(f.read(MAX_READ_BYTES))
 
     def _adopt(self, ident: tuple[int, int]) -> None:
         if self._ident is not None:
@@ -381,6 +403,7 @@ class StreamTailer:
         append = out.append
         metric = self.metric
         ahead = self.max_ahead_s
+        max_t = self.max_t
         last_t = self._last_t
         recorded = self._stamps_in
         stamped: list[str] = []
@@ -417,6 +440,18 @@ class StreamTailer:
                     stamped.append(f"{self._line_no} {t!r}\n")
             elif ahead is not None and now is not None and t > now + ahead:
                 self._problem(self._line_no, f"t={t:g} is ahead of the talk clock ({now:.3f} s)")
+                continue
+            if max_t is not None and t > max_t:
+                self._beyond += 1
+                if self._beyond == 1:
+                    log.warning(
+                        "%s:%d: t=%g is after the talk's end (%.1f s); skipped (further ones "
+                        "only counted)",
+                        self._name,
+                        self._line_no,
+                        t,
+                        max_t,
+                    )
                 continue
             if last_t is not None and t < last_t:
                 self._out_of_order += 1
@@ -494,6 +529,7 @@ def read_stream(
     *,
     now: float | None = None,
     problems: list[StreamProblem] | None = None,
+    max_t: float | None = None,
 ) -> tuple[list[Sample], TailStats]:
     """Read a whole stream file at once (report, replay, rebuild after a crash).
 
@@ -508,13 +544,23 @@ def read_stream(
             :func:`stamps_path`); None gives each the ``t`` of the sample before it (0.0 at the
             start).
         problems: if given, the skipped lines (up to 100) are appended to it.
+        max_t: samples stamped after this are skipped and counted as ``beyond_talk``.
+
+    A path that is not a regular file (a FIFO, a device) gives no samples (``missing == 1``)
+    and is never opened; at most :data:`MAX_STREAM_BYTES` are read.
 
     Returns:
         The samples in file order, and the counters.
     """
-    tailer = StreamTailer(path, metric)
+    tailer = StreamTailer(path, metric, max_t=max_t)
     tailer._stamps_in = _read_stamps(stamps_path(path))
-    samples = tailer._poll(None if now is None else _check_now(now))
+    at = None if now is None else _check_now(now)
+    samples = tailer._poll(at)
+    while tailer._offset < MAX_STREAM_BYTES and tailer.changed():
+        before = tailer._offset
+        samples += tailer._poll(at)
+        if tailer._offset <= before:
+            break
     tailer.finish()
     if problems is not None:
         problems += tailer.problems()

@@ -18,7 +18,7 @@ from prezence.config.model import (
     Rule,
     TimeSettings,
 )
-from prezence.config.tomlconf import dumps_config, loads_config
+from prezence.config.tomlconf import DAY_S, SETTING_BOUNDS, dumps_config, loads_config
 from prezence.errors import ConfigError
 
 COMMANDS = command_table()
@@ -71,23 +71,30 @@ def test_format_rule_then_parse_gives_the_rule(rule: Rule) -> None:
 @st.composite
 def configs(draw: st.DrawFn) -> Config:
     names = draw(st.lists(metrics, max_size=4, unique=True))
-    nonneg = st.floats(min_value=0.0, max_value=1e9)
+
+    def within(key: str, zero: bool = False) -> st.SearchStrategy[float]:
+        lo, hi = SETTING_BOUNDS[key]  # the sane bounds the TOML form enforces
+        s = st.floats(min_value=lo, max_value=hi)
+        return st.just(0.0) | s if zero else s
+
     processor = ProcessorSettings(
-        threshold=draw(positive),
-        decay_half_life_s=draw(positive),
-        min_gap_s=draw(nonneg),
-        refractory_s=draw(nonneg),
-        stale_after_s=draw(positive),
-        decision_period_s=draw(positive),
-        praise_after_s=draw(nonneg),
+        threshold=draw(within("threshold")),
+        decay_half_life_s=draw(within("decay_half_life_s")),
+        min_gap_s=draw(within("min_gap_s")),
+        refractory_s=draw(within("refractory_s")),
+        stale_after_s=draw(within("stale_after_s")),
+        decision_period_s=draw(within("decision_period_s")),
+        praise_after_s=draw(within("praise_after_s", zero=True)),
         praise_command=draw(st.none() | st.sampled_from(sorted(COMMANDS))),
     )
     time = TimeSettings(
-        allocated_s=draw(st.none() | positive),
-        warn_at_s_left=tuple(draw(st.lists(positive, max_size=3, unique=True))),
+        allocated_s=draw(st.none() | within("allocated_s")),
+        warn_at_s_left=tuple(
+            draw(st.lists(st.floats(min_value=1e-3, max_value=DAY_S), max_size=3, unique=True))
+        ),
         warn_command=draw(st.sampled_from(sorted(COMMANDS))),
         overtime_command=draw(st.sampled_from(sorted(COMMANDS))),
-        overtime_repeat_s=draw(nonneg),
+        overtime_repeat_s=draw(within("overtime_repeat_s", zero=True)),
     )
     laptop = draw(st.floats(min_value=0.01, max_value=100.0))
     room = RoomProfile(

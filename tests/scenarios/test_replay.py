@@ -60,8 +60,9 @@ def test_replay_never_overwrites_the_recording(demo_session: Path) -> None:
 
 
 def test_replay_of_a_folder_without_streams_names_it(tmp_path: Path) -> None:
+    (tmp_path / "src").mkdir()
     with pytest.raises(ConfigError, match="no stream files"):
-        replay(tmp_path, out=tmp_path / "out", options=RunOptions.default())
+        replay(tmp_path / "src", out=tmp_path / "out", options=RunOptions.default())
 
 
 def test_replay_cli_on_plain_stream_files(

@@ -233,13 +233,26 @@ def test_without_matplotlib_the_page_has_tables_only(
 
 def test_a_metric_without_data_says_no_data_instead_of_an_empty_plot(tmp_path: Path) -> None:
     session = make_session(tmp_path / "t")
-    session.stream("cv_headGaze.txt").unlink()  # the vision module never wrote
+    session.stream("cv_headGaze.txt").write_text("")  # the vision module ran, wrote nothing
     report = build_report(session.root)
     assert report["metrics"]["cv_headGaze"]["time_in_range"] is None
+    assert report["metrics"]["cv_headGaze"]["data"] == "no data"
     page = write_report(session.root)
     html = page.read_text()
-    assert "no data" in html
+    assert "no data" in html and "not measured" not in html
     assert "no data" in (session.report / "summary.txt").read_text()
+    if (session.report / "summary.png").exists():  # with matplotlib
+        assert not (session.report / "timeline_cv_headGaze.png").exists()
+        assert (session.report / "timeline_speech_speed.png").exists()
+
+
+def test_a_metric_no_module_wrote_says_not_measured(tmp_path: Path) -> None:
+    session = make_session(tmp_path / "t")
+    session.stream("cv_headGaze.txt").unlink()  # no camera module ran
+    report = build_report(session.root)
+    assert report["metrics"]["cv_headGaze"]["data"] == "not measured"
+    html = write_report(session.root).read_text()
+    assert "not measured" in html
     if (session.report / "summary.png").exists():  # with matplotlib
         assert not (session.report / "timeline_cv_headGaze.png").exists()
         assert (session.report / "timeline_speech_speed.png").exists()

@@ -1,0 +1,101 @@
+"""Session folders made safely: a new folder per talk, never one that holds a recording.
+
+``prezence up``, ``replay`` and ``rehearse`` write into a folder of their own. Without ``--out``
+it is ``sessions/<kind>-YYYYMMDD-HHMMSS`` (a ``-2``, ``-3`` … suffix when two start in the same
+second). With ``--out DIR``, an existing non-empty ``DIR`` is refused; ``--force`` moves it
+aside to ``DIR.old-YYYYMMDD-HHMMSS`` first, so that even then nothing recorded is deleted.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from prezence.errors import ConfigError
+
+#: Where sessions go when no ``--out`` is given.
+SESSIONS_ROOT = Path("sessions")
+
+
+def _stamp(t: float | None = None) -> str:
+    return time.strftime("%Y%m%d-%H%M%S", time.localtime(t))
+
+
+def _is_empty_dir(path: Path) -> bool:
+    return path.is_dir() and not any(path.iterdir())
+
+
+def default_session_dir(kind: str, *, root: Path = SESSIONS_ROOT, now: float | None = None) -> Path:
+    """``root/<kind>-YYYYMMDD-HHMMSS`` that does not exist yet (suffixed ``-2``, ``-3`` …)."""
+    base = root / f"{kind}-{_stamp(now)}"
+    cand, n = base, 1
+    while cand.exists():
+        n += 1
+        cand = base.with_name(f"{base.name}-{n}")
+    return cand
+
+
+def claim_session_dir(
+    out: str | Path | None,
+    kind: str,
+    *,
+    force: bool = False,
+    root: Path = SESSIONS_ROOT,
+    protect: tuple[Path, ...] = (),
+    default: Path | None = None,
+) -> Path:
+    """Create and return a new, empty session folder.
+
+    Args:
+        out: the folder the user asked for (None: :func:`default_session_dir`).
+        kind: ``live``, ``replay``, ``rehearsal``: the default folder's prefix.
+        force: move an existing non-empty ``out`` aside (``out.old-<stamp>``) instead of refusing.
+        protect: folders that must not be moved aside nor written into (a replay's source):
+            ``out`` may be none of them, nor inside one, nor hold one.
+        default: the folder to use when ``out`` is None (suffixed ``-2``, ``-3`` … when it
+            exists); None: ``root/<kind>-<time>``.
+
+    Raises:
+        ConfigError: ``out`` exists and is not empty (without ``force``), is a file, or
+            overlaps a protected folder.
+    """
+    if out is None:
+        path = default_session_dir(kind, root=root) if default is None else default
+        n = 1
+        while path.exists() and not _is_empty_dir(path):
+            n += 1
+            path = path.with_name(f"{(default or path).name}-{n}")
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+    path = Path(out)
+    for p in protect:
+        if overlaps(path, p):
+            raise ConfigError(
+                f"--out overlaps the recording {p}: it is never written into or over; "
+                "give another folder",
+                path=path,
+            )
+    if path.exists() and not path.is_dir():
+        raise ConfigError("--out is a file, not a folder", path=path)
+    if path.exists() and not _is_empty_dir(path):
+        if not force:
+            raise ConfigError(
+                "already exists and is not empty; nothing recorded is overwritten: give "
+                "another --out, leave --out out for a new timestamped folder, or add --force "
+                f"to move it aside to {path.name}.old-<time>",
+                path=path,
+            )
+        aside = path.with_name(f"{path.name}.old-{_stamp()}")
+        n = 1
+        while aside.exists():
+            n += 1
+            aside = path.with_name(f"{path.name}.old-{_stamp()}-{n}")
+        path.rename(aside)
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def overlaps(a: Path, b: Path) -> bool:
+    """Whether folder ``a`` is ``b``, inside ``b``, or holds ``b`` (links resolved)."""
+    ra, rb = Path(a).resolve(), Path(b).resolve()
+    return ra == rb or rb in ra.parents or ra in rb.parents
