@@ -21,6 +21,7 @@ import math
 from collections.abc import Iterable
 
 from prezence.config.model import Config
+from prezence.metrics import default_stale_after_s
 from prezence.processor.resolve import ConflictPolicy
 from prezence.processor.state import MetricState
 from prezence.processor.types import Candidate, Cue, Decision, Kind, MetricView
@@ -44,7 +45,11 @@ class Processor:
         self._states: dict[str, MetricState] = {
             r.metric: MetricState(
                 rule=r,
-                stale_after_s=r.stale_after_s if r.stale_after_s is not None else s.stale_after_s,
+                stale_after_s=(
+                    r.stale_after_s
+                    if r.stale_after_s is not None
+                    else default_stale_after_s(r.metric, s.stale_after_s)
+                ),
                 half_life_s=s.decay_half_life_s,
             )
             for r in config.rules

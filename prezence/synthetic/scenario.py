@@ -70,7 +70,7 @@ from typing import Any
 from prezence.config.model import FORMAT
 from prezence.errors import ConfigError, UnknownName, did_you_mean
 from prezence.feedback.commands import load_commands
-from prezence.samples import DEFAULT_METRICS
+from prezence.metrics import SYNTHETIC_METRICS
 
 log = logging.getLogger(__name__)
 
@@ -635,11 +635,11 @@ class _Parser:
         out = []
         for name, entry in table.items():
             key = f"metrics.{name}"
-            if name not in DEFAULT_METRICS:
+            if name not in SYNTHETIC_METRICS:
                 raise self.error(
                     key,
-                    f"unknown metric '{name}'{did_you_mean(name, DEFAULT_METRICS)}; "
-                    f"known: {', '.join(DEFAULT_METRICS)}",
+                    f"unknown metric '{name}'{did_you_mean(name, SYNTHETIC_METRICS)}; "
+                    f"known: {', '.join(SYNTHETIC_METRICS)}",
                 )
             d = self.table(entry, key, _METRIC_KEYS)
             if "baseline" not in d:
