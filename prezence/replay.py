@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,7 @@ from prezence.config.model import Config
 from prezence.errors import ConfigError
 from prezence.samples import Sample
 from prezence.session import SessionDir, read_jsonl
-from prezence.streams.tail import read_stream
+from prezence.streams.tail import StreamProblem, TailStats, read_stream
 from prezence.talk import RecordedSource, RunOptions, run_talk
 
 log = logging.getLogger(__name__)
@@ -129,7 +130,8 @@ def replay(
         config = config.with_allocated(allocated_s)
     meta = src_session.read_meta()
     paths = find_streams(src, config)
-    samples = load_samples(paths)
+    readings = read_streams(paths)
+    samples = merge_readings(readings)
     talk_s = float(meta.get("talk_s") or (samples[-1].t if samples else 0.0))
 
     truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
@@ -162,6 +164,7 @@ def replay(
         backend=backend,
         backend_kwargs=backend_kwargs,
         copy_streams=paths,
+        readings=readings,
         meta={
             "source": str(src),
             **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
@@ -170,16 +173,34 @@ def replay(
     )
 
 
-def load_samples(paths: dict[str, Path]) -> list[Sample]:
-    """Every sample of the given stream files, in time order (file order kept for ties)."""
-    samples: list[Sample] = []
+#: One stream file as read: its samples in file order, its counters, the lines skipped.
+Reading = tuple[list[Sample], TailStats, list[StreamProblem]]
+
+
+def read_streams(paths: dict[str, Path]) -> dict[str, Reading]:
+    """Read each stream file once (metric → file); warns about malformed lines."""
+    out: dict[str, Reading] = {}
     for metric, path in paths.items():
-        ss, tail_stats = read_stream(path, metric)
+        problems: list[StreamProblem] = []
+        ss, tail_stats = read_stream(path, metric, problems=problems)
         if tail_stats.malformed:
             log.warning("%s: %d malformed lines skipped", path, tail_stats.malformed)
+        out[metric] = (ss, tail_stats, problems)
+    return out
+
+
+def merge_readings(readings: dict[str, Reading]) -> list[Sample]:
+    """Every sample of ``readings`` in time order (file order kept for ties)."""
+    samples: list[Sample] = []
+    for ss, _, _ in readings.values():
         samples.extend(ss)
-    samples.sort(key=lambda s: s.t)
+    samples.sort(key=attrgetter("t"))
     return samples
+
+
+def load_samples(paths: dict[str, Path]) -> list[Sample]:
+    """Every sample of the given stream files, in time order (file order kept for ties)."""
+    return merge_readings(read_streams(paths))
 
 
 def process_recorded(
@@ -193,6 +214,7 @@ def process_recorded(
     backend: str = "fake",
     backend_kwargs: dict[str, Any] | None = None,
     copy_streams: dict[str, Path] | None = None,
+    readings: dict[str, Reading] | None = None,
     kind: str = "replay",
     meta: dict[str, Any] | None = None,
     extra: dict[str, Any] | None = None,
@@ -206,6 +228,8 @@ def process_recorded(
         copy_streams: stream files to copy into the new session (metric → file), so that
             its summary and report read what the coach read. None: the samples were read
             from ``session``'s own stream files (a rehearsal), which are kept.
+        readings: the stream files as read (:func:`read_streams`): the summary then does not
+            read them again.
         kind: the session's kind (``replay``, ``rehearsal``).
         meta: more for ``session.json``.
         extra: more for ``summary.json``.
@@ -219,6 +243,7 @@ def process_recorded(
         copy_streams={config.rule(m).stream: p for m, p in (copy_streams or {}).items()},
         keep_streams=copy_streams is None,
         kind=kind,
+        readings=readings,
     )
     bk = make_backend(backend, **(backend_kwargs or {}))
     run = run_talk(source, config=config, session=session, backend=bk, options=options)

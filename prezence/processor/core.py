@@ -152,14 +152,16 @@ class Processor:
     def status(self, now: float) -> tuple[tuple[bool, str | None, bool], ...]:
         """A cheap summary of every metric's state: (stale or no value, side out of range,
         strict cue pending). The decision log writes a line when it changes."""
-        out: list[tuple[bool, str | None, bool]] = []
-        for st in self._states.values():
-            v = st.value
-            if v is None or st.stale(now):
-                out.append((True, None, st.strict_pending))
-            else:
-                out.append((False, st.rule.side(v), st.strict_pending))
-        return tuple(out)
+        return tuple(
+            [
+                (
+                    st.value is None or now - st.last_sample_t > st.stale_after_s,
+                    None if st.value is None else st.rule.side(st.value),
+                    st.strict_pending,
+                )
+                for st in self._states.values()
+            ]
+        )
 
     def _view(self, st: MetricState, now: float) -> MetricView:
         return MetricView(
