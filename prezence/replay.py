@@ -22,10 +22,24 @@ from prezence.config.model import Config
 from prezence.errors import ConfigError
 from prezence.samples import Sample
 from prezence.session import SessionDir, read_jsonl
+from prezence.streams.locate import locate_streams, no_streams_error
 from prezence.streams.tail import StreamProblem, TailStats, read_stream
 from prezence.talk import RecordedSource, RunOptions, run_talk
 
 log = logging.getLogger(__name__)
+
+__all__ = [
+    "ReplayResult",
+    "find_streams",
+    "load_samples",
+    "locate_streams",
+    "merge_readings",
+    "no_streams_error",
+    "process_recorded",
+    "read_streams",
+    "replay",
+    "same_bands",
+]
 
 
 @dataclass
@@ -37,29 +51,6 @@ class ReplayResult:
     summary: dict[str, Any]
     #: ``report/report.html``, when the report was written.
     report: Path | None = None
-
-
-def locate_streams(src: Path, config: Config) -> dict[str, Path]:
-    """The stream file of each rule that has one: ``src/streams/<file>``, else ``src/<file>``.
-
-    The one stream discovery of replays, rehearsals and reports; rules without a file are
-    left out.
-    """
-    found: dict[str, Path] = {}
-    for rule in config.rules:
-        for cand in (src / "streams" / rule.stream, src / rule.stream):
-            if cand.is_file():
-                found[rule.metric] = cand
-                break
-    return found
-
-
-def no_streams_error(src: Path, config: Config) -> ConfigError:
-    """The error for a folder in which :func:`locate_streams` finds nothing."""
-    names = ", ".join(r.stream for r in config.rules)
-    return ConfigError(
-        f"no stream files found (looked for {names} in streams/ and the folder)", path=src
-    )
 
 
 def find_streams(src: Path, config: Config) -> dict[str, Path]:
