@@ -8,8 +8,8 @@ from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
-from prezence.config.model import Direction
 from prezence.errors import ConfigError, UnknownName
+from prezence.feedback.direction import Direction
 from prezence.tomlio import loads_toml
 
 COMMANDS_FILE = "commands.toml"
