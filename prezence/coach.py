@@ -27,19 +27,25 @@ GesturePlanner = Callable[[str, Mapping[str, Any]], Trajectory]
 
 
 def default_planner(speed_fraction: float) -> GesturePlanner:
-    """The gesture library, retimed against the URDF's limits at ``speed_fraction``."""
-    from prezence.feedback.gestures import build_trajectory
+    """The gesture library, retimed against the URDF's limits at ``speed_fraction``.
+
+    Trajectories are cached by gesture and the parameters the gesture declares (a cue's other
+    parameters, such as ``minutes_over`` for the phrase, change nothing in the motion).
+    """
+    from prezence.feedback.gestures import build_trajectory, load_library
     from prezence.feedback.limits import load_limits
 
     limits = load_limits()
-    cache: dict[tuple[str, tuple[tuple[str, Any], ...]], Trajectory] = {}
+    library = load_library(limits)
+    cache: dict[tuple[str, tuple[tuple[str, int], ...]], Trajectory] = {}
 
     def plan(gesture: str, params: Mapping[str, Any]) -> Trajectory:
-        key = (gesture, tuple(sorted(params.items())))
+        used = library[gesture].resolve_params(params)
+        key = (gesture, tuple(sorted(used.items())))
         traj = cache.get(key)
         if traj is None:
             traj = build_trajectory(
-                gesture, params=dict(params), speed_fraction=speed_fraction, limits=limits
+                gesture, params=used, speed_fraction=speed_fraction, limits=limits, library=library
             )
             cache[key] = traj
         return traj

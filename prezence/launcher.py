@@ -42,6 +42,7 @@ from typing import IO, Any
 
 from prezence.backends.base import Backend
 from prezence.config.model import Config
+from prezence.metrics import DEFAULT_HANG_S, INPUT_MODULES
 from prezence.processor import Decision
 from prezence.samples import MAX_AHEAD_S, Sample
 from prezence.session import SessionDir
@@ -52,8 +53,6 @@ log = logging.getLogger(__name__)
 
 #: The environment variable that holds a module's heartbeat file (see the module docstring).
 HEARTBEAT_ENV = "PREZENCE_HEARTBEAT"
-#: Hang limit of the vision module and of ``--module`` modules, seconds.
-DEFAULT_HANG_S = 20.0
 #: Modules are looked at (exit status, signs of life) at most this often, seconds.
 SUPERVISE_PERIOD_S = 0.2
 #: The exit status with which a module says it cannot use its input (a missing file, no
@@ -68,18 +67,13 @@ APPEND_ENV = "PREZENCE_APPEND"
 #: ``prctl`` option that sends the child a signal when its parent dies (Linux).
 PR_SET_PDEATHSIG = 1
 
-#: A stream the speech module writes every hop, in silence too (its heartbeat). A speech
-#: module whose ``METRICS`` has it can be watched for hangs; one that writes nothing while the
-#: presenter pauses cannot.
-SPEECH_HEARTBEAT_METRIC = "speech_activity"
-#: The metrics the vision module writes: ``prezence.modules.vision.METRICS``, written out here
-#: because that module needs OpenCV to import (a test checks they agree).
-VISION_METRICS: tuple[str, ...] = (
-    "cv_headGaze",
-    "cv_headYaw",
-    "cv_facingAudience",
-    "cv_gestures",
-)
+#: A stream the speech module writes every hop, in silence too (its heartbeat): its record's
+#: ``heartbeat_metric``. A speech module whose ``METRICS`` has it can be watched for hangs; one
+#: that writes nothing while the presenter pauses cannot.
+SPEECH_HEARTBEAT_METRIC = INPUT_MODULES["speech"].heartbeat_metric
+#: The metrics the vision module writes, from the metric records (a test checks they are
+#: ``prezence.modules.vision.METRICS``, which needs OpenCV to import).
+VISION_METRICS: tuple[str, ...] = INPUT_MODULES["vision"].metrics
 
 
 @dataclass
@@ -132,6 +126,20 @@ class ModuleSpec:
         return cls(name.strip(), argv, metrics=ms, hang_after_s=hang_after_s)
 
 
+def _module(name: str, source: str, extra: Sequence[str], metrics: tuple[str, ...]) -> ModuleSpec:
+    rec = INPUT_MODULES[name]
+    hang = rec.hang_after_s
+    if rec.heartbeat_metric is not None and rec.heartbeat_metric not in metrics:
+        hang = None  # it may write nothing while the presenter pauses: no hang limit
+    return ModuleSpec(
+        name,
+        rec.argv(source) + list(extra),
+        metrics=metrics,
+        finite=not rec.is_live(source),
+        hang_after_s=hang,
+    )
+
+
 def speech_module(audio: str, extra: Sequence[str] = ()) -> ModuleSpec:
     """The speech module on ``audio`` (``mic`` or a file played as if live), ``extra`` appended.
 
@@ -141,30 +149,12 @@ def speech_module(audio: str, extra: Sequence[str] = ()) -> ModuleSpec:
     """
     from prezence.modules.speech import METRICS
 
-    file_in = audio != "mic"
-    argv = [sys.executable, "-m", "prezence.modules.speech", "--audio", audio]
-    argv += ["--out", "{session}", "--t0", "{t0}"] + (["--realtime"] if file_in else [])
-    return ModuleSpec(
-        "speech",
-        argv + list(extra),
-        metrics=tuple(METRICS),
-        finite=file_in,
-        hang_after_s=DEFAULT_HANG_S if SPEECH_HEARTBEAT_METRIC in METRICS else None,
-    )
+    return _module("speech", audio, extra, tuple(METRICS))
 
 
 def vision_module(video: str, extra: Sequence[str] = ()) -> ModuleSpec:
     """The vision module on ``video`` (``cam``, ``cam:N`` or a file played as if live)."""
-    file_in = not video.startswith("cam")
-    argv = [sys.executable, "-m", "prezence.modules.vision", "--video", video]
-    argv += ["--out", "{session}", "--t0", "{t0}"] + (["--realtime"] if file_in else [])
-    return ModuleSpec(
-        "vision",
-        argv + list(extra),
-        metrics=VISION_METRICS,
-        finite=file_in,
-        hang_after_s=DEFAULT_HANG_S,
-    )
+    return _module("vision", video, extra, VISION_METRICS)
 
 
 @dataclass

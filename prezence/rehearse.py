@@ -22,7 +22,13 @@ from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError, PrezenceError
-from prezence.replay import ReplayResult, find_streams, load_samples, process_recorded
+from prezence.replay import (
+    ReplayResult,
+    find_streams,
+    merge_readings,
+    process_recorded,
+    read_streams,
+)
 from prezence.session import MAX_TALK_S, SessionDir
 from prezence.talk import RunOptions
 
@@ -205,7 +211,8 @@ def rehearse(
     if len(failures) == len(procs):
         raise PrezenceError("; ".join(f"{n}: {m}" for n, m in failures.items()))
     paths = find_streams(session.root, config)
-    samples = load_samples(paths, max_t=MAX_TALK_S)
+    readings = read_streams(paths, max_t=MAX_TALK_S)
+    samples = merge_readings(readings)
     talk_s = samples[-1].t if samples else 0.0
     return process_recorded(
         session,
@@ -216,6 +223,7 @@ def rehearse(
         backend=backend,
         backend_kwargs=backend_kwargs,
         kind="rehearsal",
+        readings=readings,
         meta={"recording": str(recording)},
         extra={"kind": "rehearsal", "recording": str(recording), "module_failures": failures},
     )

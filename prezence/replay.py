@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
@@ -22,10 +23,24 @@ from prezence.errors import ConfigError
 from prezence.samples import Sample
 from prezence.session import SessionDir, read_jsonl, sample_time_limit
 from prezence.sessiondir import overlaps
-from prezence.streams.tail import read_stream
+from prezence.streams.locate import locate_streams, no_streams_error
+from prezence.streams.tail import StreamProblem, TailStats, read_stream
 from prezence.talk import RecordedSource, RunOptions, run_talk
 
 log = logging.getLogger(__name__)
+
+__all__ = [
+    "ReplayResult",
+    "find_streams",
+    "load_samples",
+    "locate_streams",
+    "merge_readings",
+    "no_streams_error",
+    "process_recorded",
+    "read_streams",
+    "replay",
+    "same_bands",
+]
 
 
 @dataclass
@@ -37,29 +52,6 @@ class ReplayResult:
     summary: dict[str, Any]
     #: ``report/report.html``, when the report was written.
     report: Path | None = None
-
-
-def locate_streams(src: Path, config: Config) -> dict[str, Path]:
-    """The stream file of each rule that has one: ``src/streams/<file>``, else ``src/<file>``.
-
-    The one stream discovery of replays, rehearsals and reports; rules without a file are
-    left out.
-    """
-    found: dict[str, Path] = {}
-    for rule in config.rules:
-        for cand in (src / "streams" / rule.stream, src / rule.stream):
-            if cand.is_file():
-                found[rule.metric] = cand
-                break
-    return found
-
-
-def no_streams_error(src: Path, config: Config) -> ConfigError:
-    """The error for a folder in which :func:`locate_streams` finds nothing."""
-    names = ", ".join(r.stream for r in config.rules)
-    return ConfigError(
-        f"no stream files found (looked for {names} in streams/ and the folder)", path=src
-    )
 
 
 def find_streams(src: Path, config: Config) -> dict[str, Path]:
@@ -137,7 +129,8 @@ def replay(
     if not rec.meta.exists() and src.name == "streams" and SessionDir(src.parent).meta.exists():
         rec = SessionDir(src.parent)
     limit = sample_time_limit(rec, rec.read_meta())
-    samples = load_samples(paths, max_t=limit)
+    readings = read_streams(paths, max_t=limit)
+    samples = merge_readings(readings)
     talk_s = float(meta.get("talk_s") or min(limit, samples[-1].t if samples else 0.0))
 
     truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
@@ -170,6 +163,7 @@ def replay(
         backend=backend,
         backend_kwargs=backend_kwargs,
         copy_streams=paths,
+        readings=readings,
         meta={
             "source": str(src),
             **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
@@ -178,14 +172,19 @@ def replay(
     )
 
 
-def load_samples(paths: dict[str, Path], *, max_t: float | None = None) -> list[Sample]:
-    """Every sample of the given stream files, in time order (file order kept for ties).
+#: One stream file as read: its samples in file order, its counters, the lines skipped.
+Reading = tuple[list[Sample], TailStats, list[StreamProblem]]
+
+
+def read_streams(paths: dict[str, Path], *, max_t: float | None = None) -> dict[str, Reading]:
+    """Read each stream file once (metric → file); warns about malformed lines.
 
     Samples stamped after ``max_t`` (the talk's end plus a margin) are skipped and counted.
     """
-    samples: list[Sample] = []
+    out: dict[str, Reading] = {}
     for metric, path in paths.items():
-        ss, tail_stats = read_stream(path, metric, max_t=max_t)
+        problems: list[StreamProblem] = []
+        ss, tail_stats = read_stream(path, metric, problems=problems, max_t=max_t)
         if tail_stats.malformed:
             log.warning("%s: %d malformed lines skipped", path, tail_stats.malformed)
         if tail_stats.beyond_talk:
@@ -195,8 +194,21 @@ def load_samples(paths: dict[str, Path], *, max_t: float | None = None) -> list[
                 tail_stats.beyond_talk,
                 max_t,
             )
+        out[metric] = (ss, tail_stats, problems)
+    return out
+
+
+def load_samples(paths: dict[str, Path], *, max_t: float | None = None) -> list[Sample]:
+    """Every sample of the given stream files, in time order (file order kept for ties)."""
+    return merge_readings(read_streams(paths, max_t=max_t))
+
+
+def merge_readings(readings: dict[str, Reading]) -> list[Sample]:
+    """Every sample of ``readings`` in time order (file order kept for ties)."""
+    samples: list[Sample] = []
+    for ss, _, _ in readings.values():
         samples.extend(ss)
-    samples.sort(key=lambda s: s.t)
+    samples.sort(key=attrgetter("t"))
     return samples
 
 
@@ -211,6 +223,7 @@ def process_recorded(
     backend: str = "fake",
     backend_kwargs: dict[str, Any] | None = None,
     copy_streams: dict[str, Path] | None = None,
+    readings: dict[str, Reading] | None = None,
     kind: str = "replay",
     meta: dict[str, Any] | None = None,
     extra: dict[str, Any] | None = None,
@@ -224,6 +237,8 @@ def process_recorded(
         copy_streams: stream files to copy into the new session (metric → file), so that
             its summary and report read what the coach read. None: the samples were read
             from ``session``'s own stream files (a rehearsal), which are kept.
+        readings: the stream files as read (:func:`read_streams`): the summary then does not
+            read them again.
         kind: the session's kind (``replay``, ``rehearsal``).
         meta: more for ``session.json``.
         extra: more for ``summary.json``.
@@ -237,6 +252,7 @@ def process_recorded(
         copy_streams={config.rule(m).stream: p for m, p in (copy_streams or {}).items()},
         keep_streams=copy_streams is None,
         kind=kind,
+        readings=readings,
     )
     bk = make_backend(backend, **(backend_kwargs or {}))
     run = run_talk(source, config=config, session=session, backend=bk, options=options)

@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from prezence.metrics import METRICS as _METRICS
+
 
 @dataclass(frozen=True, slots=True)
 class Sample:
@@ -40,16 +42,7 @@ SPEECH_ACCURACY = "speech_accuracy"  # recogniser confidence, 0..1
 HEAD_GAZE = "cv_headGaze"  # head pitch relative to the audience, degrees (down is negative)
 GESTURES = "cv_gestures"  # gestures per minute
 DEFAULT_METRICS = (SPEECH_SPEED, SPEECH_VOLUME, SPEECH_ACCURACY, HEAD_GAZE, GESTURES)
-#: Every metric the shipped modules write (``prezence.modules.speech.METRICS`` and
-#: ``prezence.modules.vision.METRICS``; a test keeps this list in step). A rule on another metric
-#: is allowed (your own module) but gets a "did you mean" warning, as it is most often a typo.
-KNOWN_METRICS = (
-    *DEFAULT_METRICS,
-    "speech_speed_syllables",
-    "speech_articulation",
-    "speech_loudness",
-    "speech_clarity",
-    "speech_activity",
-    "cv_headYaw",
-    "cv_facingAudience",
-)
+#: Every metric the shipped modules write: the metric records (:data:`prezence.metrics.METRICS`).
+#: A rule on another metric is allowed (your own module) but gets a "did you mean" warning, as
+#: it is most often a typo.
+KNOWN_METRICS: tuple[str, ...] = tuple(_METRICS)

@@ -18,7 +18,7 @@ from prezence.session import SessionDir, read_jsonl, write_json
 
 if TYPE_CHECKING:
     from prezence.processor import Processor
-    from prezence.streams.tail import MultiTailer, StreamProblem
+    from prezence.streams.tail import MultiTailer, StreamProblem, TailStats
 
 
 def _in_range_time(
@@ -207,6 +207,7 @@ def summarize_session(
     extra: Mapping[str, Any] | None = None,
     live: MultiTailer | None = None,
     processor: Processor | None = None,
+    readings: Mapping[str, tuple[list[Sample], TailStats, list[StreamProblem]]] | None = None,
 ) -> dict[str, Any]:
     """Read a session folder's module files and cue log, write and return ``summary.json``.
 
@@ -215,6 +216,8 @@ def summarize_session(
             replacements, lines ahead of the clock…) and skipped lines go into the summary, as
             re-reading the final files cannot see them. None (a rebuild): from the files.
         processor: the talk's processor: the samples it dropped (late, ahead) are counted.
+        readings: stream files already read (metric → samples, counters, skipped lines; a
+            replay's), used instead of reading the session's copies again.
     """
     from prezence.streams.tail import read_stream
 
@@ -222,7 +225,11 @@ def summarize_session(
     stats: dict[str, dict[str, Any]] = {}
     found: list[StreamProblem] = []
     for rule in config.rules:
-        ss, st = read_stream(session.stream(rule.stream), rule.metric, problems=found)
+        if readings is not None and rule.metric in readings:
+            ss, st, skipped = readings[rule.metric]
+            found += skipped
+        else:
+            ss, st = read_stream(session.stream(rule.stream), rule.metric, problems=found)
         samples[rule.metric] = ss
         stats[rule.metric] = st.to_dict()
     if live is not None:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 import shutil
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
@@ -154,6 +154,11 @@ class SampleSource(Protocol):
         """The tailer that fed the processor (its counters go into the summary), if any."""
         ...
 
+    def readings(self) -> Mapping[str, Any] | None:
+        """The stream files as read beforehand (metric → samples, counters, problems), so
+        that the summary does not read them again; None: it reads the session's files."""
+        ...
+
 
 class SourceBase:
     """Defaults for the optional parts of :class:`SampleSource`."""
@@ -194,6 +199,9 @@ class SourceBase:
     def tailer(self) -> MultiTailer | None:
         return None
 
+    def readings(self) -> Mapping[str, Any] | None:
+        return None
+
 
 class RecordedSource(SourceBase):
     """Samples already recorded (a replay, a rehearsal's module files), in time order."""
@@ -211,8 +219,10 @@ class RecordedSource(SourceBase):
         copy_streams: dict[str, Path] | None = None,
         keep_streams: bool = False,
         kind: str = "replay",
+        readings: Mapping[str, Any] | None = None,
     ) -> None:
         self.kind = kind
+        self._readings = readings
         self.keep_streams = keep_streams
         self._copy = dict(copy_streams or {})
         self._samples = samples
@@ -250,6 +260,9 @@ class RecordedSource(SourceBase):
 
     def truth(self) -> list[dict[str, Any]] | None:
         return self._truth
+
+    def readings(self) -> Mapping[str, Any] | None:
+        return self._readings
 
 
 class SteppedClock:
@@ -459,6 +472,7 @@ class Talk:
             backend_stats=backend_stats,
             live=self.source.tailer(),
             processor=self.processor,
+            readings=self.source.readings(),
             extra=extra,
         )
         page = None

@@ -18,6 +18,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
+# re-exported: rules and presenters name it from here
+from prezence.feedback.direction import Direction as Direction
+
 FORMAT = 1  # version of the TOML config and scenario formats
 
 
@@ -27,14 +30,6 @@ class Check(enum.Enum):
     MIN = "min"
     MAX = "max"
     IN_RANGE = "inRange"
-
-
-class Direction(enum.Enum):
-    """What a feedback command asks the presenter to do to the metric."""
-
-    RAISE = "raise"
-    LOWER = "lower"
-    NEUTRAL = "neutral"
 
 
 @dataclass(frozen=True)

@@ -68,8 +68,6 @@ RULE_KEYS = (
     "stale_after_s",
     "unit",
 )
-_TOML_POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\Z")
-_TOML_END = re.compile(r"\s*\(at end of document\)\Z")
 
 
 class _Bad(ValueError):
@@ -516,23 +514,9 @@ def _rules(
 
 
 def _parse(text: str, path: str) -> dict[str, Any]:
-    import tomllib
+    from prezence.tomlio import loads_toml
 
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        msg = str(e)
-        m = _TOML_POS.search(msg)
-        if m:
-            line, col = int(m.group(1)), int(m.group(2))
-            msg = msg[: m.start()]
-        else:
-            lines = text.split("\n")
-            line, col = len(lines), len(lines[-1]) + 1
-            msg = _TOML_END.sub("", msg) + " (at the end of the file)"
-        raise ConfigError(f"TOML: {msg}", path=path, line=line, col=col) from e
-    except RecursionError as e:
-        raise ConfigError("TOML: nested too deeply", path=path, line=1) from e
+    return loads_toml(text, path=path)
 
 
 def _check_format(doc: Mapping[str, Any], ctx: _Ctx) -> None:

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import functools
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
-from prezence.config.model import Direction
 from prezence.errors import ConfigError, UnknownName
+from prezence.feedback.direction import Direction
+from prezence.tomlio import loads_toml
 
 COMMANDS_FILE = "commands.toml"
 
@@ -76,7 +76,7 @@ def _parse(doc: Mapping[str, Any], path: str) -> dict[str, Command]:
 def load_commands() -> Mapping[str, Command]:
     """The built-in command table."""
     text = resources.files("prezence.feedback").joinpath("data", COMMANDS_FILE).read_text()
-    return _parse(tomllib.loads(text), COMMANDS_FILE)
+    return _parse(loads_toml(text, path=COMMANDS_FILE), COMMANDS_FILE)
 
 
 def get_command(name: str) -> Command:

@@ -27,7 +27,6 @@ from __future__ import annotations
 import functools
 import logging
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
@@ -44,6 +43,7 @@ from prezence.feedback.trajectory import (
     profile_time,
     segment_duration,
 )
+from prezence.tomlio import loads_toml
 
 log = logging.getLogger(__name__)
 
@@ -250,12 +250,7 @@ def parse_library(text: str, *, limits: JointLimits, path: str = GESTURES_FILE) 
     Raises:
         ConfigError: TOML syntax (with line and column) or a bad key (with its key path).
     """
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(
-            str(e), path=path, line=getattr(e, "lineno", None), col=getattr(e, "colno", None)
-        ) from e
+    doc = loads_toml(text, path=path)
     if doc.get("format") != 1:
         raise ConfigError(f"expected format = 1, found {doc.get('format')!r}", path=path)
     known = set(limits.names)

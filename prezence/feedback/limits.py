@@ -24,9 +24,13 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import hashlib
+import json
 import logging
 import math
+import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -421,10 +425,45 @@ def _read_urdf(path: Path) -> list[JointLimit]:
     return out
 
 
+#: Where the limits read from a URDF are kept (``$PREZENCE_CACHE``, else
+#: ``$XDG_CACHE_HOME/prezence``, else ``~/.cache/prezence``): importing yourdfpy (trimesh,
+#: scipy) costs far more than a whole headless talk, and the limits of a file never change.
+LIMITS_CACHE_FORMAT = 1
+
+
+def _cache_dir() -> Path:
+    env = os.environ.get("PREZENCE_CACHE")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "prezence"
+
+
+def _cached_joints(path: Path) -> list[JointLimit]:
+    """The URDF's joint limits, from the cache when this exact file (by content) was read."""
+    data = path.read_bytes()
+    digest = hashlib.sha256(data).hexdigest()[:32]
+    cache = _cache_dir() / f"urdf-limits-{LIMITS_CACHE_FORMAT}-{digest}.json"
+    try:
+        rows = json.loads(cache.read_text(encoding="utf-8"))
+        return [JointLimit(**row) for row in rows]
+    except (OSError, ValueError, TypeError):
+        pass  # no cache yet, or a damaged one: read the URDF
+    joints = _read_urdf(path)
+    try:
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        tmp = cache.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(json.dumps([dataclasses.asdict(j) for j in joints]), encoding="utf-8")
+        tmp.replace(cache)
+    except OSError as e:  # a read-only home: read the URDF every time
+        log.debug("joint limits not cached: %s", e)
+    return joints
+
+
 @functools.cache
 def _load(path: str) -> JointLimits:
     log.debug("reading joint limits from %s", path)
-    return JointLimits(_read_urdf(Path(path)), source=Path(path))
+    return JointLimits(_cached_joints(Path(path)), source=Path(path))
 
 
 def load_limits(urdf: Path | str | None = None) -> JointLimits:

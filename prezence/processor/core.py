@@ -36,6 +36,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from prezence.config.model import Config
+from prezence.metrics import default_stale_after_s
 from prezence.processor.resolve import ConflictPolicy
 from prezence.processor.state import MetricState
 from prezence.processor.types import Candidate, Cue, Decision, Kind, MetricView
@@ -65,7 +66,11 @@ class Processor:
         self._states: dict[str, MetricState] = {
             r.metric: MetricState(
                 rule=r,
-                stale_after_s=r.stale_after_s if r.stale_after_s is not None else s.stale_after_s,
+                stale_after_s=(
+                    r.stale_after_s
+                    if r.stale_after_s is not None
+                    else default_stale_after_s(r.metric, s.stale_after_s)
+                ),
                 half_life_s=s.decay_half_life_s,
                 persistence_s=self.persistence_s,
                 effect_s=effect_s,
@@ -185,14 +190,16 @@ class Processor:
     def status(self, now: float) -> tuple[tuple[bool, str | None, bool], ...]:
         """A cheap summary of every metric's state: (stale or no value, side out of range,
         strict cue pending). The decision log writes a line when it changes."""
-        out: list[tuple[bool, str | None, bool]] = []
-        for st in self._states.values():
-            v = st.value
-            if v is None or st.stale(now):
-                out.append((True, None, st.strict_pending))
-            else:
-                out.append((False, st.rule.side(v), st.strict_pending))
-        return tuple(out)
+        return tuple(
+            [
+                (
+                    st.value is None or now - st.last_sample_t > st.stale_after_s,
+                    None if st.value is None else st.rule.side(st.value),
+                    st.strict_pending,
+                )
+                for st in self._states.values()
+            ]
+        )
 
     def _view(self, st: MetricState, now: float) -> MetricView:
         return MetricView(

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import enum
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -61,6 +63,27 @@ class Candidate:
             "params": self.params,
         }
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Candidate:
+        """The candidate of a decision-log line (weights as logged: rounded; a time warning's
+        infinite weight is logged as null and read back as infinity)."""
+        return cls(
+            kind=Kind[str(d["kind"]).upper()],
+            command=str(d["command"]),
+            metric=d.get("metric"),
+            eligible=bool(d["eligible"]),
+            weight=_num(d.get("weight")),
+            deviation=_num(d.get("deviation")),
+            value=d.get("value"),
+            side=d.get("side"),
+            onset=d.get("onset"),
+            params=dict(d.get("params") or {}),
+        )
+
+
+def _num(x: Any) -> float:
+    return math.inf if x is None else float(x)
+
 
 @dataclass(frozen=True, slots=True)
 class Cue:
@@ -89,6 +112,22 @@ class Cue:
             "weight": round(self.weight, 3),
         }
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Cue:
+        """A cue of ``cues.jsonl`` or of the decision log (extra keys, such as the phrase
+        and the robot's timings, are ignored)."""
+        return cls(
+            t=float(d["t"]),
+            command=str(d["command"]),
+            metric=d.get("metric"),
+            kind=Kind[str(d["kind"]).upper()],
+            reason=str(d.get("reason", "")),
+            params=dict(d.get("params") or {}),
+            onset=d.get("onset"),
+            deviation=_num(d.get("deviation", 0.0)),
+            weight=_num(d.get("weight", 0.0)),
+        )
+
 
 @dataclass(frozen=True, slots=True)
 class MetricView:
@@ -113,6 +152,18 @@ class MetricView:
             "strict_pending": self.strict_pending,
         }
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> MetricView:
+        return cls(
+            metric=str(d["metric"]),
+            value=d.get("value"),
+            deviation=float(d["deviation"]),
+            weight=float(d["weight"]),
+            stale=bool(d["stale"]),
+            refractory=bool(d["refractory"]),
+            strict_pending=bool(d["strict_pending"]),
+        )
+
 
 @dataclass(frozen=True, slots=True)
 class Decision:
@@ -135,3 +186,16 @@ class Decision:
             "candidates": [c.to_dict() for c in self.candidates],
             "metrics": [m.to_dict() for m in self.metrics],
         }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Decision:
+        """A line of ``decisions.jsonl`` (an agent's cue line has no candidates or views)."""
+        cue = d.get("cue")
+        return cls(
+            t=float(d["t"]),
+            cue=Cue.from_dict(cue) if cue else None,
+            reason=str(d.get("reason", "")),
+            busy=bool(d.get("busy", False)),
+            candidates=tuple(Candidate.from_dict(c) for c in d.get("candidates", ())),
+            metrics=tuple(MetricView.from_dict(m) for m in d.get("metrics", ())),
+        )

@@ -64,6 +64,7 @@ import numpy.typing as npt
 from prezence.config.model import Config, Direction, Rule
 from prezence.errors import UnknownName
 from prezence.feedback.commands import get_command
+from prezence.metrics import METRICS
 from prezence.samples import (
     GESTURES,
     HEAD_GAZE,
@@ -80,11 +81,7 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Values are clamped to these (low, high) after noise: no negative words per minute.
 PHYSICAL_RANGES: Mapping[str, tuple[float, float]] = {
-    SPEECH_SPEED: (0.0, 400.0),
-    SPEECH_VOLUME: (0.0, 130.0),
-    SPEECH_ACCURACY: (0.0, 1.0),
-    HEAD_GAZE: (-90.0, 90.0),
-    GESTURES: (0.0, 60.0),
+    m.name: m.physical_range for m in METRICS.values() if m.physical_range is not None
 }
 
 #: Ground truth is judged on this grid (seconds).

@@ -61,7 +61,6 @@ import enum
 import logging
 import math
 import re
-import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -70,7 +69,8 @@ from typing import Any
 from prezence.config.model import FORMAT
 from prezence.errors import ConfigError, UnknownName, did_you_mean
 from prezence.feedback.commands import load_commands
-from prezence.samples import DEFAULT_METRICS
+from prezence.metrics import SYNTHETIC_METRICS
+from prezence.tomlio import loads_toml
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +78,6 @@ log = logging.getLogger(__name__)
 DEFAULT_SCENARIO = "demo"
 
 _TIME_RE = re.compile(r"^(?:(\d+):)?(\d+):(\d+(?:\.\d*)?)$")
-_TOML_POS_RE = re.compile(r"\(at line (\d+), column (\d+)\)")
 
 
 # --------------------------------------------------------------------------------------------
@@ -635,11 +634,11 @@ class _Parser:
         out = []
         for name, entry in table.items():
             key = f"metrics.{name}"
-            if name not in DEFAULT_METRICS:
+            if name not in SYNTHETIC_METRICS:
                 raise self.error(
                     key,
-                    f"unknown metric '{name}'{did_you_mean(name, DEFAULT_METRICS)}; "
-                    f"known: {', '.join(DEFAULT_METRICS)}",
+                    f"unknown metric '{name}'{did_you_mean(name, SYNTHETIC_METRICS)}; "
+                    f"known: {', '.join(SYNTHETIC_METRICS)}",
                 )
             d = self.table(entry, key, _METRIC_KEYS)
             if "baseline" not in d:
@@ -823,14 +822,6 @@ def list_scenarios() -> list[str]:
     return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
 
 
-def _toml_error(path: Path, e: tomllib.TOMLDecodeError) -> ConfigError:
-    m = _TOML_POS_RE.search(str(e))
-    reason = _TOML_POS_RE.sub("", str(e)).strip()
-    if m:
-        return ConfigError(reason, path=path, line=int(m.group(1)), col=int(m.group(2)))
-    return ConfigError(reason, path=path)
-
-
 def read_scenario(path: str | Path) -> Scenario:
     """Load a scenario file.
 
@@ -842,10 +833,7 @@ def read_scenario(path: str | Path) -> Scenario:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError("no such scenario file", path=path) from None
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise _toml_error(path, e) from e
+    doc = loads_toml(text, path=path)
     return Scenario.from_dict(doc, path=path)
 
 

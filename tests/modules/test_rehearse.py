@@ -18,6 +18,7 @@ from prezence.cli import main  # noqa: E402
 from prezence.errors import ConfigError  # noqa: E402
 from prezence.rehearse import rehearse  # noqa: E402
 from prezence.session import read_jsonl  # noqa: E402
+from prezence.talk import RunOptions
 
 HERE = Path(__file__).parent
 FAST = HERE / "material" / "rate_225.flac"  # 225 wpm, festival voice, 17.6 s
@@ -55,19 +56,24 @@ def test_rehearse_checks_module_settings_before_running(tmp_path: Path) -> None:
     )
     assert not (tmp_path / "s").exists()
     with pytest.raises(ConfigError, match="vision module, which does not run on an audio"):
-        rehearse(FAST, out=tmp_path / "s", module_args={"vision": ["--fps", "5"]})
+        rehearse(
+            FAST,
+            out=tmp_path / "s",
+            options=RunOptions.default(),
+            module_args={"vision": ["--fps", "5"]},
+        )
 
 
 def test_rehearse_refuses_what_is_not_a_recording(tmp_path: Path) -> None:
     notes = tmp_path / "notes.txt"
     notes.write_text("hello")
     with pytest.raises(ConfigError, match="notes.txt"):
-        rehearse(notes, out=tmp_path / "s")
+        rehearse(notes, out=tmp_path / "s", options=RunOptions.default())
 
 
 def test_rehearse_of_a_missing_file_names_it(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="nope.mp4: no such recording"):
-        rehearse(tmp_path / "nope.mp4", out=tmp_path / "s")
+        rehearse(tmp_path / "nope.mp4", out=tmp_path / "s", options=RunOptions.default())
 
 
 @pytest.mark.slow

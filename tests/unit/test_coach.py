@@ -114,3 +114,15 @@ def test_compact_decision_log_is_the_full_log_where_something_changes(tmp_path: 
         else:
             assert last is not None and r["cue"] is None
             assert (r["busy"], r["reason"]) == (last["busy"], last["reason"])
+
+
+def test_decision_log_lines_read_back_as_typed_records(tmp_path: Path) -> None:
+    from prezence.processor import Decision
+
+    run(make_coach(tmp_path, FakeBackend(), []), 60.0)
+    lines = read_jsonl(tmp_path / "decisions.jsonl")
+    decisions = [Decision.from_dict(r) for r in lines]
+    assert [d.to_dict() for d in decisions] == lines  # a round trip changes nothing
+    cued = [d for d in decisions if d.cue is not None]
+    assert cued and all(d.cue.command == "slowDown" for d in cued if d.cue)
+    assert all(d.metrics and d.metrics[0].metric == "speech_speed" for d in decisions)

@@ -144,3 +144,37 @@ def test_critical_fractions_are_where_the_yaw_crosses_the_table(lim: JointLimits
     crossed = sorted(-1.0 + 2.0 * f for f in s[1:-1])
     expected = sorted(y for row in HEAD_PITCH_TABLE for y in {row[0], -row[0]} if abs(y) < 1.0)
     assert crossed == pytest.approx(expected)
+
+
+def test_limits_are_cached_by_file_content_and_read_without_yourdfpy(tmp_path: Path) -> None:
+    """The second process reads the cache (no yourdfpy import); an edited URDF is read again."""
+    import os
+    import subprocess
+    import sys
+
+    from prezence.resources import urdf_path
+
+    urdf = tmp_path / "nao.urdf"
+    urdf.write_bytes(urdf_path().read_bytes())
+    code = (
+        "import sys; from prezence.feedback.limits import load_limits;"
+        f"l = load_limits({str(urdf)!r}); print(l.upper['HeadYaw'], 'yourdfpy' in sys.modules)"
+    )
+    env = {**os.environ, "PREZENCE_CACHE": str(tmp_path / "cache")}
+
+    def run() -> list[str]:
+        out = subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        )
+        return out.stdout.split()
+
+    first, second = run(), run()
+    assert first[1] == "True" and second[1] == "False"  # read once, then from the cache
+    assert first[0] == second[0]
+    text = urdf.read_text()
+    assert 'name="HeadYaw"' in text
+    edited = text.replace('upper="2.08567"', 'upper="1.5"', 1)
+    assert edited != text, "the test's URDF edit did not apply"
+    urdf.write_text(edited)
+    third = run()
+    assert third == ["1.5", "True"]  # new content: read again, new value

@@ -241,3 +241,28 @@ def test_every_setting_field_is_a_toml_key() -> None:
     for settings in (cfg.processor, cfg.time):
         for f in dataclasses.fields(settings):
             assert f.name in dumps_config(cfg)
+
+
+@pytest.mark.parametrize("kind", ["gestures", "scenario", "config"])
+def test_every_toml_file_reports_line_and_column_of_a_syntax_error(
+    kind: str, tmp_path: Path
+) -> None:
+    """One reader for all: the position is given on Pythons whose tomllib keeps it only in the
+    message (before 3.14) as on those with attributes."""
+    from prezence.config.load import load_config
+    from prezence.errors import ConfigError
+    from prezence.feedback.gestures import parse_library
+    from prezence.feedback.limits import load_limits
+    from prezence.synthetic.scenario import read_scenario
+
+    text = 'format = 1\nname = "x"\nbad = = 2\n'
+    path = tmp_path / "f.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as e:
+        if kind == "gestures":
+            parse_library(text, limits=load_limits(), path=str(path))
+        elif kind == "scenario":
+            read_scenario(path)
+        else:
+            load_config(path)
+    assert str(e.value).startswith(f"{path}:3:7: ")

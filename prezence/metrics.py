@@ -1,0 +1,189 @@
+"""One record per metric, and per input module: what everything else reads.
+
+Adding a metric is its input module (which writes ``streams/<name>.txt``) plus one
+:class:`Metric` record in :data:`METRICS`. The config checker's list of known metrics, the
+synthetic presenters' physical ranges (and so the scenarios that may script it), the launcher's
+view of which module writes what, and the coach's default staleness all come from here.
+
+Default staleness follows from the writing module's cadence: a metric goes stale when no sample
+came for ``max(floor, STALE_CADENCES × cadence_s)`` seconds, where ``floor`` is the config's
+``processor.stale_after_s`` (6 s by default). Three missed writes in a row are not chance
+jitter; a metric written every 2 s (speech at most) goes stale after 6 s, one written every
+5 s after 15 s. A rule's own ``stale_after_s`` still wins.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+#: A metric is stale after this many of its module's write periods without a sample.
+STALE_CADENCES = 3.0
+
+
+@dataclass(frozen=True)
+class Metric:
+    """Everything the system knows about one metric.
+
+    Attributes:
+        name: the stream's name (``streams/<name>.txt``), e.g. ``speech_speed``.
+        unit: its unit, for people (``wpm``, ``dB SPL``).
+        label: a word a presenter understands (``pace``).
+        advice: per side of the band (``below``/``above``), what to work on.
+        module: the input module that writes it (a key of :data:`INPUT_MODULES`).
+        cadence_s: the longest time between two of its samples while the module runs.
+        physical_range: the values it can physically take (synthetic presenters clip to it,
+            the Gymnasium observation is bounded by it); None: not scripted synthetically.
+        band: the built-in rule's check and bounds (``("inRange", 140, 180)``), None if the
+            built-in rules do not judge it (``prezence/config/defaults/default.toml`` holds
+            the rules themselves).
+        scale: the built-in rule's percent scale (deviation of 100 % at this distance).
+    """
+
+    name: str
+    unit: str
+    label: str
+    module: str
+    cadence_s: float
+    advice: Mapping[str, str] = field(default_factory=dict)
+    physical_range: tuple[float, float] | None = None
+    band: tuple[str, float | None, float | None] | None = None
+    scale: float | None = None
+
+    def stale_after_s(self, floor: float) -> float:
+        """Default staleness: ``max(floor, STALE_CADENCES × cadence_s)``."""
+        return max(floor, STALE_CADENCES * self.cadence_s)
+
+
+@dataclass(frozen=True)
+class InputModule:
+    """An input module: how to start it and what it writes.
+
+    Attributes:
+        name: ``speech``, ``vision``.
+        module: the Python module run as ``python -m <module>``.
+        input_option: the option naming its input (``--audio``, ``--video``).
+        live_inputs: input values that are live devices (no ``--realtime`` file playback).
+        hang_after_s: restart it after this long without a sign of life; None: never.
+        heartbeat_metric: a metric it writes in silence too; when set, the hang limit holds.
+    """
+
+    name: str
+    module: str
+    input_option: str
+    live_inputs: tuple[str, ...]
+    hang_after_s: float | None
+    heartbeat_metric: str | None = None
+
+    @property
+    def metrics(self) -> tuple[str, ...]:
+        """The metrics it writes (from the metric records)."""
+        return tuple(m.name for m in METRICS.values() if m.module == self.name)
+
+    def argv(self, source: str) -> list[str]:
+        """Its command line on ``source`` (a device or a file played as if live)."""
+        argv = [sys.executable, "-m", self.module, self.input_option, source]
+        argv += ["--out", "{session}", "--t0", "{t0}"]
+        if not self.is_live(source):
+            argv.append("--realtime")
+        return argv
+
+    def is_live(self, source: str) -> bool:
+        return any(source == d or source.startswith(d + ":") for d in self.live_inputs)
+
+
+#: Hang limit of the modules that write often and of ``--module`` modules, seconds.
+DEFAULT_HANG_S = 20.0
+
+INPUT_MODULES: Mapping[str, InputModule] = {
+    "speech": InputModule(
+        "speech",
+        "prezence.modules.speech",
+        "--audio",
+        ("mic",),
+        DEFAULT_HANG_S,
+        heartbeat_metric="speech_activity",
+    ),
+    "vision": InputModule("vision", "prezence.modules.vision", "--video", ("cam",), DEFAULT_HANG_S),
+}
+
+
+_SPEECH = 2.0  # the speech module writes every hop (1 s by default); at most 2 s apart
+_VISION = 1.0  # the vision module writes every second
+
+METRICS: Mapping[str, Metric] = {
+    m.name: m
+    for m in (
+        Metric(
+            "speech_speed",
+            "wpm",
+            "pace",
+            "speech",
+            _SPEECH,
+            advice={"above": "slow down", "below": "pick up the pace"},
+            physical_range=(0.0, 400.0),
+            band=("inRange", 140.0, 180.0),
+        ),
+        Metric("speech_speed_syllables", "syllables/min", "syllable rate", "speech", _SPEECH),
+        Metric("speech_articulation", "syllables/s", "articulation rate", "speech", _SPEECH),
+        Metric(
+            "speech_volume",
+            "dB SPL",
+            "volume",
+            "speech",
+            _SPEECH,
+            advice={"below": "speak louder", "above": "speak more softly"},
+            physical_range=(0.0, 130.0),
+            band=("min", 60.0, None),
+            scale=6.0,
+        ),
+        Metric("speech_loudness", "dBFS", "loudness", "speech", _SPEECH),
+        Metric(
+            "speech_accuracy",
+            "0..1",
+            "clarity",
+            "speech",
+            _SPEECH,
+            advice={"below": "articulate more clearly"},
+            physical_range=(0.0, 1.0),
+            band=("min", 0.6, None),
+        ),
+        Metric("speech_clarity", "0..1", "clarity (acoustic)", "speech", _SPEECH),
+        Metric("speech_activity", "0..1", "voice activity", "speech", _SPEECH),
+        Metric(
+            "cv_headGaze",
+            "degrees",
+            "eye contact",
+            "vision",
+            _VISION,
+            advice={"below": "look up at your audience", "above": "lower your gaze"},
+            physical_range=(-90.0, 90.0),
+            band=("min", -15.0, None),
+            scale=10.0,
+        ),
+        Metric("cv_headYaw", "degrees", "head turn", "vision", _VISION),
+        Metric("cv_facingAudience", "0..1", "facing the audience", "vision", _VISION),
+        Metric(
+            "cv_gestures",
+            "gestures/min",
+            "gestures",
+            "vision",
+            _VISION,
+            advice={"below": "use your hands more", "above": "calm your hands"},
+            physical_range=(0.0, 60.0),
+            band=("inRange", 2.0, 12.0),
+        ),
+    )
+}
+
+#: Metrics a synthetic presenter can play (those with a physical range).
+SYNTHETIC_METRICS: tuple[str, ...] = tuple(
+    m.name for m in METRICS.values() if m.physical_range is not None
+)
+
+
+def default_stale_after_s(metric: str, floor: float) -> float:
+    """The default staleness of ``metric`` (``floor`` for a metric without a record)."""
+    rec = METRICS.get(metric)
+    return rec.stale_after_s(floor) if rec is not None else floor

@@ -1,0 +1,35 @@
+"""Where a folder keeps its stream files (replays, rehearsals, reports, rebuilds).
+
+Below the replay and the report, so that both can use it without importing each other
+(:mod:`prezence.replay` re-exports these names).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from prezence.config.model import Config
+from prezence.errors import ConfigError
+
+
+def locate_streams(src: Path, config: Config) -> dict[str, Path]:
+    """The stream file of each rule that has one: ``src/streams/<file>``, else ``src/<file>``.
+
+    The one stream discovery of replays, rehearsals and reports; rules without a file are
+    left out.
+    """
+    found: dict[str, Path] = {}
+    for rule in config.rules:
+        for cand in (src / "streams" / rule.stream, src / rule.stream):
+            if cand.is_file():
+                found[rule.metric] = cand
+                break
+    return found
+
+
+def no_streams_error(src: Path, config: Config) -> ConfigError:
+    """The error for a folder in which :func:`locate_streams` finds nothing."""
+    names = ", ".join(r.stream for r in config.rules)
+    return ConfigError(
+        f"no stream files found (looked for {names} in streams/ and the folder)", path=src
+    )
