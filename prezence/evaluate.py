@@ -705,7 +705,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="presenter models: free, cost, cost:K (assumptions x K), each optionally "
         "+measured (module noise from the measured errors) (default: %(default)s)",
     )
-    p.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1 per pair (default 3)")
+    p.add_argument("--seeds", type=int, default=3, help="N seeds per pair (default 3)")
+    p.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        help="seeds K..K+N-1 (default 0); another K gives held-out talks for a tuned policy",
+    )
     p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--backend", default="fake", help="robot backend (default fake)")
     p.add_argument("--out", default="evaluation", help="folder for the CSV and Markdown")
@@ -735,7 +741,7 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
     rows = evaluate(
         scenarios,
         policies,
-        args.seeds,
+        range(args.first_seed, args.first_seed + args.seeds),
         jobs=args.jobs,
         backend=args.backend,
         ray=args.ray,

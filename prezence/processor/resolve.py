@@ -113,7 +113,11 @@ class WeightedPolicy(ConflictPolicy):
     name = "weighted"
     #: persistence_s: ours (see prezence.processor.state): a held deviation reaches full weight
     #: in a few seconds, a 1-in-2 s flicker never does; tuned by the closed-loop evaluation.
-    defaults: ClassVar[Mapping[str, float]] = {"persistence_s": 5.0}
+    defaults: ClassVar[Mapping[str, float]] = {
+        "persistence_s": 5.0,
+        "escalate_after": 2.0,
+        "effect_s": 20.0,
+    }
 
     def choose(self, candidates: Sequence[Candidate], order: Sequence[str]) -> Candidate | None:
         ok = [c for c in candidates if c.eligible]

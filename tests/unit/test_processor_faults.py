@@ -110,7 +110,8 @@ def test_no_cue_about_a_problem_over_for_longer_than_the_stale_time(strict: bool
 
 
 def _gaze_cues(gaze: Signal) -> list[float]:
-    p = Processor(builtin(), policy=make_policy("weighted"))
+    # without escalation, so that the held problem is cued at the refractory's pace
+    p = Processor(builtin(), policy=make_policy("weighted:escalate_after=0"))
     signals = dict(IN_RANGE, speech_accuracy=lambda t: 0.8, cv_headGaze=gaze)
     return [c.t for c in run(p, signals, until=240) if c.metric == "cv_headGaze"]
 
@@ -183,8 +184,15 @@ def test_a_cue_that_worked_resets_the_escalation_count() -> None:
     assert end_of_talk_notes(p) == [] or all(n["t"] > 150 for n in end_of_talk_notes(p))
 
 
-def test_without_escalation_the_cue_is_repeated() -> None:
+def test_the_default_policy_escalates_after_two_unheeded_cues() -> None:
     p = Processor(builtin(), policy=make_policy("weighted"))
+    signals = dict(IN_RANGE, speech_accuracy=lambda t: 0.8, speech_speed=lambda t: 230.0)
+    assert len([c for c in run(p, signals, until=300) if c.metric == "speech_speed"]) == 2
+    assert [n["metric"] for n in end_of_talk_notes(p)] == ["speech_speed"]
+
+
+def test_without_escalation_the_cue_is_repeated() -> None:
+    p = Processor(builtin(), policy=make_policy("weighted:escalate_after=0"))
     signals = dict(IN_RANGE, speech_accuracy=lambda t: 0.8, speech_speed=lambda t: 230.0)
     assert len([c for c in run(p, signals, until=300) if c.metric == "speech_speed"]) >= 5
     assert end_of_talk_notes(p) == []
