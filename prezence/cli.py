@@ -308,7 +308,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
 
 def cmd_up(args: argparse.Namespace) -> int:
     from prezence.backends.registry import make_backend
-    from prezence.launcher import LiveView, ModuleSpec, speech_module, up, vision_module
+    from prezence.launcher import ModuleSpec, speech_module, up, vision_module
     from prezence.rehearse import module_args
 
     config = _config_or_default(args)
@@ -340,6 +340,7 @@ def cmd_up(args: argparse.Namespace) -> int:
     check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
     backend = make_backend(args.backend, **kw)
     out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
+    view = None if args.quiet else _live_view(config, [s.name for s in specs])
     with _drop_if_left_empty(out):
         try:
             result = up(
@@ -352,11 +353,14 @@ def cmd_up(args: argparse.Namespace) -> int:
                 speed_fraction=args.speed,
                 grace_s=args.grace,
                 duration_s=args.duration,
-                view=None if args.quiet else LiveView(config),
+                view=view,
                 report=not args.no_report,
             )
         except ValueError as e:  # two modules of the same name
             raise PrezenceError(str(e)) from None
+        finally:
+            if view is not None and hasattr(view, "close"):
+                view.close()
     _finish_session(result.session.root, result.summary, args, report=result.report)
     if result.error is not None:
         print(f"error: the talk stopped: {result.error}", file=sys.stderr)
@@ -374,6 +378,16 @@ def _drop_if_left_empty(folder: Path) -> Iterator[None]:
         with contextlib.suppress(OSError):
             folder.rmdir()
         raise
+
+
+def _live_view(config: Config, modules: list[str]) -> Any:
+    """The rich live view on a terminal with ``rich`` installed, else the plain one."""
+    from prezence.launcher import LiveView
+    from prezence.live_view import RichLiveView, rich_available
+
+    if rich_available() and sys.stdout.isatty():
+        return RichLiveView(config, modules)
+    return LiveView(config)
 
 
 def _finish_session(
