@@ -463,7 +463,15 @@ def up(
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise ValueError(f"two modules are called {', '.join(dup)}: give each its own name")
-    session = SessionDir(Path(session_dir)).create()
+    target = SessionDir(Path(session_dir))
+    if target.holds_recording():  # refused before the robot moves
+        target.create()  # raises: a recording is never overwritten
+    backend.open()  # an unreachable robot fails here, before a session folder is written
+    try:
+        session = target.create()
+    except BaseException:
+        backend.close()
+        raise
     session.config.write_text(dumps_config(config))
     streams = {r.metric: session.stream(r.stream) for r in config.rules}
     tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
@@ -492,7 +500,6 @@ def up(
         time.sleep(max(0.0, t - clock.now()))
 
     paced = None if backend.name == "fake" else pace
-    backend.open()
     coach = Coach(processor, backend, session, planner=default_planner(speed_fraction))
     talk_s = 0.0
     post: dict[str, Any] | None = None
