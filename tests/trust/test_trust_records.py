@@ -232,7 +232,13 @@ def test_piping_into_head_ends_quietly(tmp_path: Path) -> None:
     )
     assert p.stdout.strip() == "{"
     assert "Traceback" not in p.stderr and "BrokenPipe" not in p.stderr
-    assert p.returncode == 141
+    assert p.returncode in (0, 141)  # 0 when it all fitted in the pipe before head left
+    # a reader that is gone before anything is written: the write fails for certain
+    cmd = f"{sys.executable} -m prezence run demo --out {tmp_path / 'e'} -q --json | true"
+    p = subprocess.run(
+        ["bash", "-o", "pipefail", "-c", cmd], capture_output=True, text=True, env=env
+    )
+    assert p.stderr == "" and p.returncode == 141
 
 
 # -- the report says the truth ------------------------------------------------------------------
