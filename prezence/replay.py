@@ -26,7 +26,12 @@ from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError
 from prezence.processor import Processor, make_policy
 from prezence.samples import Sample
-from prezence.session import SessionDir, read_jsonl, sample_time_limit
+from prezence.session import (
+    TRUTH_KEYS,
+    SessionDir,
+    read_jsonl,
+    sample_time_limit,
+)
 from prezence.sessiondir import overlaps
 from prezence.streams.tail import read_stream
 from prezence.summary import summarize_session
@@ -167,7 +172,9 @@ def replay(
             **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
         }
     )
-    truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
+    truth = (
+        read_jsonl(src_session.truth, require=TRUTH_KEYS) if src_session.truth.exists() else None
+    )
     extra: dict[str, Any] = {
         "replay_of": str(src),
         **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
