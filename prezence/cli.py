@@ -91,21 +91,10 @@ def format_timeline(summary: dict[str, Any]) -> str:
 
 
 def _progress_printer() -> Callable[[float, float], None] | None:
-    if not sys.stderr.isatty():
-        return None
-    last = [-1]
+    """A progress bar with an ETA on a terminal (it ends its line when the talk is done)."""
+    from prezence.bars import auto_bar
 
-    def show(done: float, total: float) -> None:
-        pct = int(100 * done / total) if total else 100
-        if pct != last[0]:
-            last[0] = pct
-            bar = "#" * (pct // 4)
-            sys.stderr.write(f"\r[{bar:<25}] {pct:3d}% {_mmss(done)}")
-            if pct >= 100:
-                sys.stderr.write("\n")
-            sys.stderr.flush()
-
-    return show
+    return auto_bar("talk", seconds=True)
 
 
 def _backend_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -585,8 +574,18 @@ def build_parser() -> argparse.ArgumentParser:
         prog="prezence", description="A NAO coaches you while you rehearse a talk."
     )
     parser.add_argument("--version", action="version", version=f"prezence {__version__}")
-    parser.add_argument("-v", "--verbose", action="count", default=0)
-    parser.add_argument("-q", "--quiet", action="store_true")
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0, help="more logging (repeatable)"
+    )
+    parser.add_argument(
+        "-q", "--quiet", action="store_true", help="warnings only, no progress or live view"
+    )
+    parser.add_argument(
+        "--list",
+        choices=LISTS,
+        metavar="WHAT",
+        help=f"list what can be named and exit: {', '.join(LISTS)}",
+    )
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     # -v/-q also after the subcommand (prezence run demo -q): own names, merged in main()
     common = argparse.ArgumentParser(add_help=False)
@@ -606,7 +605,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=argparse.SUPPRESS,
         help="warnings only, no progress or live view",
     )
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command")
 
     def add(parent: Any, name: str, **kw: Any) -> argparse.ArgumentParser:
         q: argparse.ArgumentParser = parent.add_parser(name, parents=[common], **kw)
@@ -649,7 +648,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_up)
 
     p = add(sub, "rehearse", help="coach a recorded rehearsal (audio or video file)")
-    p.add_argument("recording")
+    p.add_argument("recording", help="an audio or video file of the talk (WAV, FLAC, MP3, MP4)")
     _add_module_args(p)
     _add_robot_args(p, out_help="sessions/[NAME/]rehearsal-<recording>, -2, -3 ... when taken")
     _add_force(p)
@@ -658,7 +657,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_rehearse)
 
     p = add(sub, "report", help="(re)build the report of a session folder")
-    p.add_argument("session")
+    p.add_argument("session", help="the session folder (streams/, cues.jsonl, config.toml)")
     p.add_argument("--config", help="judge by this config instead of the folder's")
     p.set_defaults(func=cmd_report)
 
@@ -679,7 +678,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_evaluate, rest=[])
 
     p = add(sub, "check-config", help="validate config or rules files")
-    p.add_argument("files", nargs="+")
+    p.add_argument("files", nargs="+", help="TOML configs or seed-format rules files")
     p.add_argument(
         "--room", metavar="FILE", help="room profile TOML whose named values the rules use"
     )
@@ -688,7 +687,7 @@ def build_parser() -> argparse.ArgumentParser:
     g = add(sub, "gestures", help="check or render the gesture library")
     gs = g.add_subparsers(dest="gcommand", required=True)
     p = add(gs, "check", help="timing and limit table for every gesture")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help="print the table as JSON")
     p.add_argument("--speed", type=float, default=0.6, help="speed fraction (default 0.6)")
     p.add_argument(
         "--no-collisions",
@@ -697,7 +696,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_gestures_check)
     p = add(gs, "render", help="contact sheet PNG and video of one gesture")
-    p.add_argument("name")
+    p.add_argument("name", help="the gesture (prezence --list gestures)")
     p.add_argument("--out", required=True, help="PNG contact sheet")
     p.add_argument("--video", help="MP4, AVI or GIF (default: next to --out, .mp4)")
     p.add_argument("--minutes", type=int, help="time_left: minutes to show")
@@ -706,9 +705,11 @@ def build_parser() -> argparse.ArgumentParser:
     s = add(sub, "sim", help="the simulated NAO")
     ss = s.add_subparsers(dest="scommand", required=True)
     p = add(ss, "serve", help="serve a virtual NAO over the NAOqi protocol")
-    p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=9559)
-    p.add_argument("--gui", action="store_true")
+    p.add_argument(
+        "--host", default="127.0.0.1", help="address to listen on (default: loopback only)"
+    )
+    p.add_argument("--port", type=int, default=9559, help="TCP port (default 9559, NAOqi's)")
+    p.add_argument("--gui", action="store_true", help="open a PyBullet window")
     p.add_argument(
         "--model",
         choices=("pybullet", "kinematic"),
@@ -720,9 +721,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: What ``prezence --list`` lists.
+LISTS = ("scenarios", "policies", "gestures", "backends")
+
+
+def list_names(what: str) -> list[str]:
+    """The names ``--list WHAT`` prints: scenarios, policies, gestures or backends."""
+    if what == "scenarios":
+        from sim.scenario import list_scenarios
+
+        return list(list_scenarios())
+    if what == "policies":
+        from prezence.processor.resolve import POLICIES
+
+        return sorted(POLICIES)
+    if what == "gestures":
+        from prezence.feedback.gestures import load_library
+
+        return list(load_library().names)
+    from prezence.backends.registry import BACKENDS
+
+    return list(BACKENDS)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
+    if args.list:
+        try:
+            print("\n".join(list_names(args.list)))
+        except BrokenPipeError:
+            return _broken_pipe()
+        return 0
+    if args.command is None:
+        parser.error("a command is required (prezence -h lists them)")
     if args.command == "evaluate":
         args.rest = extra
     elif extra:
