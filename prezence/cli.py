@@ -93,21 +93,10 @@ def format_timeline(summary: dict[str, Any]) -> str:
 
 
 def _progress_printer() -> Callable[[float, float], None] | None:
-    if not sys.stderr.isatty():
-        return None
-    last = [-1]
+    """A progress bar with an ETA on a terminal (it ends its line when the talk is done)."""
+    from prezence.bars import auto_bar
 
-    def show(done: float, total: float) -> None:
-        pct = int(100 * done / total) if total else 100
-        if pct != last[0]:
-            last[0] = pct
-            bar = "#" * (pct // 4)
-            sys.stderr.write(f"\r[{bar:<25}] {pct:3d}% {_mmss(done)}")
-            if pct >= 100:
-                sys.stderr.write("\n")
-            sys.stderr.flush()
-
-    return show
+    return auto_bar("talk", seconds=True)
 
 
 def _backend_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -312,7 +301,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
 
 def cmd_up(args: argparse.Namespace) -> int:
     from prezence.backends.registry import make_backend
-    from prezence.launcher import LiveView, ModuleSpec, speech_module, up, vision_module
+    from prezence.launcher import ModuleSpec, speech_module, up, vision_module
     from prezence.rehearse import module_args
 
     config = _config_or_default(args)
@@ -344,6 +333,7 @@ def cmd_up(args: argparse.Namespace) -> int:
     check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
     backend = make_backend(args.backend, **kw)
     out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
+    view = None if args.quiet else _live_view(config, [s.name for s in specs])
     with _drop_if_left_empty(out):
         try:
             result = up(
@@ -354,10 +344,13 @@ def cmd_up(args: argparse.Namespace) -> int:
                 options=_options(args),
                 grace_s=args.grace,
                 duration_s=args.duration,
-                view=None if args.quiet else LiveView(config),
+                view=view,
             )
         except ValueError as e:  # two modules of the same name
             raise PrezenceError(str(e)) from None
+        finally:
+            if view is not None and hasattr(view, "close"):
+                view.close()
     _finish_session(result.session.root, result.summary, args, report=result.report)
     if result.error is not None:
         print(f"error: the talk stopped: {result.error}", file=sys.stderr)
@@ -375,6 +368,16 @@ def _drop_if_left_empty(folder: Path) -> Iterator[None]:
         with contextlib.suppress(OSError):
             folder.rmdir()
         raise
+
+
+def _live_view(config: Config, modules: list[str]) -> Any:
+    """The rich live view on a terminal with ``rich`` installed, else the plain one."""
+    from prezence.launcher import LiveView
+    from prezence.live_view import RichLiveView, rich_available
+
+    if rich_available() and sys.stdout.isatty():
+        return RichLiveView(config, modules)
+    return LiveView(config)
 
 
 def _finish_session(
@@ -583,8 +586,18 @@ def build_parser() -> argparse.ArgumentParser:
         prog="prezence", description="A NAO coaches you while you rehearse a talk."
     )
     parser.add_argument("--version", action="version", version=f"prezence {__version__}")
-    parser.add_argument("-v", "--verbose", action="count", default=0)
-    parser.add_argument("-q", "--quiet", action="store_true")
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0, help="more logging (repeatable)"
+    )
+    parser.add_argument(
+        "-q", "--quiet", action="store_true", help="warnings only, no progress or live view"
+    )
+    parser.add_argument(
+        "--list",
+        choices=LISTS,
+        metavar="WHAT",
+        help=f"list what can be named and exit: {', '.join(LISTS)}",
+    )
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     # -v/-q also after the subcommand (prezence run demo -q): own names, merged in main()
     common = argparse.ArgumentParser(add_help=False)
@@ -604,7 +617,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=argparse.SUPPRESS,
         help="warnings only, no progress or live view",
     )
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command")
 
     def add(parent: Any, name: str, **kw: Any) -> argparse.ArgumentParser:
         q: argparse.ArgumentParser = parent.add_parser(name, parents=[common], **kw)
@@ -647,7 +660,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_up)
 
     p = add(sub, "rehearse", help="coach a recorded rehearsal (audio or video file)")
-    p.add_argument("recording")
+    p.add_argument("recording", help="an audio or video file of the talk (WAV, FLAC, MP3, MP4)")
     _add_module_args(p)
     _add_robot_args(p, out_help="sessions/[NAME/]rehearsal-<recording>, -2, -3 ... when taken")
     _add_force(p)
@@ -656,7 +669,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_rehearse)
 
     p = add(sub, "report", help="(re)build the report of a session folder")
-    p.add_argument("session")
+    p.add_argument("session", help="the session folder (streams/, cues.jsonl, config.toml)")
     p.add_argument("--config", help="judge by this config instead of the folder's")
     p.set_defaults(func=cmd_report)
 
@@ -677,7 +690,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_evaluate, rest=[])
 
     p = add(sub, "check-config", help="validate config or rules files")
-    p.add_argument("files", nargs="+")
+    p.add_argument("files", nargs="+", help="TOML configs or seed-format rules files")
     p.add_argument(
         "--room", metavar="FILE", help="room profile TOML whose named values the rules use"
     )
@@ -686,7 +699,7 @@ def build_parser() -> argparse.ArgumentParser:
     g = add(sub, "gestures", help="check or render the gesture library")
     gs = g.add_subparsers(dest="gcommand", required=True)
     p = add(gs, "check", help="timing and limit table for every gesture")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help="print the table as JSON")
     p.add_argument("--speed", type=float, default=0.6, help="speed fraction (default 0.6)")
     p.add_argument(
         "--no-collisions",
@@ -695,7 +708,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_gestures_check)
     p = add(gs, "render", help="contact sheet PNG and video of one gesture")
-    p.add_argument("name")
+    p.add_argument("name", help="the gesture (prezence --list gestures)")
     p.add_argument("--out", required=True, help="PNG contact sheet")
     p.add_argument("--video", help="MP4, AVI or GIF (default: next to --out, .mp4)")
     p.add_argument("--minutes", type=int, help="time_left: minutes to show")
@@ -704,9 +717,11 @@ def build_parser() -> argparse.ArgumentParser:
     s = add(sub, "sim", help="the simulated NAO")
     ss = s.add_subparsers(dest="scommand", required=True)
     p = add(ss, "serve", help="serve a virtual NAO over the NAOqi protocol")
-    p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=9559)
-    p.add_argument("--gui", action="store_true")
+    p.add_argument(
+        "--host", default="127.0.0.1", help="address to listen on (default: loopback only)"
+    )
+    p.add_argument("--port", type=int, default=9559, help="TCP port (default 9559, NAOqi's)")
+    p.add_argument("--gui", action="store_true", help="open a PyBullet window")
     p.add_argument(
         "--model",
         choices=("pybullet", "kinematic"),
@@ -718,9 +733,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: What ``prezence --list`` lists.
+LISTS = ("scenarios", "policies", "gestures", "backends")
+
+
+def list_names(what: str) -> list[str]:
+    """The names ``--list WHAT`` prints: scenarios, policies, gestures or backends."""
+    if what == "scenarios":
+        from sim.scenario import list_scenarios
+
+        return list(list_scenarios())
+    if what == "policies":
+        from prezence.processor.resolve import POLICIES
+
+        return sorted(POLICIES)
+    if what == "gestures":
+        from prezence.feedback.gestures import load_library
+
+        return list(load_library().names)
+    from prezence.backends.registry import BACKENDS
+
+    return list(BACKENDS)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
+    if args.list:
+        try:
+            print("\n".join(list_names(args.list)))
+        except BrokenPipeError:
+            return _broken_pipe()
+        return 0
+    if args.command is None:
+        parser.error("a command is required (prezence -h lists them)")
     if args.command == "evaluate":
         args.rest = extra
     elif extra:

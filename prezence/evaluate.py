@@ -735,20 +735,20 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
     out = Path(args.out)
     t0 = time.perf_counter()
 
-    def show(done: int, total: int) -> None:
-        print(f"\r{done}/{total} talks", end="", file=sys.stderr, flush=True)
+    from prezence.bars import progress_bar
 
-    rows = evaluate(
-        scenarios,
-        policies,
-        range(args.first_seed, args.first_seed + args.seeds),
-        jobs=args.jobs,
-        backend=args.backend,
-        ray=args.ray,
-        keep_sessions=out / "sessions" if args.keep_sessions else None,
-        progress=show if sys.stderr.isatty() else None,
-        presenters=args.presenters,
-    )
+    with progress_bar("talks") as show:  # ended before the table is printed
+        rows = evaluate(
+            scenarios,
+            policies,
+            range(args.first_seed, args.first_seed + args.seeds),
+            jobs=args.jobs,
+            backend=args.backend,
+            ray=args.ray,
+            keep_sessions=out / "sessions" if args.keep_sessions else None,
+            progress=show,
+            presenters=args.presenters,
+        )
     wall = time.perf_counter() - t0
     c, m = write_tables(rows, out)
     print(markdown_table(rows), end="")

@@ -544,10 +544,13 @@ def up(
     if end_at is None and config.time.allocated_s is not None:
         end_at = config.time.allocated_s + grace_s
     source = LiveSource(modules, end_at=end_at)
+    target = SessionDir(Path(session_dir))
+    if target.holds_recording():  # refused before the robot moves
+        target.create()  # raises: a recording is never overwritten
     run = run_talk(
         source,
         config=config,
-        session=SessionDir(Path(session_dir)),
+        session=target,
         backend=backend,
         options=options,
         clock=WallClock(config.processor.decision_period_s),

@@ -21,7 +21,12 @@ from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.errors import ConfigError
 from prezence.samples import Sample
-from prezence.session import SessionDir, read_jsonl, sample_time_limit
+from prezence.session import (
+    TRUTH_KEYS,
+    SessionDir,
+    read_jsonl,
+    sample_time_limit,
+)
 from prezence.sessiondir import overlaps
 from prezence.streams.locate import locate_streams, no_streams_error
 from prezence.streams.tail import StreamProblem, TailStats, read_stream
@@ -133,7 +138,9 @@ def replay(
     samples = merge_readings(readings)
     talk_s = float(meta.get("talk_s") or min(limit, samples[-1].t if samples else 0.0))
 
-    truth = read_jsonl(src_session.truth) if src_session.truth.exists() else None
+    truth = (
+        read_jsonl(src_session.truth, require=TRUTH_KEYS) if src_session.truth.exists() else None
+    )
     extra: dict[str, Any] = {
         "replay_of": str(src),
         **({"scenario": meta["scenario"]} if "scenario" in meta else {}),

@@ -246,8 +246,18 @@ class JsonlWriter:
             self._f.close()
 
 
-def read_jsonl(path: Path) -> list[dict[str, Any]]:
+#: Keys each line of ``truth.jsonl`` must have, and their types.
+TRUTH_KEYS: dict[str, Any] = {"metric": str, "start": (int, float), "end": (int, float)}
+#: Keys each line of ``cues.jsonl`` must have.
+CUE_KEYS: dict[str, Any] = {"t": (int, float), "command": str}
+
+
+def read_jsonl(path: Path, *, require: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """Read a JSONL file of objects; a torn last line (crash mid-write) is ignored.
+
+    Args:
+        require: keys each object must have, with their type(s) (numbers must be finite):
+            :data:`TRUTH_KEYS` for ``truth.jsonl``, :data:`CUE_KEYS` for ``cues.jsonl``.
 
     Raises:
         ConfigError: a line before the last is not a JSON object (``file:line: why``), or the
@@ -277,6 +287,17 @@ def read_jsonl(path: Path) -> list[dict[str, Any]]:
                 path=path,
                 line=i + 1,
             )
+        for key, kind in (require or {}).items():
+            v = obj.get(key)
+            ok = isinstance(v, kind) and not isinstance(v, bool)
+            if ok and isinstance(v, float):
+                ok = math.isfinite(v)
+            if not ok:
+                raise ConfigError(
+                    f"{key!r} missing or not a {'string' if kind is str else 'number'}",
+                    path=path,
+                    line=i + 1,
+                )
         out.append(obj)
     return out
 

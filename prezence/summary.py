@@ -115,8 +115,10 @@ def build_summary(
         m.update(_in_range_time(rule, ss, talk_s, stale_s))
         if len(vals):
             p = np.percentile(vals, [10, 50, 90])
+            with np.errstate(over="ignore", invalid="ignore"):  # 1e308s: mean inf, then None
+                mean = float(vals.mean())
             m.update(
-                mean=round(float(vals.mean()), 4),
+                mean=round(mean, 4) if np.isfinite(mean) else None,
                 p10=round(float(p[0]), 4),
                 p50=round(float(p[1]), 4),
                 p90=round(float(p[2]), 4),

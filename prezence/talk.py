@@ -365,28 +365,38 @@ class Talk:
         return self.options.realtime or self.backend.realtime
 
     def start(self) -> None:
-        """Write the folder's config and metadata, open the robot and the source."""
-        self.session.create(keep_streams=self.source.keep_streams)
-        self.session.config.write_text(dumps_config(self.config))
-        self._meta = {
-            "kind": self.source.kind,
-            **self.source.meta(),
-            "policy": self.options.policy,
-            "backend": self.backend.name,
-            "speed_fraction": self.options.speed_fraction,
-        }
-        self.session.write_meta(self._meta)
-        self.wall0 = time.perf_counter()
-        self.source.start(self.session, self.config)
+        """Open the robot, then write the folder's config and metadata and open the source.
+
+        The robot comes first: an unreachable one fails before a session folder is written.
+        """
         self.backend.open()
-        self.coach = Coach(
-            self.processor,
-            self.backend,
-            self.session,
-            planner=default_planner(self.options.speed_fraction),
-            on_cue=self.source.on_cue,
-            log_mode=self.options.decision_log,
-        )
+        try:
+            self.session.create(keep_streams=self.source.keep_streams)
+            self.session.config.write_text(dumps_config(self.config))
+            self.wall0 = time.perf_counter()
+            self.source.start(self.session, self.config)
+            self._meta = {  # after start: a live source's meta holds its start time
+                "kind": self.source.kind,
+                **self.source.meta(),
+                "policy": self.options.policy,
+                "backend": self.backend.name,
+                "speed_fraction": self.options.speed_fraction,
+            }
+            self.session.write_meta(self._meta)
+            self.coach = Coach(
+                self.processor,
+                self.backend,
+                self.session,
+                planner=default_planner(self.options.speed_fraction),
+                on_cue=self.source.on_cue,
+                log_mode=self.options.decision_log,
+            )
+        except BaseException:
+            try:
+                self.source.stop()
+            finally:
+                self.backend.close()
+            raise
 
     def step(self, now: float) -> Decision:
         """One decision point at ``now`` with the source's new samples."""

@@ -23,7 +23,13 @@ from typing import Any
 from prezence.config.model import Config, Rule
 from prezence.errors import ConfigError
 from prezence.samples import Sample
-from prezence.session import SessionDir, read_jsonl, sample_time_limit
+from prezence.session import (
+    CUE_KEYS,
+    TRUTH_KEYS,
+    SessionDir,
+    read_jsonl,
+    sample_time_limit,
+)
 from prezence.summary import build_summary
 
 log = logging.getLogger(__name__)
@@ -332,8 +338,8 @@ def _rebuild(
         )
         streams[rule.metric] = sorted(samples, key=lambda s: s.t)
         stats[rule.metric] = st.to_dict()
-    cues = read_jsonl(session.cues)
-    truth = read_jsonl(session.truth) if session.truth.exists() else None
+    cues = read_jsonl(session.cues, require=CUE_KEYS)
+    truth = read_jsonl(session.truth, require=TRUTH_KEYS) if session.truth.exists() else None
     stale_default = cfg.processor.stale_after_s
     talk_s, complete = _talk_length(meta, streams, cues, stale_default)
     talk_s = min(talk_s, limit)

@@ -270,8 +270,9 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             out.append(
                 f'<tr><td>{_mmss(c["t"])}</td><td class="l">{_e(c["command"])}'
                 f'<br><span class="said">{_e(c.get("phrase") or "")}</span></td>'
-                f'<td class="l">{_e(c.get("why") or "")}<br>'
-                f'<span class="reason">{_e(c.get("reason") or "")}</span></td>'
+                # the coach's technical reason (weights, percentages) only on hover
+                f'<td class="l" title="{_e(c.get("reason") or "")}">{_e(c.get("why") or "")}'
+                "</td>"
                 f"<td>{'–' if lat is None else f'{lat:.0f} s'}</td>"
                 f"<td>{'–' if before is None else f'{before:.0f}%'}</td>"
                 f"<td>{'–' if after is None else f'{after:.0f}%'}</td><td>{eff_html}</td></tr>"

@@ -169,11 +169,8 @@ def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
     measured = [m.get("time_in_range") is not None for m in metrics]
     m_state = [m.get("data") if m.get("data") not in (None, "ok") else "no data" for m in metrics]
     tir = [100.0 * (m.get("time_in_range") or 0.0) for m in metrics]
-    talk_min = max(float(report["talk_s"]) / 60.0, 1e-9)
-    dev = [
-        (m["deviation_s"].get("below", 0.0) + m["deviation_s"].get("above", 0.0)) / talk_min
-        for m in metrics
-    ]
+    # seconds out of range: a figure a presenter reads without a glossary
+    dev = [float(m.get("out_of_range_s") or 0.0) for m in metrics]
     fig = Figure(figsize=(width_in, 0.45 * len(metrics) + 1.3), layout="constrained")
     a1, a2 = fig.subplots(1, 2, sharey=True)
     y = list(range(len(metrics)))
@@ -201,12 +198,12 @@ def summary_png(report: Mapping[str, Any], *, width_in: float = 10.0) -> bytes:
         a2.text(
             x + 0.01 * top,
             yi,
-            f"{x:.0f}" if ok else str(m_state[yi]),
+            f"{x:.0f} s" if ok else str(m_state[yi]),
             va="center",
             fontsize=9,
             color="black" if ok else NEUTRAL,
         )
-    a2.set_title("how far out of range, per minute of talk", loc="left", fontsize=10)
+    a2.set_title("time out of the ideal range", loc="left", fontsize=10)
     for a in (a1, a2):
         a.grid(axis="x", alpha=0.3)
     return _png(fig)
