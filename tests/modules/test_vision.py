@@ -1,9 +1,9 @@
-"""The vision module: gesture bursts, head angles against rendered truth, bad input.
+"""The vision module: the frame-difference gesture fallback, calibration, bad input.
 
 The videos and their truth (``material_video/manifest.json``) come from
-``tools/make_test_video.py``. Gesture tests run in any env (OpenCV only). Head-pose tests need
-mediapipe, which lives in the vision env: they run the module there as a subprocess, and skip
-with the install command when that env does not exist.
+``tools/make_test_video.py``. These tests run in any env (OpenCV only); gestures from the body
+are in ``test_vision_body.py``, head pose against rendered faces in ``test_vision_headpose.py``
+(both need the vision env).
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ from typing import Any
 
 import pytest
 
-from prezence.modules import vision_env
 from prezence.modules.vision import (
     FileSource,
     GazeTracker,
@@ -33,7 +32,6 @@ from prezence.modules.vision import (
 
 MATERIAL = Path(__file__).parent / "material_video"
 MANIFEST: dict[str, Any] = json.loads((MATERIAL / "manifest.json").read_text())
-HEAD = MANIFEST["head_pose"]
 GEST = MANIFEST["gestures"]
 TOLERANCE_DEG = 5.0
 MATCH_S = 0.5  # a detected burst start within this of a true start is a hit
@@ -69,7 +67,7 @@ def gesture_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
     out = tmp_path_factory.mktemp("gestures")
     source = FileSource(MATERIAL / GEST["file"])
     try:
-        summary = run(source, out, VisionOptions(head=False, fps=0))
+        summary = run(source, out, VisionOptions(head=False, fps=0, gesture_source="motion"))
     finally:
         source.close()
     return summary, out
@@ -154,7 +152,9 @@ def test_a_module_started_late_waits_for_its_own_10_s() -> None:
 def test_a_gesture_window_shorter_than_10_s_is_used_as_is(tmp_path: Path) -> None:
     source = FileSource(MATERIAL / GEST["file"])
     try:
-        opts = VisionOptions(head=False, fps=0, gesture_window_s=5.0, duration_s=8.0)
+        opts = VisionOptions(
+            head=False, fps=0, gesture_window_s=5.0, duration_s=8.0, gesture_source="motion"
+        )
         run(source, tmp_path, opts)
     finally:
         source.close()
@@ -169,7 +169,11 @@ def test_run_touches_the_launchers_heartbeat_file(
     monkeypatch.setenv("PREZENCE_HEARTBEAT", str(beat))
     source = FileSource(MATERIAL / GEST["file"])
     try:
-        run(source, tmp_path / "s", VisionOptions(head=False, fps=0, duration_s=2.0))
+        run(
+            source,
+            tmp_path / "s",
+            VisionOptions(head=False, fps=0, duration_s=2.0, gesture_source="motion"),
+        )
     finally:
         source.close()
     assert beat.exists()
@@ -210,6 +214,18 @@ def test_facing_fraction_counts_frames_without_a_face_as_away() -> None:
 
 
 @pytest.mark.skipif(mediapipe_available(), reason="mediapipe is importable in this python")
+def test_forcing_body_gestures_without_mediapipe_fails_naming_the_install_command(
+    tmp_path: Path,
+) -> None:
+    source = FileSource(MATERIAL / GEST["file"])
+    try:
+        with pytest.raises(VisionUnavailable, match="vision_env install"):
+            run(source, tmp_path, VisionOptions(head=False, gesture_source="body"))
+    finally:
+        source.close()
+
+
+@pytest.mark.skipif(mediapipe_available(), reason="mediapipe is importable in this python")
 def test_head_pose_without_mediapipe_names_the_install_command() -> None:
     with pytest.raises(VisionUnavailable, match="python -m prezence.modules.vision_env install"):
         HeadPoseEstimator()
@@ -224,85 +240,12 @@ def test_cli_without_mediapipe_still_writes_the_gesture_rate(tmp_path: Path) -> 
     )
     assert proc.returncode == 0, proc.stderr
     assert "python -m prezence.modules.vision_env install" in proc.stderr
+    assert "gesture rate from the frame difference (fallback" in proc.stderr
     times = [t for t, _ in read_stream(tmp_path / "streams" / "cv_gestures.txt")]
     assert times == [10.0, 11.0, 12.0]  # none before 10 s of video
+    source = read_stream(tmp_path / "streams" / "cv_gestures_source.txt")
+    assert source == [(10.0, 2.0), (11.0, 2.0), (12.0, 2.0)]  # 2: frame difference
     assert read_stream(tmp_path / "streams" / "cv_headGaze.txt") == []
-
-
-# --------------------------------------------------------------------------------------------
-# Head pose in the vision env (subprocess)
-
-VISION_PY = vision_env.find_python()
-needs_vision_env = pytest.mark.skipif(
-    VISION_PY is None,
-    reason=f"no vision env (mediapipe 0.10.21); create it with: {vision_env.INSTALL_HINT}",
-)
-
-
-@pytest.fixture(scope="module")
-def head_streams(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[tuple[float, float]]]:
-    assert VISION_PY is not None
-    out = tmp_path_factory.mktemp("head")
-    proc = run_module(
-        VISION_PY,
-        *("--video", str(MATERIAL / HEAD["file"]), "--out", str(out)),
-        *("--fps", "0", "--calibrate-s", str(HEAD["calibration_s"]), "--no-gestures"),
-        *("--facing-tolerance", "25", "15"),
-    )
-    assert proc.returncode == 0, proc.stderr
-    streams = out / "streams"
-    return {
-        "yaw": read_stream(streams / "cv_headYaw.txt"),
-        "pitch": read_stream(streams / "cv_headGaze.txt"),
-        "facing": read_stream(streams / "cv_facingAudience.txt"),
-    }
-
-
-def _hold_id(h: dict[str, Any]) -> str:
-    return f"yaw{h['yaw']:+g}_pitch{h['pitch']:+g}_at{h['start']:g}s"
-
-
-HOLDS = HEAD["holds"][1:]  # the first hold is the calibration
-
-
-@needs_vision_env
-@pytest.mark.slow
-@pytest.mark.parametrize("hold", HOLDS, ids=[_hold_id(h) for h in HOLDS])
-def test_head_angles_within_5_degrees_of_the_truth(
-    head_streams: dict[str, list[tuple[float, float]]], hold: dict[str, Any]
-) -> None:
-    for axis in ("yaw", "pitch"):
-        est = [v for t, v in head_streams[axis] if hold["start"] <= t <= hold["end"]]
-        assert len(est) >= 10, f"{axis}: a face in too few frames of the hold"
-        worst = max(est, key=lambda v: abs(v - hold[axis]))
-        assert abs(worst - hold[axis]) <= TOLERANCE_DEG, (axis, hold[axis], est)
-
-
-@needs_vision_env
-@pytest.mark.slow
-def test_head_gaze_goes_negative_when_looking_down(
-    head_streams: dict[str, list[tuple[float, float]]],
-) -> None:
-    down = next(h for h in HOLDS if h["pitch"] == -20)
-    gaze = [v for t, v in head_streams["pitch"] if down["start"] <= t <= down["end"]]
-    assert max(gaze) < -15.0  # the default rule `cv_headGaze min -15` fires
-
-
-@needs_vision_env
-@pytest.mark.slow
-def test_facing_audience_follows_the_true_fraction(
-    head_streams: dict[str, list[tuple[float, float]]],
-) -> None:
-    # Tolerance (25, 15) in the run: the +-20 deg yaw holds face the audience, +-30 do not.
-    window = VisionOptions().facing_window_s
-    frames = HEAD["frames_truth"]
-    checked = 0
-    for t, got in head_streams["facing"]:
-        inside = [f for f in frames if t - window < f[0] <= t + 1e-6]
-        want = sum(abs(y) <= 25 and abs(p) <= 15 for _, y, p in inside) / len(inside)
-        assert got == pytest.approx(want, abs=0.1), t
-        checked += 1
-    assert checked >= int(HEAD["frames"] / HEAD["fps"]) - 3
 
 
 # --------------------------------------------------------------------------------------------
@@ -367,7 +310,7 @@ def test_live_frames_the_analysis_missed_are_counted_and_reported(
     cam = CameraSource(0, t0=0.0, capture=_FakeCapture(12))
     cam._thread.join()  # the camera ran ahead: all 12 frames arrived before the first analysis
     with caplog.at_level("WARNING"):
-        summary = run(cam, tmp_path, VisionOptions(head=False, fps=0))
+        summary = run(cam, tmp_path, VisionOptions(head=False, fps=0, gesture_source="motion"))
     cam.close()
     assert summary.analysed == 1
     assert cam.stats.not_analysed == 11
