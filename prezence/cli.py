@@ -740,13 +740,13 @@ LISTS = ("scenarios", "policies", "gestures", "backends")
 def list_names(what: str) -> list[str]:
     """The names ``--list WHAT`` prints: scenarios, policies, gestures or backends."""
     if what == "scenarios":
-        from sim.scenario import list_scenarios
+        from prezence.synthetic.scenario import list_scenarios
 
         return list(list_scenarios())
     if what == "policies":
-        from prezence.processor.resolve import POLICIES
+        from prezence.processor import policy_names
 
-        return sorted(POLICIES)
+        return sorted(policy_names())
     if what == "gestures":
         from prezence.feedback.gestures import load_library
 
