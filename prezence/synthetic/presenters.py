@@ -51,6 +51,7 @@ are exactly what they were before the cost model existed.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import zlib
@@ -160,22 +161,32 @@ class InterruptionCost:
     habituation: float = 0.75
     fade: float = 0.6
 
-    def scaled(self, k: float) -> InterruptionCost:
-        """Every assumption scaled by ``k`` (the sensitivity analysis): durations, sizes and
-        probabilities by ``k`` (a probability capped at 1); habituation's *loss* per cue
-        (1 - habituation) and fade's *loss* (1 - fade) by ``k``; the gaze pitch's distance
-        below the band's bound (-15) by ``k``."""
-        return InterruptionCost(
-            pause_s=self.pause_s * k,
-            pause_speed_drop=min(1.0, self.pause_speed_drop * k),
-            attend_s=self.attend_s * k,
-            attend_gaze_deg=-15.0 + (self.attend_gaze_deg + 15.0) * k,
-            slip_probability=min(1.0, self.slip_probability * k),
-            slip_s=self.slip_s * k,
-            slip_scales=self.slip_scales * k,
-            habituation=max(0.0, 1.0 - (1.0 - self.habituation) * k),
-            fade=max(0.0, 1.0 - (1.0 - self.fade) * k),
-        )
+    def scaled(self, k: float, only: str | None = None) -> InterruptionCost:
+        """Every assumption (or ``only`` the named one) scaled by ``k``, for the sensitivity
+        analysis: durations, sizes and probabilities by ``k`` (a probability capped at 1);
+        habituation's *loss* per cue (1 - habituation) and fade's *loss* (1 - fade) by ``k``;
+        the gaze pitch's distance below the band's bound (-15) by ``k``.
+
+        Raises:
+            ValueError: ``only`` is not a field.
+        """
+        names = [f.name for f in dataclasses.fields(self)]
+        if only is not None and only not in names:
+            raise ValueError(f"no cost assumption {only!r} (known: {', '.join(names)})")
+        new = {
+            "pause_s": self.pause_s * k,
+            "pause_speed_drop": min(1.0, self.pause_speed_drop * k),
+            "attend_s": self.attend_s * k,
+            "attend_gaze_deg": -15.0 + (self.attend_gaze_deg + 15.0) * k,
+            "slip_probability": min(1.0, self.slip_probability * k),
+            "slip_s": self.slip_s * k,
+            "slip_scales": self.slip_scales * k,
+            "habituation": max(0.0, 1.0 - (1.0 - self.habituation) * k),
+            "fade": max(0.0, 1.0 - (1.0 - self.fade) * k),
+        }
+        if only is not None:
+            return dataclasses.replace(self, **{only: new[only]})
+        return InterruptionCost(**new)
 
 
 @dataclass(frozen=True)
@@ -188,7 +199,8 @@ class PresenterModel:
 
 
 def parse_presenter_model(spec: str) -> PresenterModel:
-    """``free``, ``cost``, ``cost:K`` (assumptions × K), each optionally ``+measured``.
+    """``free``, ``cost``, ``cost:K`` (every assumption × K) or ``cost:NAME=K`` (one
+    assumption × K), each optionally ``+measured``.
 
     Raises:
         ValueError: an unknown model or a bad factor.
@@ -205,13 +217,14 @@ def parse_presenter_model(spec: str) -> PresenterModel:
     if kind == "free" and not colon:
         cost = None
     elif kind == "cost":
+        only, eq, raw = factor.rpartition("=")
         try:
-            k = float(factor) if colon else 1.0
+            k = float(raw) if colon else 1.0
         except ValueError:
-            raise ValueError(f"presenter model {spec!r}: {factor!r} is not a number") from None
+            raise ValueError(f"presenter model {spec!r}: {raw!r} is not a number") from None
         if not k >= 0:
             raise ValueError(f"presenter model {spec!r}: the factor must be >= 0")
-        cost = InterruptionCost().scaled(k)
+        cost = InterruptionCost().scaled(k, only if eq else None)
     else:
         raise ValueError(
             f"presenter model {spec!r}: expected free, cost or cost:K, with optional +measured"

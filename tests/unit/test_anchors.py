@@ -186,3 +186,18 @@ def test_cue_counts_match_the_peers_reference_on_the_shared_workload(
         by_metric_got[key] = by_metric_got.get(key, 0) + 1
     for cmd, n in by_metric_ref.items():
         assert abs(by_metric_got.get(cmd, 0) - n) <= max(2, 0.05 * n), cmd
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["pz16", "pt", "rhema"])
+def test_the_anchors_coach_in_the_gym_env_by_name(name: str) -> None:
+    pytest.importorskip("gymnasium")
+    from sim.gym_env import CoachEnv
+    from sim.policies import RuleBaseline, run_episode
+
+    env = CoachEnv(scenarios=["fast_talker"])
+    try:
+        ep = run_episode(env, RuleBaseline(name), seed=0)
+    finally:
+        env.close()
+    assert ep["cues"] > 0 and ep["ignored"] == 0

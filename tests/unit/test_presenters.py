@@ -499,6 +499,12 @@ def test_presenter_model_specs() -> None:
     half = parse_presenter_model("cost:0.5").cost
     assert half is not None and half.pause_s == pytest.approx(1.0)
     assert half.habituation == pytest.approx(0.875)
+    one = parse_presenter_model("cost:habituation=1.5+measured")
+    assert one.cost is not None and one.measured_noise
+    assert one.cost.habituation == pytest.approx(0.625)
+    assert one.cost.pause_s == InterruptionCost().pause_s  # the others as they are
+    with pytest.raises(ValueError, match="no cost assumption"):
+        parse_presenter_model("cost:pausing=2")
     with pytest.raises(ValueError, match="expected free"):
         parse_presenter_model("costly")
     with pytest.raises(ValueError, match="measured"):
