@@ -42,9 +42,7 @@ def progress_bar(
     if not out.isatty():
         yield None
         return
-    count = (
-        TextColumn("{task.completed:.0f} s of talk") if seconds else MofNCompleteColumn()
-    )
+    count = TextColumn("{task.completed:.0f} s of talk") if seconds else MofNCompleteColumn()
     with Progress(
         TextColumn(label),
         BarColumn(),

@@ -402,6 +402,14 @@ def _rebuild(
         row["false_alarm"] = row.get("relevant") is False and row.get("metric") is not None
         if row["false_alarm"]:
             row["improved"] = None
+            if cue_rule is not None:
+                v = row.get("value")
+                unit = f" {cue_rule.unit}" if cue_rule.unit else ""
+                now = f" ({float(v):.3g}{unit})" if isinstance(v, int | float) else ""
+                row["why"] = (
+                    f"cued as {row.get('side')} its ideal range, but your "
+                    f"{metric_label(cue_rule.metric)} was in range{now}"
+                )
     helped = [r for r in cue_rows if r.get("improved") is not None]
 
     time_used = dict(summary["time"])
