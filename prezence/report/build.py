@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -402,6 +402,14 @@ def _rebuild(
         row["false_alarm"] = row.get("relevant") is False and row.get("metric") is not None
         if row["false_alarm"]:
             row["improved"] = None
+            if cue_rule is not None:
+                v = row.get("value")
+                unit = f" {cue_rule.unit}" if cue_rule.unit else ""
+                now = f" ({float(v):.3g}{unit})" if isinstance(v, int | float) else ""
+                row["why"] = (
+                    f"cued as {row.get('side')} its ideal range, but your "
+                    f"{metric_label(cue_rule.metric)} was in range{now}"
+                )
     helped = [r for r in cue_rows if r.get("improved") is not None]
 
     time_used = dict(summary["time"])
@@ -488,7 +496,12 @@ def finite(x: Any) -> Any:
     return x
 
 
-def write_report(session_dir: str | Path, *, config: Config | None = None) -> Path:
+def write_report(
+    session_dir: str | Path,
+    *,
+    config: Config | None = None,
+    progress: Callable[[float, float], None] | None = None,
+) -> Path:
     """Build the report and write it into ``SESSION/report/``.
 
     Writes ``report.html`` (self-contained), ``report.json``, ``summary.txt`` (the terminal
@@ -520,7 +533,10 @@ def write_report(session_dir: str | Path, *, config: Config | None = None) -> Pa
     if plots.available():
         images["summary"] = plots.summary_png(report)
         allocated = report["time"].get("allocated_s")
-        for metric, m in report["metrics"].items():
+        n_plots = 1 + len(report["metrics"])
+        for i, (metric, m) in enumerate(report["metrics"].items()):
+            if progress is not None:  # one step per plot: the slow part of a long talk
+                progress(i + 1, n_plots)
             if not streams[metric]:
                 continue  # no data: the page says so instead of an empty plot
             about = [c for c in report["cues"] if c.get("metric") == metric]
@@ -554,10 +570,12 @@ def report_main(session_dir: str | Path, *, config: str | Path | None = None) ->
     Raises:
         ConfigError: the folder does not exist or a configuration is invalid (the CLI prints it).
     """
+    from prezence.bars import progress_bar
     from prezence.config.load import load_config
 
     cfg = load_config(config) if config is not None else None
-    page = write_report(session_dir, config=cfg)
+    with progress_bar("report plots") as bar:
+        page = write_report(session_dir, config=cfg, progress=bar)
     print((page.parent / "summary.txt").read_text(encoding="utf-8"), end="")
     print(f"report: {page}")
     return 0
