@@ -143,9 +143,10 @@ def bench_gestures() -> None:
             found = summary.bursts
             hits = sum(1 for s, _ in truth if any(abs(f - s) <= MATCH_S for f in found))
             false = [f for f in found if all(not (s - MATCH_S <= f <= e) for s, e in truth)]
-            lines = (out / "streams" / "cv_gestures.txt").read_text().split()
-            read = float(lines[-1])
-            true = entry["gestures_per_min"]
+            t_end, read = read_stream(out / "streams" / "cv_gestures.txt")[-1]
+            # The last sample's rate is over the video seen until then.
+            n_true = sum(1 for s, _ in truth if s <= t_end)
+            true = n_true / min(entry["duration_s"], t_end) * 60.0
             print(
                 f"  {key} ({entry['role']}, face {entry['face']}), {src:6s}: "
                 f"{hits}/{len(truth)} found, {len(false)} false "

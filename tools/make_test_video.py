@@ -1,36 +1,53 @@
 """Make the vision module's test videos, with their truth in a JSON manifest.
 
-Two small videos (320x240, 15 fps, mp4v) go to ``tests/modules/material_video/``:
+Small videos (320x240, 15 fps, mp4v) go to ``tests/modules/material_video/``:
 
-``head_pose.mp4``
-    A real face at KNOWN head angles. The frontal photo ``skimage.data.astronaut()`` (it ships
-    inside the scikit-image wheel) is lifted into a textured 3D mesh: mediapipe FaceMesh gives
-    468 3D landmarks on the photo, a ring of vertices around them (hair, ears, pushed back) closes
-    the head, Delaunay triangles join them and each triangle keeps its patch of the photo. The
-    mesh is rotated by a known yaw or pitch about a pivot behind the face, projected with a
-    webcam-like perspective camera, and drawn triangle by triangle (affine warps, painter's
-    order, back faces culled) over a blurred static background, with camera noise. A flat
-    warp of the photo would not do: it has no parallax, so no estimator sees the turn.
+``head_<face>.mp4`` (five faces)
+    A real face at KNOWN head angles. Face photos that ship in registry packages (:data:`FACES`:
+    ``skimage.data.astronaut()``; matplotlib's ``grace_hopper.jpg``; three crops of the group
+    photo ``data/images/t1.jpg`` in ``insightface==0.7.3``'s source distribution, checked by
+    sha256) are each lifted into a textured 3D mesh: mediapipe FaceMesh gives 468 3D landmarks
+    on the photo, the photo's roll is undone and its yaw and pitch roughly, two rings of
+    vertices around the face (hair, ears, pushed back) close the head, Delaunay triangles join
+    them and each triangle keeps its patch of the photo. The mesh is rotated by a known yaw or
+    pitch about a pivot behind the face, projected with a webcam-like perspective camera, and
+    drawn triangle by triangle (affine warps, painter's order, back faces culled) over a
+    blurred static background, with camera noise. A flat warp of the photo would not do: it
+    has no parallax, so no estimator sees the turn. :data:`FIT_FACES` are the faces the
+    module's gains were fitted on; the others are held out (the manifest says which).
 
     Timeline: 2 s frontal (calibration), then yaw steps -30..+30 deg, then pitch steps
     -20..+20 deg; each step is a 0.4 s linear move and a 0.8 s hold. Convention: yaw > 0 when
     the presenter turns to their own left (the nose moves to the image's right); pitch > 0 when
     the head tilts up.
 
-    Caveat (honest): the mesh's depth is FaceMesh's own z for this face; ``--depth-scale``
-    stretches it, to measure how much an estimator's gain depends on that.
+    Caveat (honest): the mesh's depth is FaceMesh's own z for that photo; ``--depth-scale``
+    stretches it and ``--normalise-depth`` scales it to one nose proportion, to measure how
+    much an estimator depends on that.
+
+``gestures_a.mp4``, ``gestures_b.mp4`` (:data:`GESTURE_VIDEOS`)
+    A presenter: a rendered face mesh (turning to known angles) on a drawn upper body with
+    two-jointed arms and hands, over a scikit-image photo that pans at known times. The script
+    says when each hand gestures (beats out to the side at 1.5-2.4 Hz; counted in the truth),
+    goes to the chin and scratches (not a gesture), and when the head turns. ``a`` is the one
+    the gesture thresholds were tuned on; ``b`` (another face, shirt, background and script) is
+    held out.
 
 ``gestures.mp4``
     A static photo of a person with camera noise and a slow light flicker, and a skin-coloured
     "hand" that swings at 1.6-2.4 Hz during known bursts (start, end) in the lower body region,
-    and rests (still) between them.
+    and rests (still) between them: for the frame-difference fallback.
 
-Run it with the vision env's python (mediapipe and scikit-image are needed only here)::
+Run it with the vision env's python (mediapipe and scikit-image are needed only here), with
+the insightface sdist in a folder::
 
     python -m prezence.modules.vision_env install --tools
-    $(python -m prezence.modules.vision_env where) tools/make_test_video.py
+    pip download --no-deps --no-binary :all: insightface==0.7.3 -d SDIST_DIR
+    $(python -m prezence.modules.vision_env where) tools/make_test_video.py --sdist-dir SDIST_DIR
 
-The output is deterministic for a given seed, up to the video encoder.
+(``pip download`` of that sdist prepares its metadata, which needs ``cython``, ``numpy`` and
+``wheel`` importable: add ``--no-build-isolation`` from a python that has them.) The output is
+deterministic for a given seed, up to the video encoder.
 """
 
 from __future__ import annotations
@@ -153,13 +170,14 @@ NOSE_DEPTH = 0.21
 
 
 def build_head_mesh(
-    photo: np.ndarray, depth_scale: float = 1.0, *, normalise_depth: bool = True
+    photo: np.ndarray, depth_scale: float = 1.0, *, normalise_depth: bool = False
 ) -> HeadMesh:
     """Lift a photo's face into a textured 3D mesh (needs mediapipe and scipy).
 
     The photo's roll is undone (the eyes become level) and its yaw and pitch roughly, so every
-    face starts upright and about facing the camera; the mesh's depth is scaled to
-    :data:`NOSE_DEPTH` unless ``normalise_depth`` is False; then by ``depth_scale``.
+    face starts upright and about facing the camera. The mesh's depth is FaceMesh's guess,
+    scaled to :data:`NOSE_DEPTH` when ``normalise_depth`` (an experiment: it did not make the
+    held-out faces' errors smaller), then by ``depth_scale``.
     """
     import mediapipe as mp
     from scipy.spatial import Delaunay
@@ -192,9 +210,7 @@ def build_head_mesh(
     if normalise_depth:
         # FaceMesh's depth from one photo is a guess that varies by face (the nose tip
         # 0.195-0.22 forehead-to-chin lengths in front of the forehead-chin line on the five
-        # faces here): scale each mesh to one proportion, so the faces differ in texture and
-        # shape but not in how deep the guess happened to be. Without it (--raw-depth), see the
-        # figures in the final report.
+        # faces here): scale each mesh to one proportion.
         fh = float(np.linalg.norm(lm[152, :2] - lm[10, :2]))
         nose = (lm[10, 2] + lm[152, 2]) / 2 - lm[1, 2]
         if nose > 0:
@@ -343,7 +359,7 @@ def make_head_video(
     *,
     seed: int,
     depth_scale: float = 1.0,
-    normalise_depth: bool = True,
+    normalise_depth: bool = False,
 ) -> dict:
     """Write one face's head-pose video; return its manifest entry."""
     rng = np.random.default_rng(seed)
@@ -688,7 +704,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--depth-scale", type=float, default=1.0, help="stretch the mesh's depth")
     ap.add_argument("--only", choices=("head", "gestures"), default=None)
     ap.add_argument(
-        "--raw-depth", action="store_true", help="keep FaceMesh's depth guess (head_<face>_raw)"
+        "--normalise-depth",
+        action="store_true",
+        help="scale every mesh's depth to one nose proportion (head_<face>_norm)",
     )
     ap.add_argument("--faces", nargs="+", choices=sorted(FACES), default=list(FACES))
     ap.add_argument(
@@ -705,7 +723,7 @@ def main(argv: list[str] | None = None) -> int:
             face = FACES[name]
             photo = load_face(face, args.sdist_dir)
             suffix = "" if args.depth_scale == 1.0 else f"_depth{args.depth_scale:g}"
-            suffix += "_raw" if args.raw_depth else ""
+            suffix += "_norm" if args.normalise_depth else ""
             fname = f"head_{name}{suffix}.mp4"
             heads[fname.removesuffix(".mp4")] = make_head_video(
                 args.out / fname,
@@ -713,7 +731,7 @@ def main(argv: list[str] | None = None) -> int:
                 photo,
                 seed=args.seed,
                 depth_scale=args.depth_scale,
-                normalise_depth=not args.raw_depth,
+                normalise_depth=args.normalise_depth,
             )
             print(f"{fname}: done", flush=True)
     if args.only in (None, "gestures"):

@@ -916,6 +916,8 @@ def run(
         VisionUnavailable: ``opts.head`` and ``opts.gestures`` are both off, or only head
             pose is asked for and mediapipe is missing.
     """
+    if opts.gesture_source not in ("auto", "body", "motion"):
+        raise ValueError(f"gesture source must be auto, body or motion: {opts.gesture_source!r}")
     summary = RunSummary(source=source.stats)
     estimator: HeadPoseEstimator | None = None
     if opts.head:
@@ -939,10 +941,6 @@ def run(
     body_det = BodyGestureDetector(window_s=opts.gesture_window_s, min_window_s=min_window)
     tracker: BodyTracker | None = None
     if opts.gestures:
-        if opts.gesture_source not in ("auto", "body", "motion"):
-            raise ValueError(
-                f"gesture source must be auto, body or motion: {opts.gesture_source!r}"
-            )
         if opts.gesture_source != "motion":
             try:
                 tracker = BodyTracker()

@@ -90,7 +90,7 @@ def find_python(path: Path | None = None) -> Path | None:
 
 
 def check(path: Path | None = None, *, timeout_s: float = 120.0) -> tuple[bool, str]:
-    """Import mediapipe's FaceMesh and this package's vision module in the venv.
+    """Import mediapipe's FaceMesh and Pose and this package's vision module in the venv.
 
     Returns:
         ``(ok, detail)``: ``detail`` is the versions on success, or why it failed.
@@ -101,7 +101,7 @@ def check(path: Path | None = None, *, timeout_s: float = 120.0) -> tuple[bool, 
         return False, f"no vision env at {root}; create it with: {INSTALL_HINT}"
     code = (
         "import mediapipe as mp, numpy, cv2, prezence.modules.vision as v;"
-        "mp.solutions.face_mesh.FaceMesh;"
+        "mp.solutions.face_mesh.FaceMesh; mp.solutions.pose.Pose;"
         "print(mp.__version__, numpy.__version__, cv2.__version__)"
     )
     proc = subprocess.run(
