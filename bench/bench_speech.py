@@ -187,12 +187,14 @@ def _analyse_file(path: str) -> dict[str, object]:
     x = read_file(Path(path))
     blocks = [x[i : i + 1600] for i in range(0, len(x), 1600)]
     t = time.process_time()
-    samples, totals = speech.analyse(blocks, speech.SpeechOptions(), loudness=True)
+    an = speech.SpeechAnalyser(speech.SpeechOptions())
+    an.window_log = []
+    samples = [s for b in blocks for s in an.feed(b)] + an.finish()
     cpu = time.process_time() - t
     streams: dict[str, list[tuple[float, float]]] = {}
     for smp in samples:
         streams.setdefault(smp.metric, []).append((smp.t, smp.value))
-    return {"streams": streams, "cpu": cpu, "dur": len(x) / 16000}
+    return {"streams": streams, "cpu": cpu, "dur": len(x) / 16000, "log": an.window_log}
 
 
 def roc_auc(pos: list[float], neg: list[float]) -> float:
@@ -208,6 +210,8 @@ def part_corpus(args: argparse.Namespace) -> None:
     names = sorted(manifest)
     if args.only:
         names = [n for n in names if any(o in n for o in args.only)]
+    if args.conditions:
+        names = [n for n in names if manifest[n]["condition"] in args.conditions]
     paths = [str(cdir / str(manifest[n]["file"])) for n in names]
     if args.jobs > 1:
         from multiprocessing import Pool
@@ -279,8 +283,9 @@ def part_corpus(args: argparse.Namespace) -> None:
         )
         best = max(
             np.unique(np.round(np.concatenate([clean_scores, bad_scores]), 2)),
-            key=lambda th: np.mean(np.asarray(clean_scores) >= th)
-            + np.mean(np.asarray(bad_scores) < th),
+            key=lambda th: (
+                np.mean(np.asarray(clean_scores) >= th) + np.mean(np.asarray(bad_scores) < th)
+            ),
         )
         for th in sorted({float(best), 0.3, 0.35, 0.4, 0.45, 0.5, 0.6}):
             c = np.mean(np.asarray(clean_scores) < th) * 100
@@ -296,12 +301,19 @@ def main(argv: list[str] | None = None) -> int:
     """Print the figures of the chosen parts."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
-        "--part", nargs="+", choices=("files", "windows", "clarity", "corpus"), default=None, help="(all)"
+        "--part",
+        nargs="+",
+        choices=("files", "windows", "clarity", "corpus"),
+        default=None,
+        help="(all)",
     )
     ap.add_argument("--defaults", action="store_true", help="pocketsphinx's default search")
     ap.add_argument("--repeat", type=int, default=1, help="runs per file (the best is kept)")
-    ap.add_argument("--corpus", default="/tmp/speech_corpus", help="tools/make_speech_corpus.py --out")
+    ap.add_argument(
+        "--corpus", default="/tmp/speech_corpus", help="tools/make_speech_corpus.py --out"
+    )
     ap.add_argument("--only", nargs="*", help="corpus files whose name contains one of these")
+    ap.add_argument("--conditions", nargs="*", help="corpus conditions to run (default: all)")
     ap.add_argument("--jobs", type=int, default=1, help="corpus files analysed in parallel")
     ap.add_argument("--save", default=None, help="write the corpus streams to this JSON file")
     args = ap.parse_args(argv)

@@ -31,6 +31,8 @@ Voices are split into ``dev`` (used while choosing the method and thresholds) an
 Usage::
 
     python tools/make_speech_corpus.py --out /tmp/speech_corpus [--pocketsphinx-sdist FILE.tar.gz]
+    python tools/make_speech_corpus.py --ship tests/modules/material/corpus \\
+        --pocketsphinx-sdist pocketsphinx-5.1.1.tar.gz
 """
 
 from __future__ import annotations
@@ -113,7 +115,21 @@ def write(path: Path, x: np.ndarray) -> None:
         x = x * (32000 / peak)
     pcm = np.clip(np.round(x), -32768, 32767).astype("<i2").tobytes()
     _run(
-        ["sox", "-t", "raw", "-e", "signed", "-b", "16", "-c", "1", "-r", str(RATE), "-", str(path)],
+        [
+            "sox",
+            "-t",
+            "raw",
+            "-e",
+            "signed",
+            "-b",
+            "16",
+            "-c",
+            "1",
+            "-r",
+            str(RATE),
+            "-",
+            str(path),
+        ],
         input=pcm,
     )
 
@@ -222,8 +238,14 @@ def _entry(
 
 
 def _conditions(
-    out: Path, name: str, x: np.ndarray, words: int, meta: dict[str, object], tmp: Path,
-    sents: list[np.ndarray] | None, rng: np.random.Generator,
+    out: Path,
+    name: str,
+    x: np.ndarray,
+    words: int,
+    meta: dict[str, object],
+    tmp: Path,
+    sents: list[np.ndarray] | None,
+    rng: np.random.Generator,
 ) -> dict[str, dict[str, object]]:
     res: dict[str, dict[str, object]] = {}
     p = active_power(x)
@@ -295,16 +317,25 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
                 y = tempo(x, fac, tmp)
                 name = f"{vname}__{int(target)}"
                 meta: dict[str, object] = {
-                    "voice": vname, "engine": f"{engine}:{voice}", "sex": sex, "f0_hz": round(f0),
-                    "split": split, "condition": "clean", "target_wpm": target, "clean": True,
+                    "voice": vname,
+                    "engine": f"{engine}:{voice}",
+                    "sex": sex,
+                    "f0_hz": round(f0),
+                    "split": split,
+                    "condition": "clean",
+                    "target_wpm": target,
+                    "clean": True,
                 }
                 e = _entry(out, name, y, words, meta)
                 manifest[name] = e
                 print(name, e["true_wpm"], "wpm", e["f0_hz"], "Hz", flush=True)
                 if target == TARGET_WPM[1] and vname in CONDITION_VOICES:
                     ys = [tempo(s, fac, tmp) for s in sents]
-                    meta2 = {**meta, "speaking_s_clean": e["speaking_s"],
-                             "articulation_clean": e["true_articulation"]}
+                    meta2 = {
+                        **meta,
+                        "speaking_s_clean": e["speaking_s"],
+                        "articulation_clean": e["true_articulation"],
+                    }
                     for k, v in _conditions(out, name, y, words, meta2, tmp, ys, rng).items():
                         v.pop("speaking_s_clean", None)
                         v.pop("articulation_clean", None)
@@ -315,20 +346,85 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
             x = np.concatenate([s for piece in pieces for s in (piece, gap)][:-1])
             # Twice over (the two rounds in different orders) so there is a full 30 s window.
             order = [4, 2, 0, 3, 1]
-            x2 = np.concatenate(
-                [x, gap] + [s for k in order for s in (pieces[k], gap)][:-1]
-            )
+            x2 = np.concatenate([x, gap] + [s for k in order for s in (pieces[k], gap)][:-1])
             for vname, y, note in (
                 ("real_librivox", x2, "LibriVox reader from the pocketsphinx 5.1.1 sdist"),
-                ("real_librivox_high", sox_effect(x2, ["pitch", "700"], tmp),
-                 "the same, pitch-shifted up 7 semitones with sox (processed)"),
+                (
+                    "real_librivox_high",
+                    sox_effect(x2, ["pitch", "700"], tmp),
+                    "the same, pitch-shifted up 7 semitones with sox (processed)",
+                ),
             ):
-                meta = {"voice": vname, "engine": note, "sex": "m" if "high" not in vname else "m*",
-                        "f0_hz": round(f0_median(y)), "split": "heldout", "condition": "clean",
-                        "target_wpm": None, "clean": True}
+                meta = {
+                    "voice": vname,
+                    "engine": note,
+                    "sex": "m" if "high" not in vname else "m*",
+                    "f0_hz": round(f0_median(y)),
+                    "split": "heldout",
+                    "condition": "clean",
+                    "target_wpm": None,
+                    "clean": True,
+                }
                 e = _entry(out, vname, y, 2 * lw, meta)
                 manifest[vname] = e
                 print(vname, e["true_wpm"], "wpm", e["f0_hz"], "Hz", flush=True)
+    (out / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    return manifest
+
+
+#: What ships in tests/modules/material/corpus: (name, voice, paragraph, target wpm).
+SHIPPED = (
+    ("kal_110", "fest_kal", 0, 110.0),
+    ("kal_210", "fest_kal", 0, 210.0),
+    ("rms_160", "flite_rms", 1, 160.0),
+)
+
+
+def ship(out: Path, sdist: Path) -> dict[str, dict[str, object]]:
+    """The small shipped part: a low synthetic voice (dev) at two rates, a held-out one, and
+    one round of the real LibriVox reading (held out)."""
+    out.mkdir(parents=True, exist_ok=True)
+    manifest: dict[str, dict[str, object]] = {}
+    with tempfile.TemporaryDirectory() as tmp_s:
+        tmp = Path(tmp_s)
+        for name, vname, para, target in SHIPPED:
+            engine, voice, sex = VOICES[vname]
+            x = synth(engine, voice, TEXTS[para], out, tmp)
+            words = count_words(TEXTS[para])
+            y = tempo(x, target / (words / (len(x) / RATE) * 60.0), tmp)
+            manifest[name] = _entry(
+                out,
+                name,
+                y,
+                words,
+                {
+                    "voice": vname,
+                    "engine": f"{engine}:{voice}",
+                    "sex": sex,
+                    "f0_hz": round(f0_median(y)),
+                    "target_wpm": target,
+                    "split": "heldout" if vname in HELDOUT else "dev",
+                    "condition": "clean",
+                },
+            )
+        pieces, lw = librivox(sdist, tmp)
+        gap = np.zeros(int(0.5 * RATE))
+        x = np.concatenate([s for piece in pieces for s in (piece, gap)][:-1])
+        manifest["librivox"] = _entry(
+            out,
+            "librivox",
+            x,
+            lw,
+            {
+                "voice": "real_librivox",
+                "engine": "LibriVox reader, pocketsphinx 5.1.1 sdist",
+                "sex": "m",
+                "f0_hz": round(f0_median(x)),
+                "target_wpm": None,
+                "split": "heldout",
+                "condition": "clean",
+            },
+        )
     (out / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return manifest
 
@@ -338,11 +434,25 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("/tmp/speech_corpus"))
     ap.add_argument(
-        "--pocketsphinx-sdist", type=Path, default=None,
+        "--pocketsphinx-sdist",
+        type=Path,
+        default=None,
         help="pocketsphinx-5.1.1.tar.gz (pip download --no-deps --no-binary :all: "
         "pocketsphinx==5.1.1) for the real LibriVox speech",
     )
+    ap.add_argument(
+        "--ship",
+        type=Path,
+        default=None,
+        help="instead, write the small shipped part here (tests/modules/material/corpus)",
+    )
     args = ap.parse_args(argv)
+    if args.ship is not None:
+        if args.pocketsphinx_sdist is None:
+            ap.error("--ship needs --pocketsphinx-sdist")
+        for k, v in ship(args.ship, args.pocketsphinx_sdist).items():
+            print(k, v["true_wpm"], "wpm", v["f0_hz"], "Hz", v["duration_s"], "s")
+        return 0
     build(args.out, args.pocketsphinx_sdist)
     return 0
 

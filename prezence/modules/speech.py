@@ -118,6 +118,8 @@ SPEECH_SPEED_SOURCE = "speech_speed_source"
 #: same ``t`` came from (a stream line carries one number, so the source is a stream of its own).
 SOURCE_RECOGNISER = 1.0
 SOURCE_SYLLABLES = 2.0
+#: Neither count can be trusted: speech_speed and speech_articulation are not written.
+SOURCE_NONE = 0.0
 #: Every metric this module may write, in the order it writes them.
 METRICS = (
     SPEECH_SPEED,
@@ -131,12 +133,21 @@ METRICS = (
     SPEECH_ACTIVITY,
 )
 
+#: Seconds between two lines of every speech stream while voice is in the level window (the
+#: default ``--hop``): the lines come out evenly as the audio arrives, for a file and live alike.
+#: speech_activity keeps this cadence in silence too; the others pause while the last
+#: ``--window`` seconds hold under :data:`MIN_SPEECH_S` of voice. A coach's staleness limit
+#: should follow from this (plus the hop of any ``--hop`` override).
+CADENCE_S = 1.0
 #: dBFS -> dB SPL offset used when the user has not calibrated (a rough laptop-mic guess).
 DEFAULT_CALIBRATION_DB = 90.0
 #: English averages about 1.4-1.5 syllables per word (the reference measured 1.34 on one text).
 SYLLABLES_PER_WORD = 1.45
 #: The level window needs this much voice activity for anything but speech_activity.
 MIN_SPEECH_S = 1.0
+#: The word-based metrics need at least this much talk, even at the end of an input (a rate
+#: from a second of audio is a guess, not a measurement).
+MIN_WORD_TALK_S = 3.0
 #: Seconds of talk the word-based metrics (speed, articulation, clarity) count over.
 WORD_WINDOW_S = 30.0
 #: A pause counts as at most this many seconds of talk in the word window.
@@ -147,10 +158,18 @@ MAX_LOOKBACK = 3.0
 MAX_UTTERANCE_S = 10.0
 #: Normalised autocorrelation (window-corrected) a syllable nucleus needs to count as voiced.
 VOICING_THRESHOLD = 0.45
+#: A long utterance may be cut this many seconds before MAX_UTTERANCE_S, at a quiet frame.
+CUT_SEARCH_S = 3.0
 #: Below this mean word posterior the recogniser's word count is not trusted.
-MIN_RELIABLE_POSTERIOR = 0.3
-#: Above this relative difference between ASR and syllable counts the ASR count is not trusted.
-MAX_DISAGREEMENT = 0.25
+MIN_RELIABLE_POSTERIOR = 0.4
+#: The recogniser's words must cover at least this share of the voice-activity time (clean
+#: speech of every corpus voice: 0.79-0.94; a stretch the recogniser gave up on: about 0.6).
+MIN_WORD_COVERAGE = 0.7
+#: Syllables (summed over trusted windows) needed before the per-speaker syllables-per-word
+#: ratio replaces the prior.
+MIN_CALIBRATION_SYLLABLES = 300.0
+#: The syllable count is used only where the estimated SNR is at least this (dB).
+MIN_SYLLABLE_SNR_DB = 20.0
 #: speech_accuracy -> speech_clarity anchors: (accuracy, score).
 CLARITY_ANCHORS = ((0.2, 0.0), (0.8, 100.0))
 #: Warn when a live input is this many seconds behind.
@@ -189,7 +208,7 @@ class SpeechOptions:
     """
 
     window_s: float = 10.0
-    hop_s: float = 1.0
+    hop_s: float = CADENCE_S
     calibration_db: float = DEFAULT_CALIBRATION_DB
     syllables_per_word: float = SYLLABLES_PER_WORD
     min_speech_s: float = MIN_SPEECH_S
@@ -355,6 +374,8 @@ class SpeechAnalyser:
         self._utt_start = 0.0
         self._utt_t = 0.0
         self._utt_pcm: list[bytes] = []
+        self._utt_ms: list[float] = []  # its frames' mean squares (where to cut it)
+        self._pad_rng = np.random.default_rng(0)
         # Finished results, oldest first (pruned once no future window can need them).
         self._words: deque[Word] = deque()
         self._spans: deque[tuple[float, float]] = deque()
@@ -365,6 +386,11 @@ class SpeechAnalyser:
         self._lookback_s = max(options.window_s, MAX_LOOKBACK * options.word_window_s)
         self._last_t = 0.0  # end of the last window written
         self._finished = False
+        self._last_source: float | None = None
+        self._cal_words = 0.0  # recognised words and syllables in trusted windows
+        self._cal_syl = 0.0
+        #: Set to a list to collect each window's counts (bench and tests).
+        self.window_log: list[dict[str, float]] | None = None
         # Totals over the whole input.
         self._n_words = 0
         self._n_syl = 0
@@ -396,10 +422,15 @@ class SpeechAnalyser:
         buf = np.concatenate([self._pending, pcm.reshape(-1)])
         n = len(buf) // _FRAME
         self._ring = np.concatenate([self._ring, buf[: n * _FRAME]])
+        out: list[Sample] = []
         for i in range(n):
             self._frame(buf[i * _FRAME : (i + 1) * _FRAME])
+            # Windows are written as soon as their audio is in (every hop, evenly), whatever
+            # the block size: file input and a live input give the same lines.
+            if self._next_t <= self._n_frames * _FRAME_S + 1e-9:
+                out += self._emit(self._n_frames * _FRAME_S)
         self._pending = buf[n * _FRAME :]
-        return self._emit(self._finalised_until())
+        return out
 
     def finish(self) -> list[Sample]:
         """End of input: decode what is left and return the remaining windows.
@@ -467,13 +498,39 @@ class SpeechAnalyser:
         self._dec.process_raw(speech, False, False)
         self._utt_pcm.append(speech)
         self._utt_t += len(speech) / 2 / SAMPLE_RATE
-        if self._utt_t - self._utt_start >= self.options.max_utterance_s:
+        x = np.frombuffer(speech, dtype=np.int16).astype(np.float64)
+        ms = float(np.mean(x**2)) if len(x) else 0.0
+        self._utt_ms.append(ms)
+        length = self._utt_t - self._utt_start
+        max_s = self.options.max_utterance_s
+        # A long utterance is cut in a gap between words where possible: in its last
+        # CUT_SEARCH_S before the limit, at the first frame as quiet as its quietest 15 %.
+        if length >= max_s or (
+            length >= max_s - CUT_SEARCH_S
+            and len(self._utt_ms) >= 20
+            and ms <= float(np.percentile(self._utt_ms, 15))
+        ):
             self._end_utterance(self._utt_t)  # the span goes on: still speech
 
     def _end_utterance(self, end: float) -> None:
         self._dec.end_utt()
         t0 = self._utt_start
-        for seg in self._dec.seg() or ():
+        pcm = np.frombuffer(b"".join(self._utt_pcm), dtype=np.int16)
+        segs = list(self._dec.seg() or ())
+        if not segs and len(pcm) >= SAMPLE_RATE:
+            # pocketsphinx gives no hypothesis at all when its search ends mid-word (seen on
+            # whole 10 s stretches of fast speech): decode it again with a little quiet after
+            # it, so that the last word can end.
+            pad = (self._pad_rng.standard_normal(int(0.3 * SAMPLE_RATE)) * 3.0).astype(np.int16)
+            self._dec.start_utt()
+            self._dec.process_raw(np.concatenate([pcm, pad]).tobytes(), False, True)
+            self._dec.end_utt()
+            segs = [
+                seg
+                for seg in self._dec.seg() or ()
+                if seg.start_frame / 100.0 < len(pcm) / SAMPLE_RATE
+            ]
+        for seg in segs:
             w = seg.word
             if w in ("<s>", "</s>", "<sil>") or w.startswith(("[", "++", "<")):
                 continue
@@ -483,11 +540,11 @@ class SpeechAnalyser:
             self._words.append(word)
             self._n_words += 1
             self._p_sum += prob
-        pcm = np.frombuffer(b"".join(self._utt_pcm), dtype=np.int16)
         for s in syllable_nuclei(pcm):
             self._syllables.append(t0 + float(s))
             self._n_syl += 1
         self._utt_pcm = []
+        self._utt_ms = []
         self._in_utt = False
         self._utt_start = end
 
@@ -556,6 +613,14 @@ class SpeechAnalyser:
         return floor, talk + min(gap, cap)
 
     def _window(self, t: float, *, final: bool = False) -> list[Sample]:
+        """The samples of the window ending at ``t``.
+
+        The levels cover the audio up to ``t``. The word-based metrics cover the word window
+        ending where every word is known (:meth:`_finalised_until`, at most about
+        ``max_utterance_s`` before ``t`` in continuous speech): written at ``t``, they describe
+        talk that ended up to that much earlier, rather than being held back (which made the
+        live output come in bursts up to 11 s apart).
+        """
         opt = self.options
         lo = max(0.0, t - opt.window_s)
         dur = t - lo
@@ -574,19 +639,23 @@ class SpeechAnalyser:
         lufs = self._lufs(lo, t)
         if lufs is not None:
             out.append(Sample(SPEECH_LOUDNESS, t, lufs))
-        out += self._word_samples(t, spans, final=final)
+        words_until = t if final else min(t, max(0.0, self._finalised_until()))
+        out += self._word_samples(t, words_until, spans, final=final)
         return sorted(out, key=lambda smp: _ORDER[smp.metric])
 
     def _word_samples(
-        self, t: float, spans: list[tuple[float, float]], *, final: bool
+        self, t_out: float, t: float, spans: list[tuple[float, float]], *, final: bool
     ) -> list[Sample]:
-        """speech_speed and the other word-based metrics over the word window ending at ``t``.
+        """speech_speed and the other word-based metrics over the word window ending at ``t``,
+        stamped ``t_out``.
 
         Nothing before ``window_s`` of talk has been heard, except at the end of the input.
         """
         opt = self.options
         lo, talk_s = self._talk_window(t, spans)
-        if talk_s <= 0 or (talk_s < min(opt.window_s, opt.word_window_s) - 1e-9 and not final):
+        if talk_s < MIN_WORD_TALK_S or (
+            talk_s < min(opt.window_s, opt.word_window_s) - 1e-9 and not final
+        ):
             return []
         voiced_s = sum(_overlap(a, b, lo, t) for a, b in spans)
         n_asr = 0.0
@@ -597,28 +666,107 @@ class SpeechAnalyser:
             f = _overlap(w.start, w.end, lo, t) / max(w.end - w.start, 1e-3)
             n_asr += f
             p_sum += f * w.prob
+        covered = sum(_overlap(w.start, w.end, lo, t) for w in self._words if w.start < t)
         n_syl = sum(1 for s in self._syllables if lo <= s < t)
         n_syl_words = n_syl / opt.syllables_per_word
         mean_post = p_sum / n_asr if n_asr > 0 else 0.0
         spoken = max(n_asr, n_syl_words)
-        reliable = (
-            n_asr > 0
-            and mean_post >= MIN_RELIABLE_POSTERIOR
-            and abs(n_asr - n_syl_words) <= MAX_DISAGREEMENT * spoken
-        )
-        words = n_asr if reliable else n_syl_words
+        coverage = covered / voiced_s if voiced_s > 0 else 0.0
+        snr = self._snr_db(lo, t)
+        source = self._choose_source(mean_post, coverage, snr)
+        if self.window_log is not None:
+            self.window_log.append(
+                {
+                    "t": t_out,
+                    "until": t,
+                    "talk_s": talk_s,
+                    "voiced_s": voiced_s,
+                    "n_asr": n_asr,
+                    "n_syl_words": n_syl_words,
+                    "mean_post": mean_post,
+                    "coverage": coverage,
+                    "snr_db": snr,
+                    "source": source,
+                }
+            )
+        if source != self._last_source:
+            if source == SOURCE_NONE:
+                log.warning(
+                    "t=%.0f s: speech speed cannot be measured (recogniser unsure: mean word "
+                    "posterior %.2f, words cover %.0f %% of the voice; estimated SNR %.0f dB): "
+                    "speech_speed and speech_articulation are not written until it can",
+                    t_out,
+                    mean_post,
+                    100 * coverage,
+                    snr,
+                )
+            else:
+                log.info(
+                    "t=%.0f s: speech speed from the %s (mean word posterior %.2f, words "
+                    "cover %.0f %% of the voice, estimated SNR %.0f dB)",
+                    t_out,
+                    "recogniser" if source == SOURCE_RECOGNISER else "syllable nuclei",
+                    mean_post,
+                    100 * coverage,
+                    snr,
+                )
+            self._last_source = source
         out = [
-            Sample(SPEECH_SPEED, t, words / talk_s * 60.0),
-            Sample(SPEECH_SPEED_SYLLABLES, t, n_syl_words / talk_s * 60.0),
-            Sample(SPEECH_SPEED_SOURCE, t, SOURCE_RECOGNISER if reliable else SOURCE_SYLLABLES),
+            Sample(SPEECH_SPEED_SYLLABLES, t_out, n_syl_words / talk_s * 60.0),
+            Sample(SPEECH_SPEED_SOURCE, t_out, source),
         ]
-        if voiced_s > 0:
-            out.append(Sample(SPEECH_ARTICULATION, t, words / voiced_s * 60.0))
+        if source == SOURCE_RECOGNISER:
+            words = n_asr
+            # Per-speaker calibration of the syllable count, from the windows the recogniser
+            # is trusted in (for later fallbacks; this voice's syllables per word).
+            self._cal_words += n_asr
+            self._cal_syl += n_syl
+            # Speaking time = the time the words cover (pocketsphinx marks pauses as <sil>).
+            speaking_s = covered
+        elif source == SOURCE_SYLLABLES:
+            words = n_syl / self._syllables_per_word()
+            speaking_s = voiced_s
+        else:
+            words = speaking_s = 0.0
+        if source != SOURCE_NONE:
+            out.append(Sample(SPEECH_SPEED, t_out, words / talk_s * 60.0))
+        if speaking_s > 0 and source != SOURCE_NONE:
+            out.append(Sample(SPEECH_ARTICULATION, t_out, words / speaking_s * 60.0))
         if spoken > 0:
             accuracy = min(1.0, p_sum / spoken)
-            out.append(Sample(SPEECH_ACCURACY, t, accuracy))
-            out.append(Sample(SPEECH_CLARITY, t, clarity_score(accuracy)))
+            out.append(Sample(SPEECH_ACCURACY, t_out, accuracy))
+            out.append(Sample(SPEECH_CLARITY, t_out, clarity_score(accuracy)))
         return out
+
+    def _syllables_per_word(self) -> float:
+        """This speaker's syllables per word, learnt while the recogniser was trusted (at
+        least :data:`MIN_CALIBRATION_SYLLABLES` syllables), else the prior."""
+        if self._cal_syl >= MIN_CALIBRATION_SYLLABLES and self._cal_words > 0:
+            return float(min(2.5, max(0.8, self._cal_syl / self._cal_words)))
+        return self.options.syllables_per_word
+
+    @staticmethod
+    def _choose_source(mean_post: float, coverage: float, snr_db: float) -> float:
+        """Which count speech_speed uses in a window: the rule of the module doc."""
+        if mean_post >= MIN_RELIABLE_POSTERIOR and coverage >= MIN_WORD_COVERAGE:
+            return SOURCE_RECOGNISER
+        if snr_db >= MIN_SYLLABLE_SNR_DB:
+            return SOURCE_SYLLABLES
+        return SOURCE_NONE
+
+    def _snr_db(self, lo: float, t: float) -> float:
+        """Estimated SNR of ``[lo, t)``: loud (p90) over quiet (p10) 30 ms frames, in dB.
+
+        In speech with no pause the quiet frames are the speech's own weak sounds, so this
+        under-reads clean speech (still >= 20 dB on the corpus); it is only meant to tell
+        whether syllable peaks stand out of the noise.
+        """
+        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+        if i1 - i0 < 10:
+            return 0.0
+        ms = np.asarray(self._frame_ms[i0:i1]) + 1.0  # +1: int16 rounding floor
+        p10, p90 = np.percentile(ms, [10, 90])
+        return float(10.0 * np.log10(p90 / p10))
 
     def _active_dbfs(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float | None:
         i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
@@ -764,7 +912,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=MAX_PAUSE_S,
         help="a pause counts as at most this many seconds of talk (default %(default)s)",
     )
-    p.add_argument("--hop", type=float, default=1.0, help="seconds (default %(default)s)")
+    p.add_argument(
+        "--hop", type=float, default=CADENCE_S, help="seconds between lines (default %(default)s)"
+    )
     p.add_argument(
         "--calibration-db",
         type=float,
