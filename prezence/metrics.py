@@ -126,6 +126,8 @@ METRICS: Mapping[str, Metric] = {
             band=("inRange", 140.0, 180.0),
         ),
         Metric("speech_speed_syllables", "syllables/min", "syllable rate", "speech", _SPEECH),
+        # where pace and articulation came from: 1 recogniser, 2 syllable nuclei, 0 not measured
+        Metric("speech_speed_source", "code", "pace source", "speech", _SPEECH),
         Metric("speech_articulation", "syllables/s", "articulation rate", "speech", _SPEECH),
         Metric(
             "speech_volume",
