@@ -70,10 +70,10 @@ def test_robot_lost_mid_talk_drops_cues_and_comes_back(tmp_path: Path) -> None:
     }
 
     def chaos(d: Decision) -> None:
-        if state["lost_at"] is None and d.t >= 8.0:
+        if state["lost_at"] is None and d.t >= 12.0:
             stop_spawned(state["proc"], kill=True)
             state["lost_at"] = d.t
-        elif state["back_at"] is None and state["lost_at"] is not None and d.t >= 20.0:
+        elif state["back_at"] is None and state["lost_at"] is not None and d.t >= 24.0:
             state["proc"] = spawn("--port", str(port))[0]
             state["back_at"] = d.t
 
@@ -90,7 +90,8 @@ def test_robot_lost_mid_talk_drops_cues_and_comes_back(tmp_path: Path) -> None:
         stop_spawned(state["proc"])
     cues = result.cues
     lost, back = state["lost_at"], state["back_at"]
-    before = [c for c in cues if c["t"] < lost]
+    # a cue still moving when the robot died is not ok: judge those that ended before
+    before = [c for c in cues if c["t"] + c.get("planned_s", 0.0) < lost]
     during = [c for c in cues if lost + 2.0 <= c["t"] < back]
     after = [c for c in cues if c["t"] > back]
     assert before and all(c["ok"] for c in before)
