@@ -333,7 +333,7 @@ def cmd_up(args: argparse.Namespace) -> int:
     check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
     backend = make_backend(args.backend, **kw)
     out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
-    view = None if args.quiet else _live_view(config, [s.name for s in specs])
+    view = None if args.quiet else _live_view(config, specs)
     with _drop_if_left_empty(out):
         try:
             result = up(
@@ -370,13 +370,16 @@ def _drop_if_left_empty(folder: Path) -> Iterator[None]:
         raise
 
 
-def _live_view(config: Config, modules: list[str]) -> Any:
+def _live_view(config: Config, specs: Sequence[Any]) -> Any:
     """The rich live view on a terminal with ``rich`` installed, else the plain one."""
     from prezence.launcher import LiveView
     from prezence.live_view import RichLiveView, rich_available
 
     if rich_available() and sys.stdout.isatty():
-        return RichLiveView(config, modules)
+        # metrics no module writes are "not measured" (unknown when a module names none)
+        known = all(s.metrics for s in specs)
+        measured = {m for s in specs for m in s.metrics} if known else None
+        return RichLiveView(config, [s.name for s in specs], measured=measured)
     return LiveView(config)
 
 

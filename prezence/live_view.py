@@ -73,8 +73,11 @@ class RichLiveView:
         *,
         console: Any = None,
         stream: IO[str] | None = None,
+        measured: set[str] | None = None,
     ) -> None:
         self.config = config
+        #: the metrics some module writes (None: unknown); the others are "not measured"
+        self.measured = measured
         self.out = stream or sys.stdout
         self.health: dict[str, str] = {m: "running" for m in modules}
         self.cues: deque[tuple[float, str, str]] = deque(maxlen=LAST_CUES)
@@ -182,7 +185,9 @@ class RichLiveView:
             else:
                 band = f">= {lo}{unit}" if lo else f"<= {hi}{unit}"
             if mv is None or mv.value is None:
-                table.add_row(r.metric, "--", band, Text("no data yet", "dim"), "")
+                absent = self.measured is not None and r.metric not in self.measured
+                why = "not measured" if absent else "no data yet"
+                table.add_row(r.metric, "--", band, Text(why, "dim"), "")
                 continue
             age = now - self.last_change.get(r.metric, (None, now))[1]
             if mv.stale:

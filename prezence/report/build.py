@@ -543,6 +543,8 @@ def write_report(
             images[f"timeline_{metric}"] = plots.timeline_png(
                 m, streams[metric], about, talk_s=float(report["talk_s"]), allocated_s=allocated
             )
+        if progress is not None:
+            progress(n_plots, n_plots)
         for name, png in images.items():
             (folder / f"{name}.png").write_bytes(png)
         report["plots"] = sorted(f"{name}.png" for name in images)
