@@ -20,6 +20,7 @@ from prezence.backends.fake import FakeBackend
 from prezence.cli import main
 from prezence.config.model import Check, Config, ProcessorSettings, Rule, TimeSettings
 from prezence.launcher import BAD_INPUT_STATUS, ModuleProcess, ModuleSpec, up
+from prezence.talk import RunOptions
 
 ROOT = Path(__file__).resolve().parents[2]
 PACE = ROOT / "tests" / "modules" / "pace_module.py"
@@ -113,15 +114,14 @@ def test_with_file_inputs_the_talk_ends_when_they_end(tmp_path: Path) -> None:
         "    time.sleep(0.2)\n"
     )
     spec = ModuleSpec("file", [sys.executable, str(script), "{session}"], finite=True)
-    t = time.monotonic()
     result = up(
         CONFIG,
         session_dir=tmp_path / "s",
         modules=[spec],
         backend=FakeBackend(time_scale=0.01),
+        options=RunOptions.default(),
         duration_s=60.0,
     )
-    assert time.monotonic() - t < 30.0  # not the 60 s limit
     talk_s = result.summary["talk_s"]
     assert talk_s < 30.0
     meta = json.loads((tmp_path / "s" / "session.json").read_text())

@@ -23,6 +23,7 @@ from prezence.report.build import build_report, write_report
 from prezence.session import SessionDir, read_jsonl
 from prezence.sessiondir import claim_session_dir
 from prezence.streams.tail import read_stream
+from prezence.talk import RunOptions
 
 DEMO_TOML = """format = 1
 [processor]
@@ -101,7 +102,7 @@ def test_replay_of_the_streams_folder_into_its_session_is_refused(tmp_path: Path
     assert main(["replay", str(s.streams), "--out", str(s.root), "--force", "-q"]) == 2
     assert main(["replay", str(s.root), "--out", str(s.streams / "x"), "-q"]) == 2
     with pytest.raises(ConfigError, match="another folder"):
-        replay(s.streams, out=s.root)
+        replay(s.streams, out=s.root, options=RunOptions.default())
     assert digest(s.root) == before
 
 
@@ -124,7 +125,7 @@ def test_a_restarted_module_appends_to_its_streams(
 
 def test_a_stamp_of_1e9_is_skipped_and_counted_not_replayed_for_30_years(tmp_path: Path) -> None:
     s = live_session(tmp_path / "S", extra_line="1e9 170\n")
-    res = replay(s.root, out=tmp_path / "R")
+    res = replay(s.root, out=tmp_path / "R", options=RunOptions.default())
     assert res.summary["talk_s"] == 20.0
     lines = (tmp_path / "R" / "decisions.jsonl").read_text().count("\n")
     assert lines <= 60  # 20 s at 0.5 s, plus the drain
