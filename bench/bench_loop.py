@@ -5,7 +5,8 @@
 Prints, on one core (``taskset -c 0``), the median wall time of ``prezence demo --backend fake``
 and ``--backend sim`` (with the report, as a user runs it, and with ``--no-report``) as times
 real time, and, when ``--load DIR`` holds the peers' workload (``mkload.py DIR 200000``),
-``prezence replay`` against ``peers/replay.py --policy seed --tick 0.5 --allocated 0`` on the
+``prezence replay`` (its default policy, the seed's weighted one) against
+``peers/replay.py --policy seed --tick 0.5 --allocated 0`` on the
 same files, with peak memory (``/usr/bin/time -v``).
 """
 
@@ -24,8 +25,11 @@ PEERS = Path("/work/shared/peers")
 DEMO_S = 595.0  # the demo scenario's length
 
 
-def run(argv: list[str]) -> tuple[float, int]:
-    """Wall seconds and peak RSS (kB) of one process on core 0."""
+def run(argv: list[str]) -> tuple[float, int, float]:
+    """Wall seconds, peak RSS (kB) and CPU seconds (user + system) of one process on core 0.
+
+    CPU seconds are given too because the development machine is shared: under load the wall
+    time includes waiting for the core."""
     cmd = ["/usr/bin/time", "-v", "taskset", "-c", "0", *argv]
     t0 = time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True)
@@ -33,12 +37,17 @@ def run(argv: list[str]) -> tuple[float, int]:
     if p.returncode not in (0, 3):
         raise SystemExit(f"{argv} failed:\n{p.stderr[-2000:]}")
     m = re.search(r"Maximum resident set size \(kbytes\): (\d+)", p.stderr)
-    return wall, int(m.group(1)) if m else 0
+    cpu = sum(float(x) for x in re.findall(r"(?:User|System) time \(seconds\): ([\d.]+)", p.stderr))
+    return wall, int(m.group(1)) if m else 0, cpu
 
 
-def median_of(argv: list[str], n: int) -> tuple[float, int]:
+def median_of(argv: list[str], n: int) -> tuple[float, int, float]:
     runs = [run(argv) for _ in range(n)]
-    return statistics.median(r[0] for r in runs), max(r[1] for r in runs)
+    return (
+        statistics.median(r[0] for r in runs),
+        max(r[1] for r in runs),
+        statistics.median(r[2] for r in runs),
+    )
 
 
 def main() -> None:
@@ -51,9 +60,12 @@ def main() -> None:
         for backend in ("fake", "sim"):
             for extra in ([], ["--no-report"]):
                 argv = [py, "-m", "prezence", "demo", "--backend", backend, "-q"]
-                wall, _ = median_of([*argv, "--out", f"{d}/demo", *extra], args.repeat)
+                wall, _, cpu = median_of([*argv, "--out", f"{d}/demo", *extra], args.repeat)
                 tag = " ".join(["demo", "--backend", backend, *extra])
-                print(f"{tag:<36} {wall:6.2f} s  {DEMO_S / wall:7.0f}x real time")
+                print(
+                    f"{tag:<36} wall {wall:5.2f} s = {DEMO_S / wall:5.0f}x real time; "
+                    f"CPU {cpu:5.2f} s = {DEMO_S / cpu:5.0f}x"
+                )
         if args.load:
             src = args.load
             ours = [
@@ -66,8 +78,6 @@ def main() -> None:
                 str(src / "rules.conf"),
                 "--room",
                 str(src / "room.toml"),
-                "--policy",
-                "seed",
                 "--out",
                 f"{d}/r",
                 "--no-report",
@@ -86,11 +96,15 @@ def main() -> None:
                 "--out",
                 f"{d}/peer.jsonl",
             ]
-            w1, m1 = median_of(ours, args.repeat)
-            w2, m2 = median_of(peer, args.repeat)
-            print(f"prezence replay (200k)               {w1:6.2f} s  {m1 / 1024:5.0f} MB")
-            print(f"peers/replay.py --policy seed        {w2:6.2f} s  {m2 / 1024:5.0f} MB")
-            print(f"ratio prezence / peers               {w1 / w2:6.2f}")
+            w1, m1, c1 = median_of(ours, args.repeat)
+            w2, m2, c2 = median_of(peer, args.repeat)
+            print(
+                f"prezence replay (200k)   wall {w1:5.2f} s  CPU {c1:5.2f} s  {m1 / 1024:4.0f} MB"
+            )
+            print(
+                f"peers/replay.py seed     wall {w2:5.2f} s  CPU {c2:5.2f} s  {m2 / 1024:4.0f} MB"
+            )
+            print(f"ratio prezence / peers   wall {w1 / w2:5.2f}    CPU {c1 / c2:5.2f}")
 
 
 if __name__ == "__main__":

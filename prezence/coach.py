@@ -102,8 +102,11 @@ class Coach:
         log_mode: the decision log (``decisions.jsonl``): ``changes`` writes a decision point
             where a cue is chosen, or the reason, the robot's state or a metric's state
             (fresh or stale, in range or on which side, strict cue pending) changed, with the
-            candidates and every metric's view; ``every`` writes every decision point;
-            ``off`` writes none. :attr:`decisions` counts every decision point.
+            candidates, the view of each metric whose state changed (of every metric on a cue's
+            line and the first line); ``every`` writes every decision point with every view;
+            ``off`` writes none. Views are the metrics' state after the decision (a metric
+            just cued shows its weight spent and its refractory time begun).
+            :attr:`decisions` counts every decision point.
     """
 
     def __init__(
@@ -137,17 +140,26 @@ class Coach:
         self.backend.advance(now)
         self._settle()
         free_since = self._free_since if not self.backend.busy else None
-        every = self.log_mode == "every"
-        decision = self.processor.step(now, samples, free_since=free_since, with_views=every)
+        decision = self.processor.step(now, samples, free_since=free_since, with_views=False)
         self.decisions += 1
-        if every:
-            self._decisions.write(decision.to_dict())
+        if self.log_mode == "every":
+            rec = decision.to_dict()
+            rec["metrics"] = [m.to_dict() for m in self.processor.views(now)]
+            self._decisions.write(rec)
         elif self.log_mode == "changes":
-            key = (decision.reason, decision.busy, self.processor.status(now))
-            if decision.cue is not None or key != self._last_logged:
+            status = self.processor.status(now)
+            key = (decision.reason, decision.busy, status)
+            last = self._last_logged
+            if decision.cue is not None or key != last:
                 self._last_logged = key
                 rec = decision.to_dict()
-                rec["metrics"] = [m.to_dict() for m in self.processor.views(now)]
+                views = self.processor.views(now)
+                if decision.cue is None and last is not None:
+                    # only the metrics whose state changed; a cue's line has them all
+                    views = tuple(
+                        v for v, a, b in zip(views, status, last[2], strict=True) if a != b
+                    )
+                rec["metrics"] = [m.to_dict() for m in views]
                 self._decisions.write(rec)
         if decision.cue is not None:
             self._perform(decision.cue, now)

@@ -89,6 +89,12 @@ class InputModule:
             argv.append("--realtime")
         return argv
 
+    def offline_argv(self, recording: str, session: str, *, realtime: bool = False) -> list[str]:
+        """Its command line over a recording as fast as it can (``prezence rehearse``):
+        samples stamped with the recording's own time, written into ``session``."""
+        argv = [sys.executable, "-m", self.module, self.input_option, recording]
+        return argv + ["--out", session, "-q"] + (["--realtime"] if realtime else [])
+
     def is_live(self, source: str) -> bool:
         return any(source == d or source.startswith(d + ":") for d in self.live_inputs)
 

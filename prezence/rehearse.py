@@ -13,7 +13,6 @@ import importlib
 import logging
 import shlex
 import subprocess
-import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError, PrezenceError
+from prezence.metrics import INPUT_MODULES
 from prezence.replay import (
     ReplayResult,
     find_streams,
@@ -39,7 +39,7 @@ VIDEO_EXT = {".mp4", ".mov", ".mkv", ".avi", ".webm"}
 
 
 #: The input each built-in module needs on its command line (to check extra settings).
-_MODULE_INPUT = {"speech": "--audio", "vision": "--video"}
+_MODULE_INPUT = {name: m.input_option for name, m in INPUT_MODULES.items()}
 
 
 def module_args(option: str, module: str, text: str | None) -> list[str]:
@@ -117,32 +117,11 @@ def module_commands(
         raise ConfigError(
             f"not an audio or video file I know (extensions: {known})", path=recording
         )
-    pace = ["--realtime"] if realtime else []
+    names = ["speech", "vision"] if ext in VIDEO_EXT else ["speech"]
     cmds = {
-        "speech": [
-            sys.executable,
-            "-m",
-            "prezence.modules.speech",
-            "--audio",
-            str(recording),
-            "--out",
-            str(session),
-            "-q",
-            *pace,
-        ]
+        n: INPUT_MODULES[n].offline_argv(str(recording), str(session), realtime=realtime)
+        for n in names
     }
-    if ext in VIDEO_EXT:
-        cmds["vision"] = [
-            sys.executable,
-            "-m",
-            "prezence.modules.vision",
-            "--video",
-            str(recording),
-            "--out",
-            str(session),
-            "-q",
-            *pace,
-        ]
     for name, words in (extra or {}).items():
         if not words:
             continue

@@ -7,7 +7,7 @@
       config.toml         the effective configuration (rebuild and replay use it)
       streams/<metric>.txt   one append-only file per module, "<t> <value>" per line
       streams/<metric>.txt.stamps  only for bare "<value>" lines: the time the coach gave each
-      decisions.jsonl     one JSON line per decision point (cue or no cue) of the processor
+      decisions.jsonl     a JSON line per decision point where a cue is chosen or something changes
       cues.jsonl          one JSON line per cue the robot performed, with its outcome
       truth.jsonl         synthetic talks only: when each metric was really out of range
       summary.json        per-metric and per-cue figures for the talk

@@ -109,13 +109,15 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
 
     ## Episode End
 
-    Terminated when the talk's scripted length is reached. Never truncated by the environment
-    itself (``gymnasium.make`` may add a TimeLimit with ``max_episode_steps``).
+    Terminated when the talk's scripted length is reached. Truncated when the registration's
+    ``max_episode_steps`` (:data:`sim.MAX_EPISODE_STEPS`, or the one given to ``make``) cuts
+    the talk short.
 
     ## Arguments
 
     ``gymnasium.make("prezence/Coach-v0", scenarios=None, config=None, step_s=None,
-    cue_cost=0.005, in_range_penalty=0.01, speed_fraction=0.6, planner=None, render_mode=None)``
+    cue_cost=0.005, in_range_penalty=0.01, speed_fraction=0.6, render_mode=None,
+    render_size=(240, 240))``
 
     * ``scenarios``: names or paths of scenarios (default: every built-in scenario).
     * ``config``: a :class:`~prezence.config.model.Config` (default: the built-in one); each
@@ -123,12 +125,13 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     * ``step_s``: seconds of talk per step (default: ``decision_period_s``).
     * ``cue_cost``, ``in_range_penalty``: reward terms above.
     * ``speed_fraction``: fraction of the joints' velocity limits used by gestures.
-    * ``planner``: gesture planner (default: the gesture library retimed at ``speed_fraction``).
-    * ``render_mode``: None or ``"ansi"`` (a one-line text state).
+    * ``render_mode``: None, ``"ansi"`` (a one-line text state) or ``"rgb_array"`` (the talk
+      runs on the PyBullet NAO; ``render()`` returns a camera image of it, ``render_size``).
 
     ## Version History
 
-    * v0: initial version.
+    * v0: initial version; episodes run on the one talk loop (the agent's cues go through
+      the coach, as the processor's do).
     """
 
     metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}

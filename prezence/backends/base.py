@@ -135,12 +135,13 @@ class Backend(abc.ABC):
     def advance(self, now: float) -> None:
         """Move the (simulated) robot to ``now`` and finish motions that have ended."""
         self._advance(now)
-        self._running = [m for m in self._running if not m.done]
+        if self._running:
+            self._running = [m for m in self._running if not m.done]
 
     @property
     def busy(self) -> bool:
         """True while any gesture or speech is running."""
-        return any(not m.done for m in self._running)
+        return bool(self._running) and any(not m.done for m in self._running)
 
     def stats(self) -> dict[str, Any]:
         """Backend-wide figures for the session summary (e.g. joint-limit violations)."""

@@ -4,18 +4,40 @@ pybullet or qi unless that backend is asked for."""
 from __future__ import annotations
 
 import importlib
+from dataclasses import dataclass
 from typing import Any
 
 from prezence.backends.base import Backend
 from prezence.errors import BackendUnavailable, UnknownName
 
-BACKENDS: dict[str, str] = {
-    "fake": "prezence.backends.fake:FakeBackend",
-    "sim": "sim.backend:SimBackend",
-    "naoqi": "prezence.backends.naoqi:NaoqiBackend",
-}
 
-_EXTRA = {"sim": "sim", "naoqi": "naoqi"}
+@dataclass(frozen=True)
+class BackendRecord:
+    """A robot backend: where it lives, what to install for it, whether it moves in real time.
+
+    Attributes:
+        name: the ``--backend`` name.
+        entry_point: ``module:Class``, imported only when the backend is asked for.
+        extra: the ``prezence[extra]`` that installs what it needs (None: nothing).
+        realtime: the class's own :attr:`~prezence.backends.base.Backend.realtime` (what the
+            loop reads; repeated here so that a listing needs no import; a test keeps them
+            equal).
+    """
+
+    name: str
+    entry_point: str
+    extra: str | None
+    realtime: bool
+
+
+BACKENDS: dict[str, BackendRecord] = {
+    r.name: r
+    for r in (
+        BackendRecord("fake", "prezence.backends.fake:FakeBackend", None, False),
+        BackendRecord("sim", "sim.backend:SimBackend", "sim", False),
+        BackendRecord("naoqi", "prezence.backends.naoqi:NaoqiBackend", "naoqi", True),
+    )
+}
 
 
 #: Sandbox tools the command line offers (``gestures render``, ``sim serve``): entry points
@@ -47,17 +69,9 @@ def load_tool(name: str) -> Any:
 def make_backend(name: str, **kwargs: Any) -> Backend:
     """Construct (not open) the backend called ``name``."""
     try:
-        target = BACKENDS[name]
+        rec = BACKENDS[name]
     except KeyError:
         raise UnknownName("backend", name, BACKENDS) from None
-    module_name, _, attr = target.partition(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ModuleNotFoundError as e:
-        extra = _EXTRA.get(name, name)
-        raise BackendUnavailable(
-            f'the {name} backend needs {e.name}: pip install "prezence[{extra}]"'
-        ) from e
-    cls = getattr(module, attr)
+    cls = _load(rec.entry_point, f"the {name} backend", rec.extra or name)
     backend: Backend = cls(**kwargs)
     return backend

@@ -28,3 +28,21 @@ def test_unknown_backend_suggests_a_name() -> None:
 def test_play_before_open_is_an_error() -> None:
     with pytest.raises(RuntimeError, match="not open"):
         FakeBackend().play(CHECK_TRAJECTORY, now=0.0)
+
+
+def test_backend_records_match_their_classes() -> None:
+    """The registry's records say what the classes say (real time, name)."""
+    import importlib
+
+    from prezence.backends.registry import BACKENDS
+
+    checked = 0
+    for name, rec in BACKENDS.items():
+        module, _, attr = rec.entry_point.partition(":")
+        try:
+            cls = getattr(importlib.import_module(module), attr)
+        except ModuleNotFoundError:
+            continue  # its extra is not installed here
+        assert (cls.name, cls.realtime) == (name, rec.realtime)
+        checked += 1
+    assert checked >= 2  # fake and NAOqi import with no extra

@@ -106,6 +106,10 @@ def test_compact_decision_log_is_the_full_log_where_something_changes(tmp_path: 
 
     for r in compact:
         assert head(r) == head(by_t[r["t"]])
+        shown = {m["metric"]: m for m in r["metrics"]}
+        full = {m["metric"]: m for m in by_t[r["t"]]["metrics"]}
+        for metric, view in shown.items():  # what is shown is the full log's view
+            assert view == full[metric]
     kept = {r["t"] for r in compact}
     last = None
     for r in every:
@@ -125,4 +129,5 @@ def test_decision_log_lines_read_back_as_typed_records(tmp_path: Path) -> None:
     assert [d.to_dict() for d in decisions] == lines  # a round trip changes nothing
     cued = [d for d in decisions if d.cue is not None]
     assert cued and all(d.cue.command == "slowDown" for d in cued if d.cue)
-    assert all(d.metrics and d.metrics[0].metric == "speech_speed" for d in decisions)
+    # the first line and every cue's line show every metric; the others those that changed
+    assert all(d.metrics and d.metrics[0].metric == "speech_speed" for d in [decisions[0], *cued])
