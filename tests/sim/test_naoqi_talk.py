@@ -84,6 +84,9 @@ def test_robot_lost_mid_talk_drops_cues_and_comes_back(tmp_path: Path) -> None:
             backend="naoqi",
             backend_kwargs={"url": f"tcp://127.0.0.1:{port}", "reconnect_max_s": 1.0},
             config=cfg,
+            # no persistence delay or escalation: the first cue must end before the robot is
+            # lost, and cues must keep coming while it is away
+            policy="weighted:persistence_s=0,escalate_after=0",
             realtime=True,
             on_decision=chaos,
         )
