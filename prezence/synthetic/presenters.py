@@ -129,13 +129,13 @@ class InterruptionCost:
 
     Attributes:
         pause_s: the presenter stops talking while attending to the robot: speech speed falls
-            for this long after the cue starts. Assumption 2.0 s, about the robot's phrase (the
-            gestures last 1.5-3.5 s at 60 % speed, bench_gestures; a phrase of 2-4 words at
-            TTS pace, ~1.5 s): dual-task interference, the speaker listens instead of speaking.
+            for this long after the cue starts. Assumption 2.0 s, about the robot's phrase (its
+            planned speech lasts 1.5-2.3 s, the gestures 2.7-3.3 s, in the cue records of a
+            replay): dual-task interference, the speaker listens instead of speaking.
         pause_speed_drop: the fraction speech speed falls during the pause (assumption 0.5:
             half the words of those seconds, a pause with a few words over it).
-        attend_s: the presenter looks at the robot for this long (assumption 2.5 s: the
-            gesture's length).
+        attend_s: the presenter looks at the robot for this long (assumption 2.5 s, a little
+            shorter than a gesture).
         attend_gaze_deg: head pitch while looking at the robot (geometry, assumptions: eyes at
             1.6 m, the NAO's head at 0.5 m on a table or stand 2 m away: atan(1.1 / 2) ≈ 29°
             down, so -29°); a robot at eye level would cost nothing here.

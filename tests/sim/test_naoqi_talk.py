@@ -84,6 +84,8 @@ def test_robot_lost_mid_talk_drops_cues_and_comes_back(tmp_path: Path) -> None:
             backend="naoqi",
             backend_kwargs={"url": f"tcp://127.0.0.1:{port}", "reconnect_max_s": 1.0},
             config=cfg,
+            # no persistence delay or escalation: cues must keep coming while the robot is away
+            policy="weighted:persistence_s=0,escalate_after=0",
             on_decision=chaos,  # the NAOqi backend declares real time: the talk is paced
         )
     finally:
