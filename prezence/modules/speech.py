@@ -18,10 +18,14 @@ the window); early in the talk, over all the talk so far (at least ``--window`` 
 metric                 value
 ===================== ========================================================================
 speech_speed           words per minute of talk (recognised words / talk time in the word
-                       window); the syllable estimate instead when the recogniser is
-                       unreliable there
+                       window), or the calibrated syllable estimate where the recogniser is not
+                       trusted; not written where neither can be (see the rule below)
 speech_speed_syllables the ASR-free estimate: syllable nuclei / :data:`SYLLABLES_PER_WORD` / min
-speech_articulation    words per *speaking* minute (same words / voice-activity time)
+speech_speed_source    where the speech_speed and speech_articulation of the same ``t`` came
+                       from: 1 = recogniser words, 2 = syllable nuclei, 0 = neither could be
+                       trusted (and those two streams have no line at that ``t``)
+speech_articulation    words per *speaking* minute (the same words / the time the recognised
+                       words cover; with syllables: / voice-activity time)
 speech_volume          active-speech level in estimated dB SPL: RMS dBFS of the speech frames
                        plus ``--calibration-db`` (see "Calibrating the volume")
 speech_loudness        integrated loudness of the window, LUFS (ITU-R BS.1770, pyloudnorm),
@@ -45,19 +49,30 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
 
 * pocketsphinx's webrtc voice-activity ``Endpointer`` cuts the audio into utterances, and each
   utterance is decoded **once** (cost does not grow with window/hop); its words keep their times.
-  An utterance longer than :data:`MAX_UTTERANCE_S` is cut there, so that live output lags by at
-  most about that much. A window is written once everything up to its end is decoded, so file
-  input and ``--realtime`` give the same lines; only their timing differs.
+  An utterance longer than :data:`MAX_UTTERANCE_S` - :data:`CUT_SEARCH_S` is cut at its next
+  quiet frame (a gap between words), and at :data:`MAX_UTTERANCE_S` at the latest; one that
+  gives no words at all (pocketsphinx's search can end mid-word with no hypothesis) is decoded
+  again with 0.3 s of quiet after it.
+* Lines are written every ``--hop`` (:data:`CADENCE_S`) as the audio arrives, evenly, whatever
+  the block size (file input and ``--realtime`` give the same lines). The levels cover the
+  audio up to ``t``; the word-based metrics cover the word window ending where every word is
+  decoded, up to about :data:`MAX_UTTERANCE_S` before ``t`` in unbroken speech.
 * A word counts in a window by the fraction of it that lies inside.
 * Why a 30 s word window: over 10 s the count follows the local rate of the sentences in it,
   which on the test voice at a steady 175 wpm spans 0.91-1.10 x the talk's rate (p10-p90; the
   one paragraph looped: 0.85-1.16); over 30 s of talk 0.98-1.04, and 0.92-1.06 at 130-225 wpm
   (``bench/bench_speech.py --part windows``).
 * Syllable nuclei (De Jong & Wempe style: 300-3000 Hz band intensity peaks, >= 2 dB prominent,
-  >= 70 ms apart, within 25 dB of the loudest, voiced) are found per utterance with numpy/scipy.
-* The recogniser is *unreliable* in a window when its mean word posterior is below
-  :data:`MIN_RELIABLE_POSTERIOR` or its word count and the syllable estimate differ by more than
-  :data:`MAX_DISAGREEMENT`; speech_speed then falls back to the syllable estimate.
+  >= 70 ms apart, within 25 dB of the loudest, voiced by a window-corrected autocorrelation so
+  that low voices count as voiced) are found per utterance with numpy/scipy.
+* **Which count speech_speed uses** (speech_speed_source), per window: the recogniser's when its
+  mean word posterior is at least :data:`MIN_RELIABLE_POSTERIOR`, its words cover at least
+  :data:`MIN_WORD_COVERAGE` of the voice-activity time and the window's estimated SNR (loud over
+  quiet 30 ms frames) is at least :data:`MIN_RECOGNISER_SNR_DB`; otherwise the syllable count, divided by
+  this speaker's syllables per word as learnt in the windows where the recogniser was trusted
+  (the 1.45 prior before :data:`MIN_CALIBRATION_SYLLABLES`), when the window's estimated SNR is
+  at least :data:`MIN_SYLLABLE_SNR_DB`; otherwise none: speech_speed and speech_articulation are
+  not written there and the log says why (once per change of source).
 * Volume: RMS of the 30 ms frames inside voice activity and within 30 dB of the window's
   95th-percentile speech frame, so pauses do not dilute it and it follows a gain change exactly.
 
@@ -168,6 +183,10 @@ MIN_WORD_COVERAGE = 0.7
 #: Syllables (summed over trusted windows) needed before the per-speaker syllables-per-word
 #: ratio replaces the prior.
 MIN_CALIBRATION_SYLLABLES = 300.0
+#: The recogniser's count is used only where the estimated SNR is at least this (dB). The
+#: estimate reads 8-10 dB for white noise at a true SNR of 5 dB, 13-14 at 10 dB, 22-24 at 20 dB
+#: and >= 28 on clean speech (corpus); at a true 10 dB the recogniser misses about 16 % of words.
+MIN_RECOGNISER_SNR_DB = 15.0
 #: The syllable count is used only where the estimated SNR is at least this (dB).
 MIN_SYLLABLE_SNR_DB = 20.0
 #: speech_accuracy -> speech_clarity anchors: (accuracy, score).
@@ -748,7 +767,11 @@ class SpeechAnalyser:
     @staticmethod
     def _choose_source(mean_post: float, coverage: float, snr_db: float) -> float:
         """Which count speech_speed uses in a window: the rule of the module doc."""
-        if mean_post >= MIN_RELIABLE_POSTERIOR and coverage >= MIN_WORD_COVERAGE:
+        if (
+            mean_post >= MIN_RELIABLE_POSTERIOR
+            and coverage >= MIN_WORD_COVERAGE
+            and snr_db >= MIN_RECOGNISER_SNR_DB
+        ):
             return SOURCE_RECOGNISER
         if snr_db >= MIN_SYLLABLE_SNR_DB:
             return SOURCE_SYLLABLES
