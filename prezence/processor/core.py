@@ -174,7 +174,10 @@ class Processor:
             )
         cands = self._candidates(now)
         if not cands:
-            return Decision(now, None, "all metrics in range or below threshold", False, (), views)
+            why = "all metrics in range or below threshold"
+            if self._escalated:
+                why += f"; not repeating {', '.join(sorted(self._escalated))} (escalated)"
+            return Decision(now, None, why, False, (), views)
         chosen = self.policy.choose(cands, self._order)
         if chosen is None:
             return Decision(

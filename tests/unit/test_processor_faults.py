@@ -171,6 +171,8 @@ def test_escalation_stops_repeating_an_unheeded_cue_and_says_it_at_the_end() -> 
         ("speech_speed", "slowDown", 2)
     ]
     assert "2 times" in notes[0]["phrase"]
+    d = p.step(301.0, [Sample("speech_speed", 301.0, 230.0)], free_since=0.0)
+    assert d.cue is None and "not repeating speech_speed (escalated)" in d.reason
 
 
 def test_a_cue_that_worked_resets_the_escalation_count() -> None:
