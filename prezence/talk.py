@@ -33,7 +33,7 @@ from prezence.clock import ManualClock, MonotonicClock
 from prezence.coach import Coach, default_planner
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
-from prezence.processor import Cue, Decision, Processor, make_policy
+from prezence.processor import Cue, Decision, Processor, end_of_talk_notes, make_policy
 from prezence.samples import Sample
 from prezence.session import SessionDir, dumps, read_jsonl
 from prezence.streams.tail import MultiTailer
@@ -468,6 +468,10 @@ class Talk:
             "wall_s": round(wall, 4),
             **({"truncated": True} if truncated else {}),
             **self.source.summary_extra(),
+            # what the coach stopped repeating (escalation): said once at the end, reported
+            **(
+                {"stopped_repeating": notes} if (notes := end_of_talk_notes(self.processor)) else {}
+            ),
             **({"post_talk": post} if post is not None else {}),
         }
         if clock.live:
@@ -515,7 +519,9 @@ class Talk:
         from prezence.report.build import build_report
         from prezence.report.speech import summary_phrase
 
-        phrase = summary_phrase(build_report(self.session.root, config=self.config))
+        report = build_report(self.session.root, config=self.config)
+        report["stopped_repeating"] = end_of_talk_notes(self.processor)  # summary.json: later
+        phrase = summary_phrase(report)
         try:
             return coach.post_talk(phrase, now, step_s=step_s, pace=pace)
         except KeyboardInterrupt:

@@ -21,12 +21,13 @@ from pathlib import Path
 from typing import Any
 
 from prezence.config.model import Config, Rule
-from prezence.errors import ConfigError
+from prezence.errors import ConfigError, PrezenceError
 from prezence.samples import Sample
 from prezence.session import (
     CUE_KEYS,
     TRUTH_KEYS,
     SessionDir,
+    read_json_object,
     read_jsonl,
     sample_time_limit,
 )
@@ -435,9 +436,21 @@ def _rebuild(
         "has_truth": truth is not None,
         "effect_window_s": EFFECT_WINDOW_S,
         "head": head_turns(session, talk_s=talk_s, limit=limit),
+        "stopped_repeating": _stopped_repeating(session),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},
     }
     return report, streams
+
+
+def _stopped_repeating(session: SessionDir) -> list[dict[str, Any]]:
+    """What the coach stopped repeating during the talk (``summary.json``), [] if unknown."""
+    if not session.summary.exists():
+        return []
+    try:
+        notes = read_json_object(session.summary).get("stopped_repeating")
+    except PrezenceError:
+        return []  # the summary's own problems are reported where it is read
+    return [n for n in notes if isinstance(n, dict)] if isinstance(notes, list) else []
 
 
 def _value_at(samples: Sequence[Sample], t: float) -> float | None:

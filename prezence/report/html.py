@@ -190,6 +190,20 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         )
     else:
         out.append("<p>Every metric stayed in its ideal range. Well done.</p>")
+    stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, dict)]
+    if stopped:
+        from prezence.report.build import metric_label
+
+        out.append('<ul class="work">')
+        for n in stopped:
+            out.append(
+                f"<li>The robot stopped reminding you about your "
+                f"<b>{_e(metric_label(str(n.get('metric'))))}</b> after "
+                f"{_e(str(n.get('cues')))} reminders that did not help (from "
+                f"{float(n.get('t') or 0.0) / 60:.0f} min on): work on it before the next "
+                f"rehearsal.</li>"
+            )
+        out.append("</ul>")
     out.append(
         f'<p>What the robot says: <span class="said">“{_e(summary_phrase(report))}”</span></p>'
     )

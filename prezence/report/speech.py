@@ -79,6 +79,12 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         'You used 10 minutes of 10 minutes, right on time. Work first on this: slow down. Then: look up at your audience.'
     """  # noqa: E501 - a doctest output line
     parts = [time_sentence(report)]
+    stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, Mapping)]
+    if stopped:  # the coach stopped repeating these during the talk: said once, here
+        from prezence.report.build import metric_label
+
+        names = " and ".join(dict.fromkeys(metric_label(str(n.get("metric"))) for n in stopped))
+        parts.append(f"I stopped reminding you about your {names}: work on it next time.")
     pri = list(report.get("priorities") or [])
     if not pri:
         parts.append("Your delivery stayed in the ideal range. Well done!")
