@@ -1,6 +1,6 @@
-"""Speech module cost and accuracy on the shipped test audio: prints figures, asserts nothing.
+"""Speech module cost and accuracy on the shipped test audio and the corpus: prints figures only.
 
-Three parts (``--part``, all by default):
+Four parts (``--part``, all by default):
 
 ``files``
     For each file of tests/modules/material: CPU seconds per audio minute (``time.process_time``,
@@ -21,9 +21,19 @@ Three parts (``--part``, all by default):
     at SNR 20 / 10 / 0 dB (as tools/make_test_audio.py makes snr_*.flac): percentiles and the
     share of windows under candidate thresholds of the rule ``speech_accuracy min X``.
 
+``corpus``
+    The corpus of ``tools/make_speech_corpus.py`` (voices x rates x conditions, with truth; built
+    into ``--corpus``, default /tmp/speech_corpus): per file, the error of the median
+    speech_speed, the share of full 30 s windows within +-10 / +-12 %, the share of windows whose
+    speed came from the recogniser (speech_speed_source), the articulation error, the median
+    speech_accuracy and the CPU per audio second; then per split (dev / held-out voices) the
+    worst and mean median error, and the clarity ROC AUC of clean against degraded windows with
+    the clean / degraded shares under candidate thresholds.
+
 Usage::
 
-    python bench/bench_speech.py [--part files|windows|clarity ...] [--defaults] [--repeat 1]
+    python bench/bench_speech.py [--part files|windows|clarity|corpus ...] [--defaults]
+        [--repeat 1] [--corpus DIR] [--conditions clean ...] [--only NAME ...] [--jobs 2]
 """
 
 from __future__ import annotations

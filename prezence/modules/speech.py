@@ -68,9 +68,9 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
 * **Which count speech_speed uses** (speech_speed_source), per window: the recogniser's when its
   mean word posterior is at least :data:`MIN_RELIABLE_POSTERIOR`, its words cover at least
   :data:`MIN_WORD_COVERAGE` of the voice-activity time and the window's estimated SNR (loud over
-  quiet 30 ms frames) is at least :data:`MIN_RECOGNISER_SNR_DB`; otherwise the syllable count, divided by
-  this speaker's syllables per word as learnt in the windows where the recogniser was trusted
-  (the 1.45 prior before :data:`MIN_CALIBRATION_SYLLABLES`), when the window's estimated SNR is
+  quiet 30 ms frames) is at least :data:`MIN_RECOGNISER_SNR_DB`; otherwise the syllable count,
+  divided by this speaker's syllables per word as learnt in the windows where the recogniser was
+  trusted (the 1.45 prior before :data:`MIN_CALIBRATION_SYLLABLES`), when the estimated SNR is
   at least :data:`MIN_SYLLABLE_SNR_DB`; otherwise none: speech_speed and speech_articulation are
   not written there and the log says why (once per change of source).
 * Volume: RMS of the 30 ms frames inside voice activity and within 30 dB of the window's
