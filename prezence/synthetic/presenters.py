@@ -274,7 +274,7 @@ def comfortable_values(rule: Rule) -> tuple[float | None, float | None]:
     low side) and after a "lower" command (its high side); None where the rule has no such bound.
     A two-sided band puts them :data:`COMFORT_BAND_FRACTION` of its width inside each bound;
     a one-sided rule :data:`COMFORT_SCALES` deviation scales inside (a scale of 10 % of the bound
-    when the rule has none: 0.66 for a clarity bound of 0.6). The rule's ``offset`` is undone,
+    when the rule has none: 0.55 for a clarity bound of 0.5). The rule's ``offset`` is undone,
     as the rule judges ``value + offset``.
 
     Example:

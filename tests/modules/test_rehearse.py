@@ -37,7 +37,8 @@ def test_rehearse_a_recording_gives_a_session_and_a_report(
     assert f"report: {page}" in printed and page.exists()
     report = json.loads((out / "report" / "report.json").read_text())
     assert report["time"]["allocated_s"] == 20.0  # --allocated: the clip is not judged vs 10 min
-    assert report["metrics"]["speech_speed"]["samples"] >= 5
+    # word-based values start once 10 s of talk is decoded: a 17.6 s clip at --hop 2 has two
+    assert report["metrics"]["speech_speed"]["samples"] >= 2
     assert (out / "report" / "spoken.txt").read_text().startswith("You used ")
     summary = json.loads((out / "summary.json").read_text())
     m = summary["metrics"]["speech_speed"]
@@ -91,11 +92,13 @@ def test_up_with_file_inputs_runs_a_short_live_talk(
     assert (streams / "speech_speed.txt").read_text().strip()  # the speech module ran live
     assert (streams / "cv_gestures.txt").read_text().strip()  # and the vision module
     decisions = read_jsonl(out / "decisions.jsonl")
-    assert decisions and decisions[-1]["t"] >= 18.0
+    assert decisions
+    # every decision point up to --duration was taken (the video runs longer than the audio)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["talk_s"] >= 18.0 and summary["decisions"] >= 36
     printed = capsys.readouterr().out
     assert "session folder" in printed
     assert 'robot: "You used ' in printed  # the post-talk summary (about 20 s of 10 minutes)
     assert (out / "report" / "report.html").exists()
-    summary = json.loads((out / "summary.json").read_text())
     assert summary["modules"]["speech"]["restarts"] == 0  # its pauses are not hangs
     assert summary["modules"]["vision"]["restarts"] == 0
