@@ -177,10 +177,12 @@ class FileSource:
     microphone would; the queue is unbounded, so a slow consumer falls behind but loses nothing.
     """
 
-    def __init__(self, path: str | Path, *, realtime: bool) -> None:
+    def __init__(self, path: str | Path, *, realtime: bool, start_s: float = 0.0) -> None:
         self.path = Path(path)
         self.name = str(path)
         self.realtime = realtime
+        #: audio before this (seconds) is skipped: a module restarted mid-talk resumes here
+        self.start_s = max(0.0, float(start_s))
         self._live: _Queued | None = None
         self._closed = False
         # Fail early on a missing/empty/non-audio file, before a session is started.
@@ -189,6 +191,15 @@ class FileSource:
         self._rest = first
 
     def _all(self) -> Iterator[np.ndarray]:
+        skip = int(round(self.start_s * SAMPLE_RATE))
+        for part in self._parts():
+            if skip >= len(part):
+                skip -= len(part)
+                continue
+            yield part[skip:] if skip else part
+            skip = 0
+
+    def _parts(self) -> Iterator[np.ndarray]:
         if self._first_block is not None:
             yield self._first_block
         yield from self._rest

@@ -109,6 +109,29 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-q", "--quiet", action="store_true", help="warnings only")
 
 
+#: A file played as if live that starts later than this after ``--t0`` is a restart mid-talk.
+RESUME_AFTER_S = 1.0
+
+
+def resume_offset(args: argparse.Namespace, *, now: float | None = None) -> float:
+    """Where in its file a module played as if live starts (seconds; 0.0 from the beginning).
+
+    A module restarted mid-talk (``--realtime`` with the talk's ``--t0``) continues the file at
+    the talk's present, as a microphone or camera would, and stamps its samples on the talk's
+    clock; starting again at 0 s would write times the coach has long passed, and its metrics
+    would stay stale for the rest of the talk.
+
+    Example:
+        >>> ns = argparse.Namespace(realtime=True, t0=100.0)
+        >>> resume_offset(ns, now=100.4), resume_offset(ns, now=130.0)
+        (0.0, 30.0)
+    """
+    if not getattr(args, "realtime", False) or getattr(args, "t0", None) is None:
+        return 0.0
+    late = (time.time() if now is None else now) - float(args.t0)
+    return late if late > RESUME_AFTER_S else 0.0
+
+
 def setup_logging(module: str, args: argparse.Namespace) -> None:
     """Log to stderr as ``<module>: LEVEL: message`` (only for a module run as a process)."""
     level = logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO

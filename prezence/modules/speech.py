@@ -117,6 +117,7 @@ from prezence.modules.common import (
     StreamSet,
     add_common_arguments,
     report_error,
+    resume_offset,
     setup_logging,
 )
 from prezence.samples import SPEECH_ACCURACY, SPEECH_SPEED, SPEECH_VOLUME, Sample
@@ -970,8 +971,11 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.time() if args.t0 is None else args.t0
             t_offset = lambda: time.time() - t0  # noqa: E731 - evaluated at the first block
         else:
-            source = FileSource(args.audio, realtime=args.realtime)
-            t_offset = 0.0
+            resume = resume_offset(args)
+            if resume:
+                log.info("started %.1f s into the talk: the file continues from there", resume)
+            source = FileSource(args.audio, realtime=args.realtime, start_s=resume)
+            t_offset = resume
     except (ModuleInputError, ValueError) as e:
         return report_error("speech", e)
     if args.calibration_db is None:

@@ -104,6 +104,7 @@ from prezence.modules.common import (
     StreamSet,
     add_common_arguments,
     report_error,
+    resume_offset,
     setup_logging,
 )
 from prezence.samples import GESTURES, HEAD_GAZE
@@ -763,19 +764,24 @@ class FileSource:
     In real-time mode the frames a slow analysis cannot keep up with are skipped and counted.
     """
 
-    def __init__(self, path: Path, *, realtime: bool = False) -> None:
+    def __init__(self, path: Path, *, realtime: bool = False, start_s: float = 0.0) -> None:
         self.path = Path(path)
         self.realtime = realtime
         self._cap = open_video(self.path)
         self.fps = float(self._cap.get(cv2.CAP_PROP_FPS))
         n = int(self._cap.get(cv2.CAP_PROP_FRAME_COUNT))
-        self.stats = SourceStats(expected_frames=n if n > 0 else None)
+        #: the first frame read (a module restarted mid-talk resumes at the talk's present)
+        self.first_frame = max(0, int(round(start_s * self.fps))) if start_s > 0 else 0
+        self.stats = SourceStats(expected_frames=max(0, n - self.first_frame) if n > 0 else None)
         self.name = str(self.path)
 
     def frames(self) -> Iterator[tuple[float, np.ndarray]]:
         """Yield ``(t, bgr)``; t is the frame's video time."""
-        start = time.monotonic()
-        i = 0
+        i = self.first_frame
+        for _ in range(i):  # frame by frame: seeking is not exact in every container
+            if not self._cap.grab():
+                break
+        start = time.monotonic() - i / self.fps
         while True:
             ok, frame = self._cap.read()
             if not ok or frame is None:
@@ -1171,7 +1177,10 @@ def main(argv: list[str] | None = None) -> int:
         kind, where = parse_source(args.video)
         source: FileSource | CameraSource
         if isinstance(where, Path):
-            source = FileSource(where, realtime=args.realtime)
+            resume = resume_offset(args)
+            if resume:
+                log.info("started %.1f s into the talk: the video continues from there", resume)
+            source = FileSource(where, realtime=args.realtime, start_s=resume)
         else:
             source = CameraSource(where, t0=args.t0 if args.t0 is not None else time.time())
     except (VisionInputError, ValueError) as e:
