@@ -72,7 +72,7 @@ from prezence.feedback.limits import (
 )
 from prezence.feedback.trajectory import RAMP_S, Trajectory, profile_peaks
 
-log = logging.getLogger(__name__)
+log = logging.getLogger("sim.virtual_nao")  # the package's logger, as before the split
 #: Logger of the phrases said (INFO, one line per ``say``): enable it to watch the robot talk.
 SPEECH_LOGGER = "sim.virtual_nao.speech"
 say_log = logging.getLogger(SPEECH_LOGGER)
@@ -1409,7 +1409,7 @@ def spawn(*args: str, timeout_s: float = 60.0) -> tuple[subprocess.Popen[str], s
     """
     proc = subprocess.Popen(
         [sys.executable, "-m", "sim.virtual_nao", *args],
-        cwd=Path(__file__).resolve().parents[1],
+        cwd=Path(__file__).resolve().parents[2],
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,
