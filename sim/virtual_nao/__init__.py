@@ -35,35 +35,41 @@ clock to the caller (:meth:`VirtualNao.tick`), for tests.
 
 Run it with ``python -m sim.virtual_nao --port 0`` (prints ``listening on tcp://127.0.0.1:PORT``)
 or ``prezence sim serve``.
+
+Modules, one per concern (their public names are re-exported here): :mod:`.robot` (body names, the
+model, :class:`VirtualNao` and its task scheduler), :mod:`.planning` (``angleInterpolation``
+keyframes), :mod:`.services` (ALMotion, ALTextToSpeech, ALLeds, ALRobotPosture, ALMemory) and
+:mod:`.server` (:func:`serve`, :func:`spawn`, :func:`stop_spawned`, the command line).
 """
 
+from sim.virtual_nao.planning import SPEED_TOL, KeyframePlan, min_segment_time, plan_keyframes
 from sim.virtual_nao.robot import (
     BODY,
     GROUPS,
-    LED_COLORS,
     LED_GROUPS,
+    KinematicNao,
+    Model,
+    VirtualNao,
+    body_specs,
+    make_model,
+)
+from sim.virtual_nao.server import (
+    VirtualNaoServer,
+    build_parser,
+    main,
+    serve,
+    spawn,
+    stop_spawned,
+)
+from sim.virtual_nao.services import (
+    LED_COLORS,
     POSTURES,
     SPEECH_LOGGER,
-    SPEED_TOL,
     ALLeds,
     ALMemory,
     ALMotion,
     ALRobotPosture,
     ALTextToSpeech,
-    KeyframePlan,
-    KinematicNao,
-    Model,
-    VirtualNao,
-    VirtualNaoServer,
-    body_specs,
-    build_parser,
-    main,
-    make_model,
-    min_segment_time,
-    plan_keyframes,
-    serve,
-    spawn,
-    stop_spawned,
 )
 
 __all__ = [
