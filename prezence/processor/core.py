@@ -194,7 +194,7 @@ class Processor:
             [
                 (
                     st.value is None or now - st.last_sample_t > st.stale_after_s,
-                    None if st.value is None else st.rule.side(st.value),
+                    None if st.value is None else st.side,
                     st.strict_pending,
                 )
                 for st in self._states.values()
@@ -228,8 +228,8 @@ class Processor:
                 continue
             if r.metric in self._escalated:
                 continue
-            dev = st.deviation()
-            side = r.side(st.value)
+            dev = st.dev
+            side = st.side
             if r.strict and st.strict_pending and now - st.last_problem_t > st.stale_after_s:
                 # The excursion ended longer ago than the stale time: too old to be worth a cue.
                 st.strict_pending = False
