@@ -412,6 +412,33 @@ class StreamTailer:
         recorded = self._stamps_in
         stamped: list[str] = []
         t: float | None
+        if plain and not self._skipping and isinstance(lines, list):
+            # The common case first: well-formed, in-order lines within the clock limits are
+            # taken here; the first other line and everything after it go the general way.
+            hi = math.inf if max_t is None else max_t
+            if ahead is not None and now is not None:
+                hi = min(hi, now + ahead)
+            lo = -math.inf if last_t is None else last_t
+            done = 0
+            for line in lines:
+                fields = line.split()
+                if len(fields) != 2 or len(line) > MAX_LINE_BYTES:
+                    break
+                try:
+                    tf = float(fields[0])
+                    value = float(fields[1])
+                except ValueError:
+                    break
+                # x - x == 0.0 is false for inf and nan
+                if not (lo <= tf <= hi and tf >= 0.0 and value - value == 0.0):
+                    break
+                lo = tf
+                append(Sample(metric, tf, value))
+                done += 1
+            if done:
+                self._line_no += done
+                last_t = lo
+                lines = lines[done:]
         for raw in lines:
             self._line_no += 1
             if self._skipping:  # the end of an over-long line
