@@ -154,9 +154,13 @@ class Processor:
         Returns:
             The decision; its ``cue`` is set when a cue must be given now.
         """
-        self.ingest(samples, now=now)
+        if samples:
+            self.ingest(samples, now=now)
         for st in self._states.values():
-            st.advance(now)
+            if st.value is not None and now > st.integrated_to:
+                st.advance(now)
+            elif now > st.integrated_to:
+                st.integrated_to = now  # what advance() does without a value
         views = self.views(now) if with_views else ()
         if self.policy.whole:
             chosen = self.policy.decide(now, free_since is not None)
@@ -192,9 +196,10 @@ class Processor:
         strict cue pending). The decision log writes a line when it changes."""
         return tuple(
             [
+                # side is None while there is no value
                 (
                     st.value is None or now - st.last_sample_t > st.stale_after_s,
-                    None if st.value is None else st.side,
+                    st.side,
                     st.strict_pending,
                 )
                 for st in self._states.values()

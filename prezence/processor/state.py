@@ -78,7 +78,7 @@ class MetricState:
         p = self.persistence
         tau = self.persistence_s
         # Fresh part of the interval: grow (out of range) or decay (in range).
-        t_fresh_end = min(to_t, fresh_until)
+        t_fresh_end = to_t if to_t <= fresh_until else fresh_until  # min(), without the call
         if t_fresh_end > t0:
             dt = t_fresh_end - t0
             if dev > 0.0:
