@@ -155,7 +155,7 @@ METRICS: Mapping[str, Metric] = {
             _SPEECH,
             advice={"below": "articulate more clearly"},
             physical_range=(0.0, 1.0),
-            band=("min", 0.6, None),
+            band=("min", 0.5, None),
         ),
         Metric("speech_clarity", "0..1", "clarity (acoustic)", "speech", _SPEECH),
         Metric("speech_activity", "0..1", "voice activity", "speech", _SPEECH),
