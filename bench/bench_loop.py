@@ -81,6 +81,7 @@ def main() -> None:
                 "--out",
                 f"{d}/r",
                 "--no-report",
+                "--force",  # each repeat moves the previous one aside
                 "-q",
             ]
             peer = [

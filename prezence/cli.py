@@ -177,6 +177,7 @@ def _options(args: argparse.Namespace) -> RunOptions:
         speed_fraction=args.speed,
         realtime=bool(getattr(args, "realtime", False)),
         report=not args.no_report,
+        plots=getattr(args, "plots", True),
     )
 
 
@@ -212,7 +213,12 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f'robot: "{post["phrase"]}"')
         print(f"session folder: {result.session.root}  (summary.json, cues.jsonl, decisions.jsonl)")
         if not args.no_report:
-            print(f"report: {result.session.report / 'report.html'}")
+            page = result.session.report / "report.html"
+            if args.plots:
+                print(f"report: {page}")
+            else:
+                again = f"prezence report {result.session.root}"
+                print(f"report: {page}  (tables; plots: --plots or {again})")
     # A scenario states what a good coach must do; missing it fails the run, as CI wants.
     return EXIT_EXPECTATIONS if problems else 0
 
@@ -552,6 +558,11 @@ def _add_run_args(p: argparse.ArgumentParser) -> None:
     _add_robot_args(p, out_help="sessions/<scenario>")
     p.add_argument("--seed", type=int, default=None, help="presenter seed (default: scenario's)")
     p.add_argument("--realtime", action="store_true", help="pace to the wall clock")
+    p.add_argument(
+        "--plots",
+        action="store_true",
+        help="draw the report's plots (about 1 s; `prezence report DIR` draws them later too)",
+    )
 
 
 def _add_recorded_args(p: argparse.ArgumentParser) -> None:

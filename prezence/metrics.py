@@ -165,7 +165,10 @@ METRICS: Mapping[str, Metric] = {
             "eye contact",
             "vision",
             _VISION,
-            advice={"below": "look up at your audience", "above": "lower your gaze"},
+            advice={
+                "below": "look up at your audience",
+                "above": "lower your gaze to the audience",
+            },
             physical_range=(-90.0, 90.0),
             band=("min", -15.0, None),
             scale=10.0,

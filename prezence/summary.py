@@ -28,19 +28,30 @@ def _in_range_time(
     in_s = out_s = 0.0
     longest_out = 0.0
     run_out = 0.0
-    for i, s in enumerate(samples):
-        if s.t >= talk_s:
+    side = rule.side
+    n = len(samples)
+    for i in range(n):  # min()/max() written out: this runs once per sample of the talk
+        s = samples[i]
+        t = s.t
+        if t >= talk_s:
             break
-        nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
-        end = min(nxt, s.t + stale_s, talk_s)
-        dt = max(0.0, end - s.t)
-        if rule.side(s.value) is None:
+        nxt = samples[i + 1].t if i + 1 < n else talk_s
+        end = nxt
+        if t + stale_s < end:
+            end = t + stale_s
+        if talk_s < end:
+            end = talk_s
+        dt = end - t
+        if dt < 0.0:
+            dt = 0.0
+        if side(s.value) is None:
             in_s += dt
             run_out = 0.0
         else:
             out_s += dt
             run_out += dt
-            longest_out = max(longest_out, run_out)
+            if run_out > longest_out:
+                longest_out = run_out
         if end < nxt:  # a gap (stale) breaks a stretch
             run_out = 0.0
     covered = in_s + out_s

@@ -59,6 +59,8 @@ class RunOptions:
         speed_fraction: fraction of each joint's velocity limit the gestures use.
         realtime: pace a stepped run to the wall clock even when the backend does not need it.
         report: after the talk the robot says the spoken summary and ``report/`` is written.
+        plots: the report draws its plots (matplotlib, about 1 s of CPU); without them it
+            has its tables and says how to draw them (``prezence report DIR``).
         decision_log: ``changes`` (the default: a line where a cue is chosen or the reason,
             the robot's state or a metric's state changes), ``every`` (a line per decision
             point) or ``off``.
@@ -69,6 +71,7 @@ class RunOptions:
     speed_fraction: float
     realtime: bool
     report: bool
+    plots: bool = True
     decision_log: str = "changes"
 
     def __post_init__(self) -> None:
@@ -493,7 +496,7 @@ class Talk:
         if self.options.report and completed:
             from prezence.report.build import write_report
 
-            page = write_report(self.session.root, config=self.config)
+            page = write_report(self.session.root, config=self.config, plots=self.options.plots)
         return TalkRun(
             self.session,
             summary,

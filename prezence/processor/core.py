@@ -154,9 +154,13 @@ class Processor:
         Returns:
             The decision; its ``cue`` is set when a cue must be given now.
         """
-        self.ingest(samples, now=now)
+        if samples:
+            self.ingest(samples, now=now)
         for st in self._states.values():
-            st.advance(now)
+            if st.value is not None and now > st.integrated_to:
+                st.advance(now)
+            elif now > st.integrated_to:
+                st.integrated_to = now  # what advance() does without a value
         views = self.views(now) if with_views else ()
         if self.policy.whole:
             chosen = self.policy.decide(now, free_since is not None)
@@ -195,9 +199,10 @@ class Processor:
         strict cue pending). The decision log writes a line when it changes."""
         return tuple(
             [
+                # side is None while there is no value
                 (
                     st.value is None or now - st.last_sample_t > st.stale_after_s,
-                    None if st.value is None else st.rule.side(st.value),
+                    st.side,
                     st.strict_pending,
                 )
                 for st in self._states.values()
@@ -231,8 +236,8 @@ class Processor:
                 continue
             if r.metric in self._escalated:
                 continue
-            dev = st.deviation()
-            side = r.side(st.value)
+            dev = st.dev
+            side = st.side
             if r.strict and st.strict_pending and now - st.last_problem_t > st.stale_after_s:
                 # The excursion ended longer ago than the stale time: too old to be worth a cue.
                 st.strict_pending = False

@@ -22,7 +22,7 @@ that writes twice as often reaches the threshold at the same time, not twice as 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from prezence.config.model import Rule
 
@@ -59,6 +59,10 @@ class MetricState:
     samples: int = 0
     late: int = 0  # samples older than the newest one already seen: dropped
     ahead: int = 0  # samples stamped too far ahead of the talk clock: dropped
+    # The held value's deviation and side of the band, set with it in ingest (the hot path
+    # reads them every step instead of recomputing them from the rule).
+    dev: float = field(default=0.0, repr=False, compare=False)
+    side: str | None = field(default=None, repr=False, compare=False)
 
     def advance(self, to_t: float) -> None:
         """Integrate the held value's deviation from ``integrated_to`` up to ``to_t``."""
@@ -69,12 +73,12 @@ class MetricState:
         if self.value is None:
             return
         fresh_until = self.last_sample_t + self.stale_after_s
-        dev = self.rule.deviation(self.value)
+        dev = self.dev
         w = self.weight
         p = self.persistence
         tau = self.persistence_s
         # Fresh part of the interval: grow (out of range) or decay (in range).
-        t_fresh_end = min(to_t, fresh_until)
+        t_fresh_end = to_t if to_t <= fresh_until else fresh_until  # min(), without the call
         if t_fresh_end > t0:
             dt = t_fresh_end - t0
             if dev > 0.0:
@@ -113,7 +117,9 @@ class MetricState:
         self.value = value
         self.last_sample_t = t
         self.samples += 1
-        dev = self.rule.deviation(value)
+        rule = self.rule
+        self.dev = dev = rule.deviation(value)
+        self.side = rule.side(value)
         if dev > 0.0:
             if self.out_since is None:
                 self.out_since = t
@@ -130,10 +136,10 @@ class MetricState:
                     self.strict_pending = True
                     self.strict_onset = t
                     self.strict_peak = dev
-                    self.strict_side = self.rule.side(value)
+                    self.strict_side = self.side
                 elif dev > self.strict_peak:
                     self.strict_peak = dev
-                    self.strict_side = self.rule.side(value)
+                    self.strict_side = self.side
         else:
             self.out_since = None
             self.strict_armed = True
@@ -148,7 +154,7 @@ class MetricState:
         return now - self.last_sample_t > self.stale_after_s
 
     def deviation(self) -> float:
-        return 0.0 if self.value is None else self.rule.deviation(self.value)
+        return 0.0 if self.value is None else self.dev
 
     def fired(self, now: float) -> None:
         """Reset after this metric was cued."""

@@ -1,7 +1,7 @@
 """Rebuild a talk's post-speech report from its session folder alone.
 
 The report reads only what the talk wrote as it went: the module files (``streams/*.txt``, or
-at the folder's root: replay's discovery, :func:`prezence.replay.locate_streams`), the cue
+at the folder's root: replay's discovery, :func:`prezence.streams.locate.locate_streams`), the cue
 records (``cues.jsonl``), the effective configuration (``config.toml``) and ``session.json``;
 ``truth.jsonl`` is used when a synthetic talk finished and left one. It never needs the
 processor's memory, so it works after a crash: a torn last line is ignored, a stream that stops
@@ -22,6 +22,7 @@ from typing import Any
 
 from prezence.config.model import Config, Rule
 from prezence.errors import ConfigError, PrezenceError
+from prezence.metrics import METRICS
 from prezence.samples import Sample
 from prezence.session import (
     CUE_KEYS,
@@ -42,35 +43,11 @@ EFFECT_WINDOW_S = 30.0
 #: A cue "helped" when the mean deviation after it is at most this fraction of the one before.
 IMPROVED_RATIO = 0.8
 
-#: Words a person understands, per metric (the config's metric names are module names).
-METRIC_LABELS: Mapping[str, str] = {
-    "speech_speed": "pace",
-    "speech_volume": "volume",
-    "speech_accuracy": "clarity",
-    "cv_headGaze": "eye contact",
-    "cv_gestures": "gestures",
-    "cv_headYaw": "head turn",
-    "cv_facingAudience": "facing the audience",
-}
-
 #: Head-turn streams the vision module writes, shown whether or not a rule uses them.
 HEAD_YAW = "cv_headYaw"
 FACING = "cv_facingAudience"
 #: |yaw| above this (degrees) counts as the head turned to one side.
 TURNED_DEG = 20.0
-
-#: What to work on, per metric and side of the band.
-ADVICE: Mapping[tuple[str, str], str] = {
-    ("speech_speed", "above"): "slow down",
-    ("speech_speed", "below"): "pick up the pace",
-    ("speech_volume", "below"): "speak louder",
-    ("speech_volume", "above"): "speak more softly",
-    ("speech_accuracy", "below"): "articulate more clearly",
-    ("cv_headGaze", "below"): "look up at your audience",
-    ("cv_headGaze", "above"): "lower your gaze to the audience",
-    ("cv_gestures", "below"): "use your hands more",
-    ("cv_gestures", "above"): "calm your hands",
-}
 
 
 def metric_label(metric: str) -> str:
@@ -80,7 +57,8 @@ def metric_label(metric: str) -> str:
         >>> metric_label("cv_headGaze"), metric_label("my_module")
         ('eye contact', 'my_module')
     """
-    return METRIC_LABELS.get(metric, metric)
+    rec = METRICS.get(metric)
+    return rec.label if rec is not None else metric
 
 
 def advice(rule: Rule, side: str) -> str:
@@ -93,7 +71,8 @@ def advice(rule: Rule, side: str) -> str:
         >>> advice(Rule("x", Check.MIN, low=1.0), "below")
         'raise x'
     """
-    known = ADVICE.get((rule.metric, side))
+    rec = METRICS.get(rule.metric)
+    known = rec.advice.get(side) if rec is not None else None
     if known is not None:
         return known
     return f"{'raise' if side == 'below' else 'lower'} {metric_label(rule.metric)}"
@@ -323,7 +302,7 @@ def _rebuild(
         raise ConfigError("no such session folder", path=session.root)
     meta = _read_meta(session)
     cfg = config if config is not None else _load_session_config(session)
-    from prezence.replay import locate_streams, no_streams_error
+    from prezence.streams.locate import locate_streams, no_streams_error
     from prezence.streams.tail import read_stream
 
     paths = locate_streams(session.root, cfg)
@@ -514,13 +493,16 @@ def write_report(
     *,
     config: Config | None = None,
     progress: Callable[[float, float], None] | None = None,
+    plots: bool = True,
 ) -> Path:
     """Build the report and write it into ``SESSION/report/``.
 
     Writes ``report.html`` (self-contained), ``report.json``, ``summary.txt`` (the terminal
     summary), ``spoken.txt`` (what the robot says) and, with matplotlib installed, the plots as
     ``summary.png`` and ``timeline_<metric>.png`` (for each metric with data; the page says "no
-    data" for the others). Without matplotlib the page has tables only.
+    data" for the others). Without matplotlib, or with ``plots=False`` (a synthetic talk's
+    default: drawing costs about 1 s of CPU, more than the talk), the page has tables only and
+    says how to get the plots.
 
     Returns:
         The path of ``report.html``.
@@ -528,7 +510,6 @@ def write_report(
     Raises:
         ConfigError: see :func:`build_report`.
     """
-    from prezence.report import plots
     from prezence.report.html import render_html
     from prezence.report.speech import format_text, summary_phrase
     from prezence.session import write_json
@@ -543,8 +524,15 @@ def write_report(
     folder = session.report
     folder.mkdir(parents=True, exist_ok=True)
     images: dict[str, bytes] = {}
-    if plots.available():
-        images["summary"] = plots.summary_png(report)
+    from prezence.report import plots as draw
+
+    for old in folder.glob("*.png"):  # plots of an earlier build would not match this one
+        old.unlink()
+    if not plots:
+        report["plots"] = []
+        report["plots_missing"] = "not drawn for this run"
+    elif draw.available():
+        images["summary"] = draw.summary_png(report)
         allocated = report["time"].get("allocated_s")
         n_plots = 1 + len(report["metrics"])
         for i, (metric, m) in enumerate(report["metrics"].items()):
@@ -553,7 +541,7 @@ def write_report(
             if not streams[metric]:
                 continue  # no data: the page says so instead of an empty plot
             about = [c for c in report["cues"] if c.get("metric") == metric]
-            images[f"timeline_{metric}"] = plots.timeline_png(
+            images[f"timeline_{metric}"] = draw.timeline_png(
                 m, streams[metric], about, talk_s=float(report["talk_s"]), allocated_s=allocated
             )
         if progress is not None:

@@ -140,10 +140,15 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             "wrong.</div>"
         )
     if report.get("plots_missing"):
+        install = (
+            '<code>pip install "prezence[report]"</code>, then '
+            if "not installed" in report["plots_missing"]
+            else ""
+        )
         out.append(
             f'<div class="note">No plots in this report: {_e(report["plots_missing"])}. '
-            'To get them: <code>pip install "prezence[report]"</code>, then '
-            f"<code>prezence report {_e(report.get('session'))}</code>.</div>"
+            f"To get them: {install}<code>prezence report {_e(report.get('session'))}</code>"
+            f"{'' if install else ' (or run the talk with <code>--plots</code>)'}.</div>"
         )
     judged = counts.get("cues_judged", 0)
     out.append('<div class="cards">')

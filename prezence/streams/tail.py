@@ -395,6 +395,10 @@ class StreamTailer:
             self._keep_pending(buf)
             return []
         complete, rest = buf[:cut], buf[cut + 1 :]
+        # Plain ASCII without "_": float() alone decides each field (parse_line's other checks
+        # cannot fail), so lines take the short path below; a bad one still goes to parse_line
+        # for its reason.
+        plain = complete.isascii() and b"_" not in complete
         try:
             lines: Iterable[str | bytes] = complete.decode("utf-8").split("\n")
         except UnicodeDecodeError:
@@ -407,6 +411,34 @@ class StreamTailer:
         last_t = self._last_t
         recorded = self._stamps_in
         stamped: list[str] = []
+        t: float | None
+        if plain and not self._skipping and isinstance(lines, list):
+            # The common case first: well-formed, in-order lines within the clock limits are
+            # taken here; the first other line and everything after it go the general way.
+            hi = math.inf if max_t is None else max_t
+            if ahead is not None and now is not None:
+                hi = min(hi, now + ahead)
+            lo = -math.inf if last_t is None else last_t
+            done = 0
+            for line in lines:
+                fields = line.split()
+                if len(fields) != 2 or len(line) > MAX_LINE_BYTES:
+                    break
+                try:
+                    tf = float(fields[0])
+                    value = float(fields[1])
+                except ValueError:
+                    break
+                # x - x == 0.0 is false for inf and nan
+                if not (lo <= tf <= hi and tf >= 0.0 and value - value == 0.0):
+                    break
+                lo = tf
+                append(Sample(metric, tf, value))
+                done += 1
+            if done:
+                self._line_no += done
+                last_t = lo
+                lines = lines[done:]
         for raw in lines:
             self._line_no += 1
             if self._skipping:  # the end of an over-long line
@@ -424,13 +456,24 @@ class StreamTailer:
             if len(line) > MAX_LINE_BYTES:
                 self._problem(self._line_no, f"line longer than {MAX_LINE_BYTES} bytes")
                 continue
-            if not line or line.isspace():
-                continue
-            try:
-                t, value = parse_line(line)
-            except StreamLineError as e:
-                self._problem(self._line_no, e.reason)
-                continue
+            fields = line.split() if plain else None
+            if fields is not None and len(fields) == 2:
+                try:
+                    t = float(fields[0])
+                    value = float(fields[1])
+                except ValueError:
+                    fields = None
+                else:  # x - x == 0.0 is false for inf and nan
+                    if not (t >= 0.0 and t - t == 0.0 and value - value == 0.0):
+                        fields = None
+            if fields is None or len(fields) != 2:
+                if not line or line.isspace():
+                    continue
+                try:
+                    t, value = parse_line(line)
+                except StreamLineError as e:
+                    self._problem(self._line_no, e.reason)
+                    continue
             if t is None:  # bare value: stamped by the reader
                 if self._line_no in recorded:
                     t = recorded[self._line_no]

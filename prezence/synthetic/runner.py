@@ -9,6 +9,7 @@ byte for byte.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -153,14 +154,7 @@ def run_talk(
     opts = options if options is not None else RunOptions.default(**option_changes)
     if options is not None and option_changes:
         raise TypeError("give either options or option keywords, not both")
-    opts = RunOptions(
-        policy=opts.policy,
-        seed=seed,
-        speed_fraction=opts.speed_fraction,
-        realtime=opts.realtime,
-        report=opts.report,
-        decision_log=opts.decision_log,
-    )
+    opts = dataclasses.replace(opts, seed=seed)
     cfg = (config or load_config(None)).with_allocated(sc.allocated_s)
     bk = (
         backend if isinstance(backend, Backend) else make_backend(backend, **(backend_kwargs or {}))

@@ -24,7 +24,7 @@ CHROMIUM = next(
 def test_the_report_renders_in_headless_chromium(tmp_path: Path) -> None:
     pytest.importorskip("matplotlib")
     s = tmp_path / "talk"
-    assert main(["run", "demo", "--out", str(s), "-q"]) == 0
+    assert main(["run", "demo", "--out", str(s), "--plots", "-q"]) == 0
     page = s / "report" / "report.html"
     with tempfile.TemporaryDirectory(prefix="prezence-chromium-") as profile:
         common = [

@@ -231,6 +231,20 @@ def test_without_matplotlib_the_page_has_tables_only(
     assert not list(session.report.glob("*.png"))
 
 
+def test_a_report_without_plots_says_how_to_draw_them_and_report_draws_them(
+    session: SessionDir,
+) -> None:
+    pytest.importorskip("matplotlib")
+    write_report(session.root)  # an earlier build with plots: none of them may stay behind
+    html = write_report(session.root, plots=False).read_text()
+    assert "<img" not in html and "<table>" in html
+    assert f"prezence report {session.root}" in html and "--plots" in html
+    assert not list(session.report.glob("*.png"))
+    html = write_report(session.root).read_text()  # what `prezence report DIR` does
+    assert html.count('src="data:image/png;base64,') == 1 + len(CONFIG.rules)
+    assert "No plots" not in html
+
+
 def test_a_metric_without_data_says_no_data_instead_of_an_empty_plot(tmp_path: Path) -> None:
     session = make_session(tmp_path / "t")
     session.stream("cv_headGaze.txt").write_text("")  # the vision module ran, wrote nothing
