@@ -290,7 +290,9 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
         force=args.force,
         default=_speaker_root(args) / f"rehearsal-{rec.stem}",
     )
-    with _drop_if_left_empty(out):
+    from prezence.bars import progress_bar
+
+    with _drop_if_left_empty(out), progress_bar("analysing", seconds=True) as show:
         result = rehearse(
             rec,
             out=out,
@@ -300,6 +302,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
             backend_kwargs=kw,
             module_args=margs,
             allocated_s=args.allocated,
+            progress=show,
         )
     _finish_session(result.session.root, result.summary, args, report=result.report)
     return 0

@@ -13,7 +13,8 @@ import importlib
 import logging
 import shlex
 import subprocess
-from collections.abc import Mapping, Sequence
+import time
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -134,6 +135,41 @@ def module_commands(
     return cmds
 
 
+#: How often the progress of a rehearsal's modules is read (seconds).
+PROGRESS_PERIOD_S = 0.25
+
+
+def newest_stamp(streams: Path) -> float:
+    """The newest sample time in any stream file of ``streams`` (0.0 when none): how far the
+    modules have got. Only each file's last bytes are read."""
+    newest = 0.0
+    for path in streams.glob("*.txt"):
+        try:
+            with path.open("rb") as f:
+                f.seek(max(0, path.stat().st_size - 256))
+                lines = f.read().split(b"\n")
+        except OSError:
+            continue
+        for line in reversed(lines[:-1] if len(lines) > 1 else lines):
+            try:
+                newest = max(newest, float(line.split()[0]))
+                break
+            except (ValueError, IndexError):
+                continue
+    return newest
+
+
+def recording_length_s(recording: Path) -> float:
+    """The recording's length in seconds from its container (0.0 when it cannot be read)."""
+    try:
+        import av
+
+        with av.open(str(recording)) as c:
+            return float(c.duration) / 1e6 if c.duration else 0.0
+    except Exception:  # noqa: BLE001 - only a progress bar's total depends on it
+        return 0.0
+
+
 def rehearse(
     recording: Path,
     *,
@@ -145,6 +181,7 @@ def rehearse(
     modules: dict[str, list[str]] | None = None,
     module_args: Mapping[str, Sequence[str]] | None = None,
     allocated_s: float | None = None,
+    progress: Callable[[float, float], None] | None = None,
 ) -> ReplayResult:
     """Analyse ``recording`` with the input modules, then coach over the result.
 
@@ -159,6 +196,8 @@ def rehearse(
         module_args: per module name, words appended to its command line.
         allocated_s: the time allocated, seconds (None keeps the config's); a 36 s clip is
             then not judged against ten minutes.
+        progress: told ``(seconds analysed, recording length)`` while the modules run (the
+            newest time in their streams; the length is 0.0 when it cannot be read).
 
     Raises:
         ConfigError: the recording is missing or of an unknown kind.
@@ -175,14 +214,25 @@ def rehearse(
     )
     session = SessionDir(Path(out)).create()
     session.config.write_text(dumps_config(config))
-    procs = {
-        name: subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        for name, argv in cmds.items()
-    }
+    logs = {name: (session.root / f"{name}.log").open("w") for name in cmds}
+    try:
+        procs = {
+            name: subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=logs[name], text=True)
+            for name, argv in cmds.items()
+        }
+        total = recording_length_s(recording) if progress is not None else 0.0
+        while any(p.poll() is None for p in procs.values()):
+            if progress is not None:
+                progress(min(newest_stamp(session.streams), total or MAX_TALK_S), total)
+            time.sleep(PROGRESS_PERIOD_S)
+    finally:
+        for f in logs.values():
+            f.close()
+    if progress is not None:
+        progress(total, total)
     failures: dict[str, str] = {}
     for name, p in procs.items():
-        _, err = p.communicate()
-        (session.root / f"{name}.log").write_text(err)
+        err = (session.root / f"{name}.log").read_text(errors="replace")
         if p.returncode != 0:
             msg = err.strip().splitlines()[-1] if err.strip() else f"exit status {p.returncode}"
             failures[name] = msg

@@ -16,7 +16,7 @@ pytest.importorskip("cv2", reason='the vision module needs OpenCV: pip install "
 
 from prezence.cli import main  # noqa: E402
 from prezence.errors import ConfigError  # noqa: E402
-from prezence.rehearse import rehearse  # noqa: E402
+from prezence.rehearse import module_commands, rehearse  # noqa: E402
 from prezence.session import read_jsonl  # noqa: E402
 from prezence.talk import RunOptions
 
@@ -102,3 +102,20 @@ def test_up_with_file_inputs_runs_a_short_live_talk(
     assert (out / "report" / "report.html").exists()
     assert summary["modules"]["speech"]["restarts"] == 0  # its pauses are not hangs
     assert summary["modules"]["vision"]["restarts"] == 0
+
+
+def test_rehearse_reports_its_progress_through_the_recording(tmp_path: Path) -> None:
+    seen: list[tuple[float, float]] = []
+    rehearse(
+        FAST,
+        out=tmp_path / "s",
+        options=RunOptions.default(report=False),
+        modules=module_commands(FAST, tmp_path / "s"),
+        progress=lambda done, total: seen.append((done, total)),
+    )
+    assert seen, "no progress was reported"
+    total = seen[-1][1]
+    assert 17.0 < total < 18.5  # the clip's own length, read from its container
+    assert seen[-1][0] == total  # finished
+    done = [d for d, _ in seen]
+    assert all(0.0 <= d <= total for d in done)
