@@ -21,6 +21,7 @@ from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION
 
 if TYPE_CHECKING:
     from prezence.config.model import Config
+    from prezence.live_view import RichLiveView
     from prezence.talk import RunOptions
 
 log = logging.getLogger(__name__)
@@ -358,7 +359,7 @@ def cmd_up(args: argparse.Namespace) -> int:
         except ValueError as e:  # two modules of the same name
             raise PrezenceError(str(e)) from None
         finally:
-            if view is not None and hasattr(view, "close"):
+            if view is not None:
                 view.close()
     _finish_session(result.session.root, result.summary, args, report=result.report)
     if result.error is not None:
@@ -379,17 +380,14 @@ def _drop_if_left_empty(folder: Path) -> Iterator[None]:
         raise
 
 
-def _live_view(config: Config, specs: Sequence[Any]) -> Any:
-    """The rich live view on a terminal with ``rich`` installed, else the plain one."""
-    from prezence.launcher import LiveView
-    from prezence.live_view import RichLiveView, rich_available
+def _live_view(config: Config, specs: Sequence[Any]) -> RichLiveView:
+    """The live view: a redrawn table on a terminal, plain lines otherwise."""
+    from prezence.live_view import RichLiveView
 
-    if rich_available() and sys.stdout.isatty():
-        # metrics no module writes are "not measured" (unknown when a module names none)
-        known = all(s.metrics for s in specs)
-        measured = {m for s in specs for m in s.metrics} if known else None
-        return RichLiveView(config, [s.name for s in specs], measured=measured)
-    return LiveView(config)
+    # metrics no module writes are "not measured" (unknown when a module names none)
+    known = all(s.metrics for s in specs)
+    measured = {m for s in specs for m in s.metrics} if known else None
+    return RichLiveView(config, [s.name for s in specs], measured=measured)
 
 
 def _finish_session(

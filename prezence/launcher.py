@@ -43,7 +43,6 @@ from typing import IO, Any
 from prezence.backends.base import Backend
 from prezence.config.model import Config
 from prezence.metrics import DEFAULT_HANG_S, INPUT_MODULES
-from prezence.processor import Decision
 from prezence.samples import MAX_AHEAD_S, Sample
 from prezence.session import SessionDir
 from prezence.streams.tail import MultiTailer
@@ -363,47 +362,6 @@ class UpResult:
     report: Path | None = None
     #: Why the talk stopped early: a module's own message about its input (None: it did not).
     error: str | None = None
-
-
-class LiveView:
-    """The terminal view: each metric against its range, and every cue with its reason."""
-
-    def __init__(
-        self, config: Config, stream: IO[str] | None = None, *, tty: bool | None = None
-    ) -> None:
-        self.config = config
-        self.out = stream or sys.stdout
-        self.tty = self.out.isatty() if tty is None else tty
-        self._last_status = -1.0
-
-    def event(self, now: float, text: str) -> None:
-        self._clear()
-        print(f"{_mmss(now)}  {text}", file=self.out, flush=True)
-
-    def decision(self, d: Decision) -> None:
-        if d.cue is not None:
-            self.event(d.t, f"CUE {d.cue.command:<12} {d.cue.reason}")
-        elif self.tty and d.t - self._last_status >= 0.5:
-            self._last_status = d.t
-            parts = []
-            for m in d.metrics:
-                r = self.config.rule(m.metric)
-                lo = "" if r.low is None else f"{r.low:g}"
-                hi = "" if r.high is None else f"{r.high:g}"
-                v = "--" if m.value is None else f"{m.value:.4g}"
-                flag = "stale" if m.stale else ("OUT" if m.deviation > 0 else "ok")
-                parts.append(f"{m.metric} {v} [{lo}..{hi}] {flag}")
-            line = f"{_mmss(d.t)} {'busy' if d.busy else 'free'} | " + " | ".join(parts)
-            self.out.write("\r\033[K" + line[:200])
-            self.out.flush()
-
-    def _clear(self) -> None:
-        if self.tty:
-            self.out.write("\r\033[K")
-
-
-def _mmss(t: float) -> str:
-    return f"{int(t // 60)}:{t % 60:04.1f}"
 
 
 class LiveSource(SourceBase):

@@ -35,14 +35,6 @@ def _mmss(t: float) -> str:
     return f"{int(t // 60)}:{t % 60:04.1f}"
 
 
-def rich_available() -> bool:
-    try:
-        import rich  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def weight_bar(weight: float, threshold: float, width: int = BAR) -> str:
     """``█████░░░░░ 50%``: ``weight`` as a share of ``threshold`` (capped at 100%).
 
@@ -56,7 +48,7 @@ def weight_bar(weight: float, threshold: float, width: int = BAR) -> str:
 
 
 class RichLiveView:
-    """The live view; the same calls as :class:`prezence.launcher.LiveView` plus :meth:`close`.
+    """The live view: ``decision(d)`` and ``event(now, text)`` from the talk loop, :meth:`close`.
 
     Args:
         config: the rules (bands, units, strictness) and the threshold.
@@ -86,7 +78,7 @@ class RichLiveView:
         self._decision: Decision | None = None
         self._live: Any = None
         self.console: Any = console
-        if console is None and rich_available() and self.out.isatty():
+        if console is None and self.out.isatty():
             from rich.console import Console
 
             self.console = Console(file=self.out)
