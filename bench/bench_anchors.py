@@ -14,63 +14,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from prezence.config.lines import parse_lines
-from prezence.config.load import complete_rules, default_config
-from prezence.config.model import Config
-from prezence.processor import Cue, Processor, make_policy
-from prezence.samples import Sample
-from prezence.streams.tail import read_stream
+from prezence.peers import load_folder, replay_fixed_busy
 
 #: Prezence's name for each peers' policy name.
 PAIRS = {"pz16": "pz16", "pt": "presentation_trainer", "rhema": "rhema"}
-
-
-def load_folder(folder: Path) -> tuple[Config, list[Sample]]:
-    base = default_config()
-    rules = parse_lines((folder / "rules.conf").read_text(), path=folder / "rules.conf")
-    rules, _ = complete_rules(rules)
-    cfg = Config(rules=rules, processor=base.processor, time=base.time, room=base.room)
-    cfg = cfg.with_allocated(None)
-    samples: list[Sample] = []
-    for r in rules:
-        ss, _ = read_stream(folder / "streams" / f"{r.metric}.txt", r.metric)
-        samples.extend(ss)
-    samples.sort(key=lambda s: s.t)
-    return cfg, samples
-
-
-def run_prezence(
-    cfg: Config, samples: list[Sample], policy: str, *, duration: float, tick: float
-) -> list[Cue]:
-    """Decisions every ``tick`` s over ``samples``; each cue keeps the robot busy ``duration``."""
-    p = Processor(cfg, policy=make_policy(policy))
-    busy_until = -math.inf
-    i, n = 0, len(samples)
-    end = samples[-1].t if samples else 0.0
-    out: list[Cue] = []
-    k = 0
-    while True:
-        k += 1
-        now = round(k * tick, 9)
-        if now > end + tick:
-            break
-        j = i
-        while j < n and samples[j].t <= now + 1e-9:
-            j += 1
-        free = now >= busy_until - 1e-9
-        d = p.step(now, samples[i:j], free_since=busy_until if free else None)
-        i = j
-        if d.cue is not None:
-            out.append(d.cue)
-            busy_until = now + duration
-    return out
 
 
 def run_peers(peers: Path, folder: Path, policy: str, *, duration: float, tick: float) -> int:
@@ -126,7 +79,7 @@ def main() -> int:
             t0 = time.perf_counter()
             ref = run_peers(a.peers, folder, peer, duration=a.duration, tick=a.tick)
             t1 = time.perf_counter()
-            got = len(run_prezence(cfg, samples, ours, duration=a.duration, tick=a.tick))
+            got = len(replay_fixed_busy(cfg, samples, ours, duration=a.duration, tick=a.tick))
             t2 = time.perf_counter()
             print(f"| {ours} | {ref} | {got} | {got / ref:.3f} | {t1 - t0:.2f} | {t2 - t1:.2f} |")
     return 0

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import subprocess
 import sys
 from collections.abc import Callable
@@ -11,13 +10,12 @@ from pathlib import Path
 
 import pytest
 
-from prezence.config.lines import parse_lines
-from prezence.config.load import complete_rules, default_config, load_config
+from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.errors import ConfigError, UnknownName
-from prezence.processor import Cue, Kind, Processor, make_policy, policy_names
+from prezence.peers import load_folder, replay_fixed_busy
+from prezence.processor import Cue, Kind, make_policy, policy_names
 from prezence.samples import Sample
-from prezence.streams.tail import read_stream
 
 PEERS = Path(__file__).resolve().parents[2].parent / "shared" / "peers"
 PAIRS = {"pz16": "pz16", "pt": "presentation_trainer", "rhema": "rhema"}
@@ -28,32 +26,10 @@ def builtin() -> Config:
 
 
 def drive(
-    cfg: Config,
-    samples: list[Sample],
-    policy: str,
-    *,
-    duration: float = 4.0,
-    tick: float = 0.5,
-    end: float | None = None,
+    cfg: Config, samples: list[Sample], policy: str, *, end: float | None = None
 ) -> list[Cue]:
-    """Decisions every ``tick``; each cue keeps the robot busy ``duration`` (peers' replay.py)."""
-    p = Processor(cfg, policy=make_policy(policy))
-    busy_until = -math.inf
-    i, n = 0, len(samples)
-    end = end if end is not None else (samples[-1].t if samples else 0.0)
-    out: list[Cue] = []
-    k = 0
-    while (now := round((k := k + 1) * tick, 9)) <= end + tick:
-        j = i
-        while j < n and samples[j].t <= now + 1e-9:
-            j += 1
-        free = now >= busy_until - 1e-9
-        d = p.step(now, samples[i:j], free_since=busy_until if free else None)
-        i = j
-        if d.cue is not None:
-            out.append(d.cue)
-            busy_until = now + duration
-    return out
+    """The peers' harness: a decision every 0.5 s, the robot busy 4 s per cue."""
+    return replay_fixed_busy(cfg, samples, policy, duration=4.0, tick=0.5, end=end)
 
 
 def series(until: float, **signals: Callable[[float], float]) -> list[Sample]:
@@ -167,14 +143,8 @@ def test_cue_counts_match_the_peers_reference_on_the_shared_workload(
         capture_output=True,
     )
     ref = [json.loads(line) for line in out.read_text().splitlines()]
-    rules, _ = complete_rules(parse_lines((folder / "rules.conf").read_text()))
-    base = default_config()
-    cfg = Config(rules=rules, processor=base.processor, time=base.time, room=base.room)
-    samples: list[Sample] = []
-    for r in rules:
-        samples += read_stream(folder / "streams" / f"{r.metric}.txt", r.metric)[0]
-    samples.sort(key=lambda s: s.t)
-    got = drive(cfg.with_allocated(None), samples, PAIRS[peer])
+    cfg, samples = load_folder(folder)
+    got = drive(cfg, samples, PAIRS[peer])
     assert len(ref) > 50
     assert abs(len(got) - len(ref)) <= 0.03 * len(ref)
     by_metric_ref: dict[str, int] = {}

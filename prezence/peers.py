@@ -1,0 +1,62 @@
+"""The peers' reference harness, in Prezence: for comparing the anchors' cue counts.
+
+``shared/peers/replay.py`` replays a folder of ``<metric>.txt`` streams plus ``rules.conf`` through
+one policy, deciding every ``tick`` seconds, with a robot kept busy a fixed ``duration`` per cue.
+:func:`load_folder` reads such a folder with Prezence's own readers and :func:`replay_fixed_busy`
+drives the processor the same way, so the two cue counts can be set side by side
+(``bench/bench_anchors.py``, ``tests/unit/test_anchors.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from prezence.config.lines import parse_lines
+from prezence.config.load import complete_rules, default_config
+from prezence.config.model import Config
+from prezence.processor import Cue, Processor, make_policy
+from prezence.replay import load_samples
+from prezence.samples import Sample
+
+
+def load_folder(folder: Path) -> tuple[Config, list[Sample]]:
+    """The rules of ``folder/rules.conf`` (seed line format, built-in settings, no allocated
+    time) and every sample of ``folder/streams/``, in time order."""
+    conf = folder / "rules.conf"
+    rules, _ = complete_rules(parse_lines(conf.read_text(), path=conf))
+    base = default_config()
+    cfg = Config(rules=rules, processor=base.processor, time=base.time, room=base.room)
+    paths = {r.metric: folder / "streams" / f"{r.metric}.txt" for r in rules}
+    return cfg.with_allocated(None), load_samples(paths)
+
+
+def replay_fixed_busy(
+    cfg: Config,
+    samples: Sequence[Sample],
+    policy: str,
+    *,
+    duration: float,
+    tick: float,
+    end: float | None = None,
+) -> list[Cue]:
+    """Decisions every ``tick`` s over ``samples`` (sorted by time), up to ``end`` (default: the
+    last sample) plus a tick; each cue keeps the robot busy ``duration`` s. Returns the cues."""
+    p = Processor(cfg, policy=make_policy(policy))
+    busy_until = -math.inf
+    i, n = 0, len(samples)
+    end = end if end is not None else (samples[-1].t if samples else 0.0)
+    out: list[Cue] = []
+    k = 0
+    while (now := round((k := k + 1) * tick, 9)) <= end + tick:
+        j = i
+        while j < n and samples[j].t <= now + 1e-9:
+            j += 1
+        free = now >= busy_until - 1e-9
+        d = p.step(now, samples[i:j], free_since=busy_until if free else None)
+        i = j
+        if d.cue is not None:
+            out.append(d.cue)
+            busy_until = now + duration
+    return out
