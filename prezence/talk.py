@@ -448,10 +448,12 @@ class Talk:
             end = coach.drain(
                 now, step_s=clock.drain_step_s, limit_s=clock.drain_limit_s, pace=pace
             )
+            # what the coach stopped repeating (escalation): said once at the end, reported
+            notes = end_of_talk_notes(self.processor)
             if self.source.talk_s is None or truncated:
                 self.session.write_meta({**self._meta, "talk_s": round(talk_s, 3)})
             if self.options.report and completed:
-                post = self._post_talk(coach, end, step_s=clock.drain_step_s, pace=pace)
+                post = self._post_talk(coach, end, notes, step_s=clock.drain_step_s, pace=pace)
             backend_stats = self.backend.stats()
         finally:
             coach.close()
@@ -471,10 +473,7 @@ class Talk:
             "wall_s": round(wall, 4),
             **({"truncated": True} if truncated else {}),
             **self.source.summary_extra(),
-            # what the coach stopped repeating (escalation): said once at the end, reported
-            **(
-                {"stopped_repeating": notes} if (notes := end_of_talk_notes(self.processor)) else {}
-            ),
+            **({"stopped_repeating": notes} if notes else {}),
             **({"post_talk": post} if post is not None else {}),
         }
         if clock.live:
@@ -514,16 +513,18 @@ class Talk:
         self,
         coach: Coach,
         now: float,
+        notes: list[dict[str, Any]],
         *,
         step_s: float,
         pace: Callable[[float], None] | None,
     ) -> dict[str, Any] | None:
-        """The robot says the post-talk summary; a Ctrl-C here skips it (None)."""
+        """The robot says the post-talk summary (with ``notes``, what the coach stopped
+        repeating); a Ctrl-C here skips it (None)."""
         from prezence.report.build import build_report
         from prezence.report.speech import summary_phrase
 
         report = build_report(self.session.root, config=self.config)
-        report["stopped_repeating"] = end_of_talk_notes(self.processor)  # summary.json: later
+        report["stopped_repeating"] = notes  # summary.json is written after this
         phrase = summary_phrase(report)
         try:
             return coach.post_talk(phrase, now, step_s=step_s, pace=pace)
