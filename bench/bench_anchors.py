@@ -13,41 +13,16 @@ with its own readers (seed line format, the room's ANGLE = -15).
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from prezence.peers import load_folder, replay_fixed_busy
+from prezence.peers import load_folder, reference_cues, replay_fixed_busy
 
 #: Prezence's name for each peers' policy name.
 PAIRS = {"pz16": "pz16", "pt": "presentation_trainer", "rhema": "rhema"}
-
-
-def run_peers(peers: Path, folder: Path, policy: str, *, duration: float, tick: float) -> int:
-    out = folder / f"peers-{policy}.jsonl"
-    subprocess.run(
-        [
-            sys.executable,
-            str(peers / "replay.py"),
-            str(folder),
-            "--policy",
-            policy,
-            "--duration",
-            str(duration),
-            "--tick",
-            str(tick),
-            "--allocated",
-            "0",
-            "--out",
-            str(out),
-        ],
-        check=True,
-        capture_output=True,
-    )
-    return sum(1 for line in out.read_text().splitlines() if json.loads(line))
 
 
 def main() -> int:
@@ -77,7 +52,7 @@ def main() -> int:
         print("|---|---:|---:|---:|---:|---:|")
         for peer, ours in PAIRS.items():
             t0 = time.perf_counter()
-            ref = run_peers(a.peers, folder, peer, duration=a.duration, tick=a.tick)
+            ref = len(reference_cues(a.peers, folder, peer, duration=a.duration, tick=a.tick))
             t1 = time.perf_counter()
             got = len(replay_fixed_busy(cfg, samples, ours, duration=a.duration, tick=a.tick))
             t2 = time.perf_counter()

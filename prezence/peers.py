@@ -9,9 +9,13 @@ drives the processor the same way, so the two cue counts can be set side by side
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from prezence.config.lines import parse_lines
 from prezence.config.load import complete_rules, default_config
@@ -60,3 +64,16 @@ def replay_fixed_busy(
             out.append(d.cue)
             busy_until = now + duration
     return out
+
+
+def reference_cues(
+    peers: Path, folder: Path, policy: str, *, duration: float, tick: float
+) -> list[dict[str, Any]]:
+    """The cues of the peers' own ``replay.py`` (run as its own process) on ``folder``, with
+    the same tick and busy time and no allocated time; written to ``folder/peers-<policy>.jsonl``.
+    """
+    out = folder / f"peers-{policy}.jsonl"
+    argv = [sys.executable, str(peers / "replay.py"), str(folder), "--policy", policy]
+    argv += ["--duration", str(duration), "--tick", str(tick), "--allocated", "0"]
+    subprocess.run([*argv, "--out", str(out)], check=True, capture_output=True)
+    return [json.loads(line) for line in out.read_text().splitlines() if line.strip()]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 from collections.abc import Callable
@@ -13,7 +12,7 @@ import pytest
 from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.errors import ConfigError, UnknownName
-from prezence.peers import load_folder, replay_fixed_busy
+from prezence.peers import load_folder, reference_cues, replay_fixed_busy
 from prezence.processor import Cue, Kind, make_policy, policy_names
 from prezence.samples import Sample
 
@@ -122,27 +121,7 @@ def test_cue_counts_match_the_peers_reference_on_the_shared_workload(
         check=True,
         capture_output=True,
     )
-    out = tmp_path / "cues.jsonl"
-    subprocess.run(
-        [
-            sys.executable,
-            str(PEERS / "replay.py"),
-            str(folder),
-            "--policy",
-            peer,
-            "--tick",
-            "0.5",
-            "--duration",
-            "4",
-            "--allocated",
-            "0",
-            "--out",
-            str(out),
-        ],
-        check=True,
-        capture_output=True,
-    )
-    ref = [json.loads(line) for line in out.read_text().splitlines()]
+    ref = reference_cues(PEERS, folder, peer, duration=4.0, tick=0.5)
     cfg, samples = load_folder(folder)
     got = drive(cfg, samples, PAIRS[peer])
     assert len(ref) > 50
