@@ -26,6 +26,7 @@ from prezence.config.model import Check, Config, ProcessorSettings, Rule, TimeSe
 from prezence.feedback.trajectory import Trajectory
 from prezence.launcher import up
 from prezence.streams.writer import StreamWriter
+from prezence.talk import RunOptions
 
 
 class StampingBackend(FakeBackend):
@@ -69,7 +70,8 @@ def main() -> None:
 
         th = threading.Thread(target=writer)
         th.start()
-        up(cfg, session_dir=session, modules=[], backend=backend, stop=done.is_set)
+        opts = RunOptions.default()
+        up(cfg, session_dir=session, modules=[], backend=backend, options=opts, stop=done.is_set)
         th.join()
     # pair each play with the newest write before it
     lat = []

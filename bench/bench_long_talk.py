@@ -30,7 +30,8 @@ sys.path.insert(0, {root!r})
 t = time.perf_counter()
 if {what!r} == "replay":
     from prezence.replay import replay
-    replay({src!r}, out={out!r})
+    from prezence.talk import RunOptions
+    replay({src!r}, out={out!r}, options=RunOptions.default(report=False))
 else:
     from prezence.report.build import write_report
     import prezence.report.plots as plots
