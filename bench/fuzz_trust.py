@@ -43,6 +43,10 @@ from prezence.errors import PrezenceError  # noqa: E402
 from prezence.replay import replay  # noqa: E402
 from prezence.report.build import build_report  # noqa: E402
 from prezence.streams.tail import read_stream  # noqa: E402
+from prezence.talk import RunOptions  # noqa: E402
+
+#: A replay as the command line runs it, without the report (build_report is fuzzed apart).
+replay_cli = partial(replay, options=RunOptions.default())
 
 
 class Hang(Exception):
@@ -185,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
                 s = root / f"r{i}"
                 shutil.copytree(base, s)
                 shutil.copyfile(f, s / "streams" / "speech_speed.txt")
-                c[run_case(partial(replay, s, out=root / f"o{i}"), args.timeout, problems,
+                c[run_case(partial(replay_cli, s, out=root / f"o{i}"), args.timeout, problems,
                            f"replay of stream {i}")] += 1  # fmt: skip
                 shutil.rmtree(s)
                 shutil.rmtree(root / f"o{i}", ignore_errors=True)
@@ -210,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:
                 p.write_text(mutate_text(p.read_text(), rng))
             c[run_case(partial(build_report, s), args.timeout, problems,
                        f"report, {name} mutated ({i})")] += 1  # fmt: skip
-            c[run_case(partial(replay, s, out=root / f"mo{i}"), args.timeout, problems,
+            c[run_case(partial(replay_cli, s, out=root / f"mo{i}"), args.timeout, problems,
                        f"replay, {name} mutated ({i})")] += 1  # fmt: skip
             shutil.rmtree(s)
             shutil.rmtree(root / f"mo{i}", ignore_errors=True)
