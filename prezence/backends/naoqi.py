@@ -483,7 +483,9 @@ class NaoqiBackend(Backend):
         if link is not None and link.lost.is_set():
             self._lose(link.reason[0] if link.reason else "disconnected", now)
         for call in list(self._calls):
-            self._poll_call(call, now, mono)
+            # a call that failed with a lost link fails every other call with it (``_lose``)
+            if call in self._calls:
+                self._poll_call(call, now, mono)
         self._heartbeat(mono, now)
         if self._link is None and not self._closed:
             self._reconnect(mono)

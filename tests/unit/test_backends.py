@@ -46,3 +46,65 @@ def test_backend_records_match_their_classes() -> None:
         assert (cls.name, cls.realtime) == (name, rec.realtime)
         checked += 1
     assert checked >= 2  # fake and NAOqi import with no extra
+
+
+class _DoneFuture:
+    """A finished qi future that failed with ``error`` (what a dropped session gives)."""
+
+    def __init__(self, error: str) -> None:
+        self._error = error
+
+    def isFinished(self) -> bool:  # noqa: N802 - qi's spelling
+        return True
+
+    def isCanceled(self) -> bool:  # noqa: N802
+        return False
+
+    def hasError(self) -> bool:  # noqa: N802
+        return True
+
+    def error(self) -> str:
+        return self._error
+
+    def cancel(self) -> None:
+        pass
+
+
+class _Session:
+    def close(self, _async: bool = False) -> _DoneFuture:
+        return _DoneFuture("")
+
+
+def test_naoqi_link_lost_while_two_motions_run_fails_both_once() -> None:
+    """The gesture's and the phrase's futures both end with "Session closed" before the link's
+    own lost flag is seen (CI hit this order): the first failure drops the link and fails the
+    other motion; polling must not handle that motion a second time."""
+    import threading
+
+    from prezence.backends.base import Motion, MotionKind
+    from prezence.backends.naoqi import NaoqiBackend, _Call, _Link
+
+    backend = NaoqiBackend(url="tcp://127.0.0.1:9", reconnect_initial_s=60.0, reconnect_max_s=60.0)
+    link = _Link(
+        session=_Session(),
+        motion=None,
+        tts=None,
+        leds=None,
+        joints=(),
+        velocity={},
+        lost=threading.Event(),
+        reason=[],
+    )
+    backend._link = link
+    backend._opened = True
+    backend._next_ping = float("inf")  # keep the heartbeat out of the way
+    gesture = Motion(kind=MotionKind.GESTURE, name="slow", started_at=0.0, planned_s=1.0)
+    phrase = Motion(kind=MotionKind.SPEECH, name="Slow down.", started_at=0.0, planned_s=1.0)
+    for m in (gesture, phrase):
+        backend._calls.append(_Call(m, _DoneFuture("Session closed"), 0.0, 1e12, (), [0.1]))
+    backend._advance(0.2)
+    assert not backend._calls
+    assert gesture.done and not gesture.ok
+    assert phrase.done and not phrase.ok and "robot lost" in phrase.info["error"]
+    stats = backend.stats()
+    assert stats["failed"] == 2 and stats["disconnects"] == 1
