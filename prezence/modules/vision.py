@@ -512,18 +512,38 @@ GESTURES_SOURCE = "cv_gestures_source"
 
 # BlazePose landmark indices.
 _NOSE = 0
+_FACE = tuple(range(11))  #: nose, eyes (inner, centre, outer), ears, mouth corners
 _SHOULDER_LEFT, _SHOULDER_RIGHT = 11, 12
 _WRIST_LEFT, _WRIST_RIGHT = 15, 16
+#: The presenter's left and right hand: wrist, pinky, index, thumb.
+_HAND_LEFT, _HAND_RIGHT = (15, 17, 19, 21), (16, 18, 20, 22)
 
 
 @dataclass(frozen=True)
 class BodyKeypoints:
-    """The keypoints a gesture needs, in pixels: ``(x, y)`` arrays and the wrists' visibility."""
+    """The keypoints a gesture needs, in pixels: ``(x, y)`` arrays and the wrists' visibility.
+
+    ``face`` (the centre of the pose model's face keypoints) and ``hands`` (each hand's wrist,
+    pinky, index and thumb, ``(4, 2)``) are optional: without them the nose and the wrist
+    stand in.
+    """
 
     nose: np.ndarray
     shoulders: tuple[np.ndarray, np.ndarray]  #: the presenter's left, right
     wrists: tuple[np.ndarray, np.ndarray]  #: the presenter's left, right
     wrist_visibility: tuple[float, float]
+    face: np.ndarray | None = None
+    hands: tuple[np.ndarray, np.ndarray] | None = None
+
+    def face_centre(self) -> np.ndarray:
+        """The centre of the face keypoints (the nose when there are none)."""
+        return self.face if self.face is not None else self.nose
+
+    def hand_points(self, k: int) -> np.ndarray:
+        """Hand ``k``'s points (0 the presenter's left), ``(n, 2)``: at least the wrist."""
+        if self.hands is not None:
+            return self.hands[k]
+        return self.wrists[k].reshape(1, 2)
 
 
 class BodyTracker:
@@ -560,8 +580,9 @@ class BodyTracker:
             return None
         lm = res.pose_landmarks.landmark
 
-        def xy(i: int) -> np.ndarray:
-            return np.array((lm[i].x * w, lm[i].y * h), dtype=np.float64)
+        def xy(*idx: int) -> np.ndarray:
+            pts = np.array([(lm[i].x * w, lm[i].y * h) for i in idx], dtype=np.float64)
+            return pts[0] if len(idx) == 1 else pts
 
         return BodyKeypoints(
             nose=xy(_NOSE),
@@ -571,6 +592,8 @@ class BodyTracker:
                 float(lm[_WRIST_LEFT].visibility),
                 float(lm[_WRIST_RIGHT].visibility),
             ),
+            face=xy(*_FACE).mean(axis=0),
+            hands=(xy(*_HAND_LEFT), xy(*_HAND_RIGHT)),
         )
 
     def close(self) -> None:
@@ -586,7 +609,18 @@ class _WristRun:
 
     start: float
     last: float
-    from_face: bool  #: the wrist was at the face just before the run began
+    from_face: bool  #: the hand was at the face just before the run began
+    doubtful: int = 0  #: frames of the run whose wrist keypoint was not trusted
+
+
+@dataclass
+class _HandState:
+    """One hand's memory between frames: is it at the face, and how well is it seen."""
+
+    at_face: bool = False
+    near_since: float | None = None  #: first frame of the current stretch near the face
+    away_since: float | None = None  #: first frame of the current stretch seen away from it
+    visibility: deque[tuple[float, float]] = field(default_factory=deque)
 
 
 class BodyGestureDetector:
@@ -596,12 +630,24 @@ class BodyGestureDetector:
     of the last ``baseline_s``), so the presenter moving, the camera's distance and the image
     size do not matter, and the head and the background are not looked at at all. A wrist is
     *fast* when it moves faster than ``speed`` shoulder widths per second between analysed
-    frames, *at the face* when it is within ``face_radius`` shoulder widths of the nose. Its
-    fast frames away from the face, less than ``merge_s`` apart, are one run; a run that has
-    lasted ``min_burst_s`` is a gesture unless it began or ended at the face (a hand going to
-    the face or coming back from it: scratching, adjusting glasses). Runs of the two hands that
-    overlap or are less than ``merge_s`` apart are one gesture. A run is judged when it ends,
-    so a gesture is counted ``merge_s`` after its last movement.
+    frames. Its fast frames, less than ``merge_s`` apart, are one run; a run that has lasted
+    ``min_burst_s`` is a gesture. Runs of the two hands that overlap or are less than
+    ``merge_s`` apart are one gesture. A run is judged when it ends, so a gesture is counted
+    ``merge_s`` after its last movement.
+
+    Hands at the face are not gestures. A hand is *near* the face when any of its points
+    (wrist, pinky, index, thumb) is within ``face_radius`` shoulder widths of the centre of the
+    face keypoints (nose, eyes, ears, mouth). It *is at* the face once it has been near for
+    ``face_enter_s`` (a hand held there, not a beat swinging past), and stays at the face
+    (hysteresis) until it has been seen away, with a trusted wrist, for ``face_leave_s``. A
+    run that begins at the face, reaches it or ends there is not a gesture (reaching, resting,
+    scratching, coming back), and a hand at the face makes no runs.
+
+    The wrist keypoint is not trusted in a frame where its visibility is below
+    ``min_visibility``, or below ``visibility_drop`` times that wrist's own median over the last
+    ``visibility_baseline_s`` (the pose model losing a hand, as at the face, puts the wrist on
+    the chest and lets it jump): such frames make no speed, and a run most of whose frames
+    were not trusted is not a gesture.
 
     Args:
         window_s: the rate's window.
@@ -616,11 +662,15 @@ class BodyGestureDetector:
         window_s: float = 30.0,
         min_window_s: float = GESTURE_MIN_WINDOW_S,
         speed: float = 0.8,
-        face_radius: float = 0.7,
+        face_zone: tuple[float, float] = (0.5, 0.9),
+        face_enter_s: float = 0.1,
+        face_leave_s: float = 0.4,
         merge_s: float = 0.5,
         min_burst_s: float = 0.2,
         baseline_s: float = 5.0,
         min_visibility: float = 0.1,
+        visibility_drop: float = 0.6,
+        visibility_baseline_s: float = 20.0,
         min_coverage: float = 0.5,
     ) -> None:
         if not window_s > 0.0 or not 0.0 < min_window_s <= window_s:
@@ -628,11 +678,15 @@ class BodyGestureDetector:
         self.window_s = float(window_s)
         self.min_window_s = float(min_window_s)
         self.speed = float(speed)
-        self.face_radius = float(face_radius)
+        self.face_zone = np.array([float(face_zone[0]), float(face_zone[1])])
+        self.face_enter_s = float(face_enter_s)
+        self.face_leave_s = float(face_leave_s)
         self.merge_s = float(merge_s)
         self.min_burst_s = float(min_burst_s)
         self.baseline_s = float(baseline_s)
         self.min_visibility = float(min_visibility)
+        self.visibility_drop = float(visibility_drop)
+        self.visibility_baseline_s = float(visibility_baseline_s)
         self.min_coverage = float(min_coverage)
         self.bursts: list[float] = []  #: start times of the counted gestures
         self.first_t: float | None = None
@@ -641,6 +695,36 @@ class BodyGestureDetector:
         self._frames: deque[tuple[float, bool]] = deque()  #: (t, body seen), for the coverage
         self._prev: tuple[float, list[np.ndarray | None], list[bool]] | None = None
         self._runs: list[_WristRun | None] = [None, None]
+        self._hands = [_HandState(), _HandState()]
+
+    def _trusted(self, k: int, t: float, visibility: float) -> bool:
+        """Record wrist ``k``'s visibility; True when its keypoint can be trusted now."""
+        hist = self._hands[k].visibility
+        hist.append((t, visibility))
+        while hist and hist[0][0] < t - self.visibility_baseline_s:
+            hist.popleft()
+        if visibility < self.min_visibility:
+            return False
+        base = float(np.median([v for _, v in hist]))
+        return visibility >= self.visibility_drop * base
+
+    def _face_state(self, k: int, t: float, near: bool, trusted: bool) -> bool:
+        """Update hand ``k``'s at-the-face state with this frame; return it."""
+        st = self._hands[k]
+        if near:
+            st.away_since = None
+            if st.near_since is None:
+                st.near_since = t
+            if t - st.near_since >= self.face_enter_s - 1e-9:
+                st.at_face = True
+        else:
+            st.near_since = None
+            if trusted:
+                if st.away_since is None:
+                    st.away_since = t
+                if t - st.away_since >= self.face_leave_s - 1e-9:
+                    st.at_face = False
+        return st.at_face
 
     def update(self, t: float, body: BodyKeypoints | None) -> None:
         """Feed one analysed frame's keypoints (None: no body found in it)."""
@@ -650,7 +734,8 @@ class BodyGestureDetector:
         while self._frames and self._frames[0][0] <= t - self.window_s:
             self._frames.popleft()
         pos: list[np.ndarray | None] = [None, None]
-        at_face = [False, False]
+        at_face = [self._hands[0].at_face, self._hands[1].at_face]
+        doubtful = [False, False]
         if body is not None:
             width = float(np.linalg.norm(body.shoulders[0] - body.shoulders[1]))
             if width > 1.0:
@@ -660,13 +745,17 @@ class BodyGestureDetector:
             if self._widths:
                 sw = float(np.median([w for _, w in self._widths]))
                 mid = (body.shoulders[0] + body.shoulders[1]) / 2.0
+                face = body.face_centre()
                 for k in (0, 1):
-                    if body.wrist_visibility[k] < self.min_visibility:
-                        continue
-                    pos[k] = (body.wrists[k] - mid) / sw
-                    at_face[k] = float(np.linalg.norm(body.wrists[k] - body.nose)) / sw < (
-                        self.face_radius
-                    )
+                    trusted = self._trusted(k, t, body.wrist_visibility[k])
+                    near = False
+                    if body.wrist_visibility[k] >= self.min_visibility:
+                        d = (body.hand_points(k) - face) / (sw * self.face_zone)
+                        near = float((d * d).sum(axis=1).min()) < 1.0
+                    at_face[k] = self._face_state(k, t, near, trusted)
+                    doubtful[k] = not trusted
+                    if trusted:
+                        pos[k] = (body.wrists[k] - mid) / sw
         prev = self._prev
         for k in (0, 1):
             run = self._runs[k]
@@ -677,6 +766,8 @@ class BodyGestureDetector:
                 dt = t - prev[0]
                 if pp is not None and 0.0 < dt <= 0.5:
                     fast = float(np.linalg.norm(p - pp)) / dt > self.speed
+            if run is not None and doubtful[k] and not at_face[k]:
+                run.doubtful += 1
             if fast:
                 if run is None or t - run.last > self.merge_s:
                     if run is not None:
@@ -692,6 +783,8 @@ class BodyGestureDetector:
 
     def _close(self, run: _WristRun, *, to_face: bool) -> None:
         if run.from_face or to_face or run.last - run.start < self.min_burst_s - 1e-9:
+            return
+        if run.doubtful > 0:
             return
         for seg in self._segments:
             if run.start <= seg[1] + self.merge_s and run.last >= seg[0] - self.merge_s:

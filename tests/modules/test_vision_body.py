@@ -103,6 +103,46 @@ def test_a_hand_going_to_the_face_scratching_and_back_is_not_a_gesture() -> None
     assert det.bursts == []
 
 
+def test_a_hand_under_the_chin_is_at_the_face_though_the_wrist_is_far_from_the_nose() -> None:
+    # The wrist hangs a hand's length under the chin: 0.75 shoulder widths below the nose,
+    # beyond the old 0.7 radius around it (the held-out video b's first false gestures).
+    det = BodyGestureDetector()
+    up = [body(left=(120.0 - 4 * k, 300.0 - 25 * k)) for k in range(5)]  # to (100, 185)
+    scratch = [body(left=(100.0 + 6 * math.sin(2 * i), 185.0)) for i in range(24)]
+    feed(det, rest(16) + up + scratch + up[::-1] + rest(16))
+    assert det.bursts == []
+
+
+def test_a_brief_touch_of_the_chin_straight_up_and_back_is_not_a_gesture() -> None:
+    det = BodyGestureDetector()
+    up = [body(left=(120.0 - 4 * k, 300.0 - 28 * k)) for k in range(5)]  # to (100, 172)
+    feed(det, rest(16) + up + up[-1:] + up[::-1] + rest(16))
+    assert det.bursts == []
+
+
+def test_a_beat_beside_the_head_is_still_a_gesture() -> None:
+    # The hand beats at face height but 0.75 shoulder widths out to the side: away from it.
+    det = BodyGestureDetector()
+    beat = [body(left=(175.0 + 12 * math.sin(2 * math.pi * 2 * i / 8 + 0.5), 150.0)) for i in range(12)]
+    up = [body(left=(120.0 + 11 * k, 300.0 - 30 * k)) for k in range(1, 5)]
+    feed(det, rest(16) + up + beat + up[::-1] + rest(16))
+    assert len(det.bursts) == 1
+
+
+def test_a_hand_the_pose_model_loses_is_not_a_gesture() -> None:
+    # At the face the model may lose the hand: its wrist drops onto the chest and jumps about,
+    # and its visibility falls to half its usual level.
+    det = BodyGestureDetector()
+    lost = []
+    for i in range(24):
+        b = body(left=(110.0 + 25 * math.sin(1.7 * i), 260.0 + 30 * math.cos(2.3 * i)))
+        lost.append(
+            BodyKeypoints(b.nose, b.shoulders, b.wrists, wrist_visibility=(0.35, 0.9))
+        )
+    feed(det, rest(16 * 8) + lost + rest(16))
+    assert det.bursts == []
+
+
 def test_a_single_glitch_of_the_keypoints_is_not_a_gesture() -> None:
     det = BodyGestureDetector()
     glitch = body(left=(300.0, 100.0))
