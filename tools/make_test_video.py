@@ -33,10 +33,11 @@ Small videos (320x240, 15 fps, mp4v) go to ``tests/modules/material_video/``:
     the gesture thresholds were tuned on; ``b`` (another face, shirt, background and script) is
     held out, though its hands-at-the-face errors were used to find what failed; ``c`` (made
     after that, before the new rules ran on it) is held out and nothing was looked at on it
-    before measuring. Only ``c`` again (it needs no sdist)::
+    before measuring, then looked at; ``d`` was made after that and measured once. Only ``c``
+    and ``d`` again (``d``'s face needs the sdist)::
 
         $(python -m prezence.modules.vision_env where) tools/make_test_video.py \
-            --only gestures --gesture-videos gestures_c
+            --only gestures --gesture-videos gestures_c gestures_d --sdist-dir SDIST_DIR
 
 ``gestures.mp4``
     A static photo of a person with camera noise and a slow light flicker, and a skin-coloured
@@ -582,6 +583,39 @@ GESTURE_VIDEOS: dict[str, GestureSpec] = {
             (45.0, 47.0, 0.0, 20.0),
         ),  # fmt: skip
         pans=((4.0, 12.0), (19.0, 26.0), (36.0, 44.0)),
+    ),
+    # Held out: made after c had been measured once (and then looked at), measured once.
+    "gestures_d": GestureSpec(
+        face="aniston",
+        shirt=(90, 60, 30),
+        background="camera",
+        duration_s=48.0,
+        acts=(
+            (1.5, 2.7, "gesture", 1, 2.1),
+            (4.5, 7.0, "face", -1, 3.0),
+            (8.5, 10.0, "gesture", -1, 1.8),
+            (11.5, 12.5, "gesture", 1, 2.4),
+            (14.0, 15.2, "face", 1, 0.0),
+            (17.0, 19.0, "gesture", 0, 1.6),
+            (21.5, 24.5, "face", 1, 2.6),
+            (26.0, 27.0, "gesture", -1, 2.2),
+            (29.0, 30.5, "gesture", 1, 1.9),
+            (32.5, 35.5, "face", -1, 3.4),
+            (37.0, 38.5, "gesture", 0, 2.0),
+            (40.5, 41.7, "gesture", -1, 1.7),
+            (43.5, 46.0, "face", 0, 2.2),
+        ),  # fmt: skip
+        head=(
+            (3.0, 4.5, -20.0, 10.0),
+            (7.5, 9.0, 30.0, 0.0),
+            (12.5, 14.0, 0.0, -20.0),
+            (19.5, 21.0, -30.0, -10.0),
+            (27.5, 29.0, 20.0, 15.0),
+            (31.0, 32.5, -25.0, 0.0),
+            (39.0, 40.5, 0.0, 20.0),
+            (46.0, 47.5, 25.0, -15.0),
+        ),  # fmt: skip
+        pans=((2.0, 9.0), (16.0, 22.0), (30.0, 38.0)),
     ),
 }
 
