@@ -817,9 +817,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{fname}: done", flush=True)
     if args.only in (None, "gestures"):
         if set(args.gesture_videos) == set(GESTURE_VIDEOS):
-            manifest["gestures"] = make_motion_video(
-                args.out / "gestures.mp4", seed=args.seed + 1
-            )
+            manifest["gestures"] = make_motion_video(args.out / "gestures.mp4", seed=args.seed + 1)
         for key in args.gesture_videos:
             spec = GESTURE_VIDEOS[key]
             photo = load_face(FACES[spec.face], args.sdist_dir)

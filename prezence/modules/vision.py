@@ -42,10 +42,13 @@ Head pose (needs ``mediapipe==0.10.21`` in the vision env):
 
 Gestures from the body (needs mediapipe, as head pose; the default):
     mediapipe Pose (BlazePose ``full``, the model inside the 0.10.21 wheel) gives the wrists,
-    shoulders and nose; :class:`BodyGestureDetector` counts fast wrist movements away from the
-    face, in shoulder widths relative to the shoulders, so head motion, a moving background,
-    the presenter walking and hands at the face are not gestures. A body out of view for half
-    the window is "not measured" (no rate; ``cv_gestures_source`` 0 and a warning).
+    hands, shoulders and face keypoints; :class:`BodyGestureDetector` counts fast wrist
+    movements away from the face, in shoulder widths relative to the shoulders, so head motion,
+    a moving background and the presenter walking are not gestures. A hand held in a zone about
+    the face keypoints (under the chin, at the cheek or ear) is at the face until it is seen
+    away again, and its movements are not gestures; nor are the jumps of a wrist the model has
+    lost (its visibility well below its usual level). A body out of view for half the window
+    is "not measured" (no rate; ``cv_gestures_source`` 0 and a warning).
 
 Gestures from the frame difference (the fallback: OpenCV only, when mediapipe is not here,
 or ``--gesture-source motion``; the log says so, and ``cv_gestures_source`` is 2):

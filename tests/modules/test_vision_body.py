@@ -1,7 +1,7 @@
 """Gestures from the body: the wrist rule on made-up keypoints, then the module on rendered
 presenters with known gestures (``material_video/gestures_a.mp4``, tuned on, and
-``gestures_b.mp4``, held out), where the head turns, the background pans and a hand rests at
-the face without any of it being a gesture.
+``gestures_b.mp4``, used to diagnose the hands at the face), where the head turns, the
+background pans and a hand rests at the face without any of it being a gesture.
 
 The video tests need mediapipe's pose model, which lives in the vision env: they run the module
 there as a subprocess and skip, naming the install command, when that env does not exist.
@@ -123,7 +123,9 @@ def test_a_brief_touch_of_the_chin_straight_up_and_back_is_not_a_gesture() -> No
 def test_a_beat_beside_the_head_is_still_a_gesture() -> None:
     # The hand beats at face height but 0.75 shoulder widths out to the side: away from it.
     det = BodyGestureDetector()
-    beat = [body(left=(175.0 + 12 * math.sin(2 * math.pi * 2 * i / 8 + 0.5), 150.0)) for i in range(12)]
+    beat = [
+        body(left=(175.0 + 12 * math.sin(2 * math.pi * 2 * i / 8 + 0.5), 150.0)) for i in range(12)
+    ]
     up = [body(left=(120.0 + 11 * k, 300.0 - 30 * k)) for k in range(1, 5)]
     feed(det, rest(16) + up + beat + up[::-1] + rest(16))
     assert len(det.bursts) == 1
@@ -136,9 +138,7 @@ def test_a_hand_the_pose_model_loses_is_not_a_gesture() -> None:
     lost = []
     for i in range(24):
         b = body(left=(110.0 + 25 * math.sin(1.7 * i), 260.0 + 30 * math.cos(2.3 * i)))
-        lost.append(
-            BodyKeypoints(b.nose, b.shoulders, b.wrists, wrist_visibility=(0.35, 0.9))
-        )
+        lost.append(BodyKeypoints(b.nose, b.shoulders, b.wrists, wrist_visibility=(0.35, 0.9)))
     feed(det, rest(16 * 8) + lost + rest(16))
     assert det.bursts == []
 
@@ -249,21 +249,22 @@ def test_head_turns_and_a_panning_background_are_not_gestures(
     assert len(false) <= 1, (false, runs[key]["found"])
 
 
-# On the held-out video the pose model loses the rendered hand while it is at the face (it puts
-# the wrist on the chest and jumps), and 6 false gestures come from those 9 s: a known limit,
-# measured by bench/bench_vision.py; these two run on the tuned video only.
+# b's hands at the face (6 false gestures before) were used to find what failed, so b checks
+# the fix but is no longer held out; bench/bench_vision.py measures the held-out c and d, where
+# the pose model errs more (see the README).
 
 
 @needs_vision_env
 @pytest.mark.slow
-def test_hands_at_the_face_are_not_gestures(runs: dict[str, dict[str, Any]]) -> None:
-    false = false_gestures(runs["gestures_a"], outside_face=False)
-    assert len(false) <= 1, (false, runs["gestures_a"]["found"])
+@pytest.mark.parametrize("key", VIDEOS)
+def test_hands_at_the_face_are_not_gestures(runs: dict[str, dict[str, Any]], key: str) -> None:
+    false = false_gestures(runs[key], outside_face=False)
+    assert len(false) <= 1, (false, runs[key]["found"])
 
 
 @needs_vision_env
 @pytest.mark.slow
-@pytest.mark.parametrize("key", ["gestures_a"])
+@pytest.mark.parametrize("key", VIDEOS)
 def test_the_gesture_rate_over_the_whole_video_is_within_one_gesture(
     runs: dict[str, dict[str, Any]], key: str
 ) -> None:
