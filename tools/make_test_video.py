@@ -756,7 +756,8 @@ def gesture_entry(fname: str, spec: GestureSpec) -> dict:
         "file": fname,
         "face": spec.face,
         "background": spec.background,
-        "role": "tuned" if fname == "gestures_a.mp4" else "held-out",
+        # b was held out, then used to find why hands at the face were counted.
+        "role": {"gestures_a.mp4": "tuned", "gestures_b.mp4": "diagnosed"}.get(fname, "held-out"),
         "fps": FPS,
         "frames": int(round(spec.duration_s * FPS)),
         "size": [W, H],

@@ -105,7 +105,7 @@ def test_a_hand_going_to_the_face_scratching_and_back_is_not_a_gesture() -> None
 
 def test_a_hand_under_the_chin_is_at_the_face_though_the_wrist_is_far_from_the_nose() -> None:
     # The wrist hangs a hand's length under the chin: 0.75 shoulder widths below the nose,
-    # beyond the old 0.7 radius around it (the held-out video b's first false gestures).
+    # beyond the old 0.7 radius around it (video b's first false gestures).
     det = BodyGestureDetector()
     up = [body(left=(120.0 - 4 * k, 300.0 - 25 * k)) for k in range(5)]  # to (100, 185)
     scratch = [body(left=(100.0 + 6 * math.sin(2 * i), 185.0)) for i in range(24)]
