@@ -639,8 +639,9 @@ class BodyGestureDetector:
     ``merge_s`` after its last movement.
 
     Hands at the face are not gestures. A hand is *near* the face when any of its points
-    (wrist, pinky, index, thumb) is within ``face_radius`` shoulder widths of the centre of the
-    face keypoints (nose, eyes, ears, mouth). It *is at* the face once it has been near for
+    (wrist, pinky, index, thumb) is inside an ellipse about the centre of the face keypoints
+    (nose, eyes, ears, mouth) whose half-axes are ``face_zone`` shoulder widths (across, up and
+    down). It *is at* the face once it has been near for
     ``face_enter_s`` (a hand held there, not a beat swinging past), and stays at the face
     (hysteresis) until it has been seen away, with a trusted wrist, for ``face_leave_s``. A
     run that begins at the face, reaches it or ends there is not a gesture (reaching, resting,
@@ -649,8 +650,8 @@ class BodyGestureDetector:
     The wrist keypoint is not trusted in a frame where its visibility is below
     ``min_visibility``, or below ``visibility_drop`` times that wrist's own median over the last
     ``visibility_baseline_s`` (the pose model losing a hand, as at the face, puts the wrist on
-    the chest and lets it jump): such frames make no speed, and a run most of whose frames
-    were not trusted is not a gesture.
+    the chest and lets it jump): such frames make no speed, and a run with any frame not
+    trusted is not a gesture.
 
     Args:
         window_s: the rate's window.
