@@ -540,10 +540,13 @@ class SpeechAnalyser:
         if not segs and len(pcm) >= SAMPLE_RATE:
             # pocketsphinx gives no hypothesis at all when its search ends mid-word (seen on
             # whole 10 s stretches of fast speech): decode it again with a little quiet after
-            # it, so that the last word can end.
+            # it, so that the last word can end. Streamed (full_utt False) like every other
+            # utterance: pocketsphinx 5.1.1's batch mode regrows its feature buffer but not the
+            # frame positions beside it, and the next streamed utterance then writes past their
+            # end (a segfault seen on a noisy corpus file, acmod_process_full_cep).
             pad = (self._pad_rng.standard_normal(int(0.3 * SAMPLE_RATE)) * 3.0).astype(np.int16)
             self._dec.start_utt()
-            self._dec.process_raw(np.concatenate([pcm, pad]).tobytes(), False, True)
+            self._dec.process_raw(np.concatenate([pcm, pad]).tobytes(), False, False)
             self._dec.end_utt()
             segs = [
                 seg

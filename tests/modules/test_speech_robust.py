@@ -222,3 +222,56 @@ def test_continuous_speech_without_pauses_past_many_cuts() -> None:
     _check(out, 45.0, 1.0)
     speeds = [s.t for s in out if s.metric == SPEECH_SPEED]
     assert speeds and speeds[-1] >= 44.0
+
+
+class _NoFirstHypothesis:
+    """The real decoder, except that its first utterance gives no hypothesis at all (what
+    pocketsphinx does when its search ends mid-word); records how audio was handed to it."""
+
+    def __init__(self, dec: object) -> None:
+        self._dec = dec
+        self.full_utt: list[bool] = []
+        self.ends = 0
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._dec, name)
+
+    def process_raw(self, data: bytes, no_search: bool, full_utt: bool) -> object:
+        self.full_utt.append(full_utt)
+        return self._dec.process_raw(data, no_search, full_utt)  # type: ignore[attr-defined]
+
+    def end_utt(self) -> None:
+        self.ends += 1
+        self._dec.end_utt()  # type: ignore[attr-defined]
+
+    def seg(self) -> object:
+        return () if self.ends == 1 else self._dec.seg()  # type: ignore[attr-defined]
+
+
+def test_an_utterance_decoded_again_leaves_the_decoder_sound(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """An utterance that gave no words is decoded again, and the talk goes on with words.
+
+    The second decode must be streamed like the others: in batch mode (full_utt) pocketsphinx
+    5.1.1 regrows its feature buffer but not the frame positions beside it, and the next
+    utterance then writes past their end (a segfault on a noisy corpus file, found by the
+    corpus bench). A crash there is heap corruption and does not show on every run, so this
+    checks how the audio is handed over as well as the words that come back.
+    """
+    spies: list[_NoFirstHypothesis] = []
+    real = speech._make_decoder
+
+    def make() -> _NoFirstHypothesis:
+        spies.append(_NoFirstHypothesis(real()))
+        return spies[-1]
+
+    monkeypatch.setattr(speech, "_make_decoder", make)
+    # two utterances of 4 s with a pause between them
+    pattern = [True] * 133 + [False] * 20 + [True] * 133 + [False] * 10
+    opts = SpeechOptions(window_s=2.0, hop_s=1.0, word_window_s=4.0)
+    out = _run_scripted(monkeypatch, pattern, opts, 1600)
+    (spy,) = spies
+    assert spy.ends >= 3, "the utterance without words was not decoded again"
+    assert not any(spy.full_utt), "an utterance went to the decoder in batch mode"
+    assert any(s.metric == SPEECH_SPEED for s in out), "no words after the second decode"
