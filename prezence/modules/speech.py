@@ -50,9 +50,18 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
 * pocketsphinx's webrtc voice-activity ``Endpointer`` cuts the audio into utterances, and each
   utterance is decoded **once** (cost does not grow with window/hop); its words keep their times.
   An utterance longer than :data:`MAX_UTTERANCE_S` - :data:`CUT_SEARCH_S` is cut at its next
-  quiet frame (a gap between words), and at :data:`MAX_UTTERANCE_S` at the latest; one that
-  gives no words at all (pocketsphinx's search can end mid-word with no hypothesis) is decoded
-  again with 0.3 s of quiet after it.
+  quiet frame (a gap between words), and at :data:`MAX_UTTERANCE_S` at the latest; one whose
+  last :data:`MIN_UNDECODED_SYLLABLES` or more syllable nuclei lie after its last recognised
+  word (pocketsphinx's search can end mid-word, with no hypothesis or only the words before)
+  is decoded again with 0.3 s of quiet after it, and the reading with more words kept.
+* **Rate normalisation**: each utterance is decoded when it ends, at a frame rate scaled with
+  the speaker's recent syllable rate (:meth:`SpeechAnalyser._set_frame_rate`; 65-140 frames/s
+  around pocketsphinx's 100). At a fixed 100 frames/s the recogniser has a preferred speaking
+  rate: on a voice it recognises poorly (espeak-ng) it inserted about 20 % words at 110 wpm and
+  dropped 10-15 % at 210 wpm (mostly substitutions with short inserted or merged words, the
+  count drifting toward the decoder's own rhythm). Scaled, speech reaches the model at about
+  :data:`REFERENCE_SYLLABLE_RATE` syllables per second whatever the speaker's rate; voices it
+  recognises well read the same at any frame rate from 85 to 115.
 * Lines are written every ``--hop`` (:data:`CADENCE_S`) as the audio arrives, evenly, whatever
   the block size (file input and ``--realtime`` give the same lines). The levels cover the
   audio up to ``t``; the word-based metrics cover the word window ending where every word is
@@ -190,6 +199,22 @@ MIN_CALIBRATION_SYLLABLES = 300.0
 MIN_RECOGNISER_SNR_DB = 15.0
 #: The syllable count is used only where the estimated SNR is at least this (dB).
 MIN_SYLLABLE_SNR_DB = 20.0
+#: Rate normalisation of the recogniser (:meth:`SpeechAnalyser._set_frame_rate`): the
+#: decoder's frame rate is 100 x (syllable rate / this) ** FRAME_RATE_EXPONENT, in frames per
+#: second, rounded to FRAME_RATE_STEP and kept within FRAME_RATE_RANGE. The syllable rate is
+#: nuclei per second of utterance over the last RATE_HISTORY_S (at least MIN_RATE_HISTORY_S,
+#: else 100 frames/s); over less than RATE_FULL_TRUST_S of utterances the exponent is scaled
+#: down in proportion (a rate from a few seconds of speech is a rough guess).
+REFERENCE_SYLLABLE_RATE = 3.5
+FRAME_RATE_EXPONENT = 1.0
+FRAME_RATE_STEP = 5.0
+FRAME_RATE_RANGE = (65.0, 140.0)
+RATE_HISTORY_S = 20.0
+MIN_RATE_HISTORY_S = 3.0
+RATE_FULL_TRUST_S = 10.0
+#: An utterance is decoded again (with quiet after it) when at least this many syllable nuclei
+#: follow its last recognised word (pocketsphinx's search ended early).
+MIN_UNDECODED_SYLLABLES = 3
 #: speech_accuracy -> speech_clarity anchors: (accuracy, score).
 CLARITY_ANCHORS = ((0.2, 0.0), (0.8, 100.0))
 #: Warn when a live input is this many seconds behind.
@@ -336,6 +361,16 @@ def _overlap(a0: float, a1: float, b0: float, b1: float) -> float:
     return max(0.0, min(a1, b1) - max(a0, b0))
 
 
+def _is_word(w: str) -> bool:
+    """A recognised word, not silence, a filler or a sentence mark."""
+    return w not in ("<s>", "</s>", "<sil>") and not w.startswith(("[", "++", "<"))
+
+
+def _seg_end(seg: Any, frate: float) -> float:
+    """End of a pocketsphinx segment, seconds from the utterance start."""
+    return float(seg.end_frame + 1) / frate
+
+
 def _make_decoder() -> Any:
     try:
         from pocketsphinx import Decoder
@@ -396,6 +431,9 @@ class SpeechAnalyser:
         self._utt_pcm: list[bytes] = []
         self._utt_ms: list[float] = []  # its frames' mean squares (where to cut it)
         self._pad_rng = np.random.default_rng(0)
+        # (seconds, syllable nuclei) of the latest utterances, for the decoder's frame rate.
+        self._recent: deque[tuple[float, int]] = deque()
+        self._frate = 100.0
         # Finished results, oldest first (pruned once no future window can need them).
         self._words: deque[Word] = deque()
         self._spans: deque[tuple[float, float]] = deque()
@@ -514,8 +552,6 @@ class SpeechAnalyser:
                 self._utt_t = self._span_start = float(self._ep.speech_start)
             self._in_utt = True
             self._utt_start = self._utt_t
-            self._dec.start_utt()
-        self._dec.process_raw(speech, False, False)
         self._utt_pcm.append(speech)
         self._utt_t += len(speech) / 2 / SAMPLE_RATE
         x = np.frombuffer(speech, dtype=np.int16).astype(np.float64)
@@ -533,43 +569,90 @@ class SpeechAnalyser:
             self._end_utterance(self._utt_t)  # the span goes on: still speech
 
     def _end_utterance(self, end: float) -> None:
-        self._dec.end_utt()
         t0 = self._utt_start
         pcm = np.frombuffer(b"".join(self._utt_pcm), dtype=np.int16)
+        nuclei = syllable_nuclei(pcm)
+        self._recent.append((len(pcm) / SAMPLE_RATE, len(nuclei)))
+        frate = self._set_frame_rate()
+        self._dec.start_utt()
+        self._dec.process_raw(pcm.tobytes(), False, False)
+        self._dec.end_utt()
         segs = list(self._dec.seg() or ())
-        if not segs and len(pcm) >= SAMPLE_RATE:
-            # pocketsphinx gives no hypothesis at all when its search ends mid-word (seen on
-            # whole 10 s stretches of fast speech): decode it again with a little quiet after
-            # it, so that the last word can end. Streamed (full_utt False) like every other
-            # utterance: pocketsphinx 5.1.1's batch mode regrows its feature buffer but not the
-            # frame positions beside it, and the next streamed utterance then writes past their
-            # end (a segfault seen on a noisy corpus file, acmod_process_full_cep).
+        dur = len(pcm) / SAMPLE_RATE
+        words_end = max((_seg_end(seg, frate) for seg in segs if _is_word(seg.word)), default=0.0)
+        if dur >= 1.0 and np.sum(nuclei > words_end + 0.1) >= MIN_UNDECODED_SYLLABLES:
+            # pocketsphinx's search can end mid-word and then returns no hypothesis, or only
+            # the words before the last word it could end (seen on whole 10 s stretches of
+            # fast speech, and on a 7 s utterance whose last 13 words were lost): where
+            # syllables follow the last word, decode it again with a little quiet after it,
+            # so that the last word can end, and keep the longer reading. Streamed (full_utt
+            # False) like every other utterance: pocketsphinx 5.1.1's batch mode regrows its
+            # feature buffer but not the frame positions beside it, and the next utterance
+            # then writes past their end (a segfault, acmod_process_full_cep).
             pad = (self._pad_rng.standard_normal(int(0.3 * SAMPLE_RATE)) * 3.0).astype(np.int16)
             self._dec.start_utt()
             self._dec.process_raw(np.concatenate([pcm, pad]).tobytes(), False, False)
             self._dec.end_utt()
-            segs = [
-                seg
-                for seg in self._dec.seg() or ()
-                if seg.start_frame / 100.0 < len(pcm) / SAMPLE_RATE
-            ]
+            again = [seg for seg in self._dec.seg() or () if seg.start_frame / frate < dur]
+            if sum(_is_word(g.word) for g in again) > sum(_is_word(g.word) for g in segs):
+                segs = again
         for seg in segs:
             w = seg.word
-            if w in ("<s>", "</s>", "<sil>") or w.startswith(("[", "++", "<")):
+            if not _is_word(w):
                 continue
             # Segment.prob is already a linear posterior (do not exp() it).
             prob = float(min(1.0, max(0.0, seg.prob)))
-            word = Word(t0 + seg.start_frame / 100.0, t0 + (seg.end_frame + 1) / 100.0, w, prob)
+            word = Word(t0 + seg.start_frame / frate, t0 + _seg_end(seg, frate), w, prob)
             self._words.append(word)
             self._n_words += 1
             self._p_sum += prob
-        for s in syllable_nuclei(pcm):
+        for s in nuclei:
             self._syllables.append(t0 + float(s))
             self._n_syl += 1
         self._utt_pcm = []
         self._utt_ms = []
         self._in_utt = False
         self._utt_start = end
+
+    def _set_frame_rate(self) -> float:
+        """Set the decoder's frame rate for the utterance about to be decoded; return it.
+
+        Rate normalisation: the acoustic model's phones have a minimum length in frames and
+        the search a preferred word length, so at a fixed 100 frames/s pocketsphinx inserts
+        words into slow speech and drops words from fast speech (up to +22 % / -10 % on the
+        corpus). The frame rate is scaled with the speaker's recent syllable rate (nuclei per
+        second of utterance over the last :data:`RATE_HISTORY_S`, this utterance included),
+        so that every speaker reaches the model at about :data:`REFERENCE_SYLLABLE_RATE`.
+        """
+        dur = n = 0.0
+        for d, k in reversed(self._recent):
+            dur += d
+            n += k
+            if dur >= RATE_HISTORY_S:
+                break
+        while len(self._recent) > 1 and sum(d for d, _ in self._recent) - self._recent[0][0] >= (
+            RATE_HISTORY_S
+        ):
+            self._recent.popleft()
+        frate = 100.0
+        if dur >= MIN_RATE_HISTORY_S and n > 0:
+            # A rate from a few seconds of speech is a rough guess: the scaling is trusted in
+            # proportion to the speech heard, in full from RATE_FULL_TRUST_S.
+            trust = min(1.0, dur / RATE_FULL_TRUST_S)
+            ratio = (n / dur) / REFERENCE_SYLLABLE_RATE
+            frate = 100.0 * ratio ** (FRAME_RATE_EXPONENT * trust)
+        lo, hi = FRAME_RATE_RANGE
+        frate = float(min(hi, max(lo, FRAME_RATE_STEP * round(frate / FRAME_RATE_STEP))))
+        if frate != self._frate:
+            # reinit_feat resets the cepstral mean to the model's initial one: keep the mean
+            # learnt so far (the frame rate does not change it), or each change of rate would
+            # decode the next utterance against the wrong mean.
+            cmn = self._dec.get_cmn()
+            self._dec.config["frate"] = int(frate)
+            self._dec.reinit_feat()
+            self._dec.set_cmn(cmn)
+            self._frate = frate
+        return frate
 
     def _close_span(self, end: float) -> None:
         if self._span_start is not None and end > self._span_start:
