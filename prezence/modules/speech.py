@@ -57,8 +57,8 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
 * **Rate normalisation**: each utterance is decoded when it ends, at a frame rate scaled with
   the speaker's recent syllable rate (:meth:`SpeechAnalyser._set_frame_rate`; 65-140 frames/s
   around pocketsphinx's 100). At a fixed 100 frames/s the recogniser has a preferred speaking
-  rate: on a voice it recognises poorly (espeak-ng) it inserted about 20 % words at 110 wpm and
-  dropped 10-15 % at 210 wpm (mostly substitutions with short inserted or merged words, the
+  rate: on a voice it recognises poorly (espeak-ng) it inserted 16-19 % words at 110 wpm and
+  dropped 14-15 % at 210 wpm (mostly substitutions with short inserted or merged words, the
   count drifting toward the decoder's own rhythm). Scaled, speech reaches the model at about
   :data:`REFERENCE_SYLLABLE_RATE` syllables per second whatever the speaker's rate; voices it
   recognises well read the same at any frame rate from 85 to 115.
@@ -619,21 +619,18 @@ class SpeechAnalyser:
 
         Rate normalisation: the acoustic model's phones have a minimum length in frames and
         the search a preferred word length, so at a fixed 100 frames/s pocketsphinx inserts
-        words into slow speech and drops words from fast speech (up to +22 % / -10 % on the
-        corpus). The frame rate is scaled with the speaker's recent syllable rate (nuclei per
-        second of utterance over the last :data:`RATE_HISTORY_S`, this utterance included),
-        so that every speaker reaches the model at about :data:`REFERENCE_SYLLABLE_RATE`.
+        words into slow speech and drops words from fast speech (up to +19 % at 110 wpm and
+        -15 % at 210 wpm on the corpus's espeak-ng voices). The frame rate is scaled with the
+        speaker's recent syllable rate (nuclei per second of utterance over the last
+        :data:`RATE_HISTORY_S`, this utterance included), so that every speaker reaches the
+        model at about :data:`REFERENCE_SYLLABLE_RATE`.
         """
-        dur = n = 0.0
-        for d, k in reversed(self._recent):
-            dur += d
-            n += k
-            if dur >= RATE_HISTORY_S:
-                break
-        while len(self._recent) > 1 and sum(d for d, _ in self._recent) - self._recent[0][0] >= (
-            RATE_HISTORY_S
-        ):
-            self._recent.popleft()
+        # Keep the fewest latest utterances that cover RATE_HISTORY_S (all, if they do not).
+        recent = self._recent
+        while len(recent) > 1 and sum(d for d, _ in recent) - recent[0][0] >= RATE_HISTORY_S:
+            recent.popleft()
+        dur = sum(d for d, _ in reversed(recent))
+        n = float(sum(k for _, k in recent))
         frate = 100.0
         if dur >= MIN_RATE_HISTORY_S and n > 0:
             # A rate from a few seconds of speech is a rough guess: the scaling is trusted in
