@@ -32,6 +32,7 @@ time-optimal (bang-coast-bang) segment time under the same two bounds; the blend
 
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 from dataclasses import dataclass
@@ -193,11 +194,15 @@ class Trajectory:
         ).reshape(len(knots_t), len(self.joints))
         return knots_t, knots_q
 
+    @functools.cached_property
+    def _knot_times(self) -> tuple[float, ...]:
+        return (0.0, *(float(x) for x in self.times))
+
     def _segment(self, t: float) -> tuple[int, float, float]:
-        knots_t, _ = self._knots
-        k = int(np.searchsorted(knots_t, t, side="right")) - 1
+        knots_t = self._knot_times  # plain floats: bisect beats searchsorted on a few knots
+        k = bisect.bisect_right(knots_t, t) - 1
         k = min(max(k, 0), len(knots_t) - 2)
-        return k, t - float(knots_t[k]), float(knots_t[k + 1] - knots_t[k])
+        return k, t - knots_t[k], knots_t[k + 1] - knots_t[k]
 
     def sample(self, t: float) -> np.ndarray:
         """Planned joint positions at time ``t`` (see the module docstring for the profile)."""
@@ -218,6 +223,19 @@ class Trajectory:
         k, dt, seg = self._segment(t)
         _, ds, _ = profile(dt, seg)
         return (knots_q[k + 1] - knots_q[k]) * ds
+
+    def state(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(sample(t), velocity(t))`` with one segment lookup (the simulator's tracking calls
+        it every physics step); the values are exactly those of the two methods."""
+        knots_t, knots_q = self._knots
+        if t <= 0.0 or len(knots_t) < 2:
+            return knots_q[0].copy(), np.zeros(len(self.joints))
+        if t >= knots_t[-1]:
+            return knots_q[-1].copy(), np.zeros(len(self.joints))
+        k, dt, seg = self._segment(t)
+        s, ds, _ = profile(dt, seg)
+        dq = knots_q[k + 1] - knots_q[k]
+        return knots_q[k] + dq * s, dq * ds
 
     def peak_velocities(self) -> np.ndarray:
         """Each joint's highest planned speed (absolute, exact from the profile)."""

@@ -252,6 +252,17 @@ def test_sampled_velocity_is_the_derivative_of_the_sampled_position() -> None:
         assert numeric == pytest.approx(traj.velocity(t), abs=1e-4)
 
 
+def test_state_is_sample_and_velocity_in_one_call_bit_for_bit() -> None:
+    # the simulator tracks with state(); it must command exactly what sample/velocity plan,
+    # at the knots, between them, before the start and after the end
+    traj = build_trajectory("time_left", params={"minutes": 3}, speed_fraction=0.6, limits=LIMITS)
+    ts = [-1.0, 0.0, *traj.times, traj.duration + 1.0, *np.linspace(0.0, traj.duration, 211)]
+    for t in ts:
+        q, v = traj.state(float(t))
+        assert q.tolist() == traj.sample(float(t)).tolist()
+        assert v.tolist() == traj.velocity(float(t)).tolist()
+
+
 def test_check_reports_every_gesture_and_passes() -> None:
     text, status = check_gestures(0.6, as_json=False, collisions=False)
     assert status == 0, text
