@@ -10,6 +10,7 @@ pytest.importorskip("pybullet")
 
 import pybullet as p  # noqa: E402
 
+from prezence.errors import LimitViolation, UnknownName  # noqa: E402
 from prezence.feedback.gestures import build_trajectory, load_library  # noqa: E402
 from prezence.feedback.limits import load_limits  # noqa: E402
 from prezence.feedback.trajectory import Trajectory  # noqa: E402
@@ -238,3 +239,72 @@ def test_a_trajectory_whose_joints_are_all_taken_ends_at_once(sim: NaoSim) -> No
     sim.step_to(2.0)
     assert new.done and new.ok
     assert sim.positions(["HeadYaw"])[0] == pytest.approx(-0.5, abs=0.005)
+
+
+def _link_poses(s: NaoSim) -> dict[str, tuple[float, ...]]:
+    cid, robot = s.client, s.robot
+    out = {}
+    for i in range(p.getNumJoints(robot, physicsClientId=cid)):
+        child = p.getJointInfo(robot, i, physicsClientId=cid)[12].decode()
+        st = p.getLinkState(robot, i, computeForwardKinematics=True, physicsClientId=cid)
+        out[child] = (*st[4], *st[5])
+    return out
+
+
+def test_a_frozen_joint_holds_its_angle_exactly_where_the_movable_one_would() -> None:
+    # non-zero angles, the diagonal HipYawPitch axis included: the fixed joint's origin must be
+    # the URDF origin turned by the angle about the joint's axis
+    angles = {"LHipYawPitch": -0.3, "LHipPitch": -0.5, "LKneePitch": 0.6, "RAnkleRoll": 0.2}
+    with NaoSim() as movable, NaoSim(frozen=angles) as frozen:
+        for name, q in angles.items():
+            p.resetJointState(
+                movable.robot, movable._index[name], q, 0.0, physicsClientId=movable.client
+            )
+        want, got = _link_poses(movable), _link_poses(frozen)
+        assert got.keys() == want.keys()
+        for link, pose in want.items():
+            assert got[link] == pytest.approx(pose, abs=1e-6), link
+        assert set(frozen.joint_names) == set(LIMITS.names) - set(angles)
+        frozen.step_to(2.0)  # and it stays there under gravity
+        assert _link_poses(frozen)["l_sole"] == pytest.approx(want["l_sole"], abs=1e-6)
+
+
+def test_a_frozen_joint_cannot_be_commanded_and_says_why() -> None:
+    with NaoSim(frozen={"LKneePitch": 0.0}) as s:
+        before = s.positions()
+        with pytest.raises(ValueError, match="LKneePitch is held rigid"):
+            s.set_targets(["LShoulderPitch", "LKneePitch"], [0.5, 0.5], 0.5)
+        assert s.positions() == before  # nothing moved, not even the joint that was allowed
+        with pytest.raises(ValueError, match="LKneePitch is held rigid"):
+            s.follow(_one_joint("LKneePitch", 0.0, [(1.0, 0.3)]))
+    with pytest.raises(UnknownName, match="did you mean 'LKneePitch'"):
+        NaoSim(frozen={"LKnee": 0.0}).open()
+    with pytest.raises(LimitViolation, match="LKneePitch"):
+        NaoSim(frozen={"LKneePitch": 3.0}).open()  # beyond its limits
+
+
+def test_freezing_the_legs_leaves_the_arms_motion_as_it_was() -> None:
+    """The sim backend freezes the legs to halve the cost of a step; on a fixed base the arms
+    must then move as they did with every joint simulated."""
+    from sim.backend import LEGS
+
+    traj = build_trajectory("gesture_more", speed_fraction=0.6, limits=LIMITS)
+    paths = []
+    for frozen in ({}, dict.fromkeys(LEGS, 0.0)):
+        with NaoSim(timestep=1 / 100, frozen=frozen) as s:
+            s.follow(traj, speed_fraction=0.6)
+            path = []
+            while s.time < traj.duration + 0.5:
+                s.step_to(s.time + 0.05)
+                path.append(s.positions(list(traj.joints)))
+            tr = s.tracking
+            assert tr is not None and tr.done and tr.ok and tr.violations == 0
+            paths.append((path, tr.measured_s))
+    (full, full_s), (legs_frozen, frozen_s) = paths
+    worst = max(
+        abs(a - b)
+        for ra, rb in zip(full, legs_frozen, strict=True)
+        for a, b in zip(ra, rb, strict=True)
+    )
+    assert worst < ARRIVAL_TOL  # rad, along the whole path (measured: 1 mrad)
+    assert frozen_s == pytest.approx(full_s, abs=0.02)
