@@ -26,7 +26,7 @@ from prezence.feedback.trajectory import Trajectory
 
 log = logging.getLogger(__name__)
 
-#: Physics step of talks. 1/100 s tracks the gestures' planned timing within 1.5 % and their
+#: Physics step of talks. 1/100 s tracks the gestures' planned timing within 1.7 % and their
 #: velocity caps within 0.1 % (bench/bench_gestures.py), at less than half the cost of 1/240 s.
 SIM_TIMESTEP = 0.01
 #: Joints the sim backend holds rigid at 0 rad (the legs straight, as the fixed base stands):
