@@ -50,6 +50,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pybullet as p
@@ -123,6 +124,16 @@ def frozen_urdf(path: Path, angles: Mapping[str, float]) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
+class _Live(NamedTuple):
+    """A running trajectory's joints that it still drives, as each physics step uses them
+    (derived from ``Tracking.active``; rebuilt when a joint is taken over)."""
+
+    motors: list[tuple[int, str, int, float, float]]  # column, name, index, velocity cap, force
+    cols: np.ndarray  # their columns in NaoSim.joint_names order
+    final: np.ndarray  # their final values
+    every: bool  # still all of the trajectory's joints
+
+
 @dataclass
 class Tracking:
     """How the robot followed one trajectory (filled in step by step).
@@ -156,10 +167,8 @@ class Tracking:
     cols: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int), repr=False)
     active: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
     _inside_since: float | None = field(default=None, repr=False)
-    # the motor commands of the joints it still drives (NaoSim._motors); None: to rebuild
-    _motors: list[tuple[int, str, int, float, float]] | None = field(default=None, repr=False)
-    # columns, final values of the joints it still drives, and whether that is all of them
-    _live: tuple[np.ndarray, np.ndarray, bool] | None = field(default=None, repr=False)
+    # what each step needs about the joints it still drives (NaoSim._live_of); None: rebuild
+    _live: _Live | None = field(default=None, repr=False)
 
     @property
     def done(self) -> bool:
@@ -434,17 +443,12 @@ class NaoSim:
         for name, value in clipped.items():
             self._command({name: value}, frac[name])
 
-    def _command(
-        self,
-        targets: dict[str, float],
-        fraction: float,
-        velocities: dict[str, float] | None = None,
-    ) -> None:
-        """Send position targets; with ``velocities`` (trajectory tracking) the stiffer
-        ``position_gain`` applies, else PyBullet's default gain (setAngles-like approach)."""
+    def _command(self, targets: dict[str, float], fraction: float) -> None:
+        """Send plain position targets at PyBullet's default gain (setAngles-like approach).
+        Trajectory tracking sends its own, with velocity feed-forward and the stiffer
+        ``position_gain`` (:meth:`_apply_tracks`)."""
         cid = self._require()
         lim = self.limits
-        gain = self.position_gain if velocities is not None else HOLD_GAIN
         for name, q in targets.items():
             self._targets[name] = q
             p.setJointMotorControl2(
@@ -452,9 +456,9 @@ class NaoSim:
                 self._index[name],
                 p.POSITION_CONTROL,
                 targetPosition=q,
-                targetVelocity=(velocities or {}).get(name, 0.0),
+                targetVelocity=0.0,
                 maxVelocity=fraction * lim.velocity[name],
-                positionGain=gain,
+                positionGain=HOLD_GAIN,
                 velocityGain=1.0,
                 force=lim.effort[name],
                 physicsClientId=cid,
@@ -514,7 +518,7 @@ class NaoSim:
             if tr is None:
                 continue
             tr.active[tr.traj.joints.index(j)] = False
-            tr._motors = tr._live = None
+            tr._live = None
             tr.ok = False
             if not tr.active.any():
                 self._finish_track(tr, ok=False)
@@ -550,9 +554,7 @@ class NaoSim:
                 continue
             q, v = tr.traj.state(tau)
             qs, vs = q.tolist(), v.tolist()
-            if tr._motors is None:
-                tr._motors = self._motors(tr)
-            for k, name, index, cap, force in tr._motors:
+            for k, name, index, cap, force in self._live_of(tr).motors:
                 targets[name] = qs[k]
                 control(
                     robot,
@@ -567,15 +569,18 @@ class NaoSim:
                     physicsClientId=cid,
                 )
 
-    def _motors(self, tr: Tracking) -> list[tuple[int, str, int, float, float]]:
-        """Per joint ``tr`` still drives: its column in the trajectory, name, PyBullet index,
-        velocity cap and force, i.e. what :meth:`_command` sends, computed once per change."""
-        lim = self.limits
-        return [
-            (k, j, self._index[j], tr.fraction * lim.velocity[j], lim.effort[j])
-            for k, (j, a) in enumerate(zip(tr.traj.joints, tr.active, strict=True))
-            if a
-        ]
+    def _live_of(self, tr: Tracking) -> _Live:
+        """``tr``'s :class:`_Live`, built once per change of the joints it drives."""
+        if tr._live is None:
+            lim = self.limits
+            motors = [
+                (k, j, self._index[j], tr.fraction * lim.velocity[j], lim.effort[j])
+                for k, (j, a) in enumerate(zip(tr.traj.joints, tr.active, strict=True))
+                if a
+            ]
+            every = bool(tr.active.all())
+            tr._live = _Live(motors, tr.cols[tr.active], tr.final[tr.active], every)
+        return tr._live
 
     def _record(self) -> None:
         cid = self._require()
@@ -595,10 +600,8 @@ class NaoSim:
 
     def _record_track(self, tr: Tracking, q: np.ndarray, v: np.ndarray, bad: np.ndarray) -> None:
         """Update one running trajectory's record from this step's states (all joints)."""
-        if tr._live is None:
-            tr._live = (tr.cols[tr.active], tr.final[tr.active], bool(tr.active.all()))
-        col, final, all_active = tr._live
-        speed = v[tr.cols] if all_active else np.where(tr.active, v[tr.cols], 0.0)
+        _, col, final, every = self._live_of(tr)
+        speed = v[tr.cols] if every else np.where(tr.active, v[tr.cols], 0.0)
         np.maximum(tr.peak_speed, speed, out=tr.peak_speed)
         tr.violations += int(np.count_nonzero(bad[col]))
         inside = bool(np.all(np.abs(q[col] - final) <= ARRIVAL_TOL))
