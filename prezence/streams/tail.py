@@ -61,10 +61,13 @@ import time
 from collections import deque
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass
+from itertools import repeat
 from operator import attrgetter
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Literal, NamedTuple, Protocol
+
+import numpy as np
 
 from prezence.samples import Sample
 from prezence.streams.codec import StreamLineError, parse_line
@@ -87,6 +90,8 @@ log = logging.getLogger(__name__)
 #: A longer line is malformed (a valid one is under 60 bytes); it also bounds the bytes kept
 #: while waiting for a newline, should a file that is not a stream be followed by mistake.
 MAX_LINE_BYTES = 4096
+#: A read at least this long is first tried in one go (:meth:`StreamTailer._feed_bulk`).
+BULK_MIN_BYTES = 1 << 16
 #: Bad lines logged as warnings per stream; the rest are counted and kept, not logged.
 MAX_LOGGED_PROBLEMS = 20
 #: The most one poll reads (bytes); :func:`read_stream` reads at most :data:`MAX_STREAM_BYTES`.
@@ -385,6 +390,64 @@ class StreamTailer:
 
     # -- parsing (shared by poll and read_stream) -------------------------------------------
 
+    def _warn_beyond(self, line_no: int, t: float, max_t: float) -> None:
+        log.warning(
+            "%s:%d: t=%g is after the talk's end (%.1f s); skipped (further ones only counted)",
+            self._name,
+            line_no,
+            t,
+            max_t,
+        )
+
+    def _feed_bulk(self, complete: bytes, now: float | None) -> list[Sample] | None:
+        """A large read (a whole file replayed, a module that wrote a lot at once) in one go,
+        when every line is exactly ``<t> <value>`` with one space, both finite numbers, in time
+        order and within the clock limits, except for a tail stamped after the talk's end
+        (counted, as the line-by-line way does). None when any of that does not hold: then
+        the line-by-line way reads it and says what is wrong with which line.
+        """
+        raw = np.frombuffer(complete, dtype=np.uint8)
+        newlines = np.flatnonzero(raw == 10)
+        spaces = np.flatnonzero(raw == 32)
+        n = len(newlines) + 1
+        # one space per line, strictly inside it, and no other whitespace or control byte
+        if len(spaces) != n or np.count_nonzero(raw <= 32) != len(newlines) + n:
+            return None
+        starts = np.empty(n, dtype=np.int64)
+        starts[0] = 0
+        starts[1:] = newlines + 1
+        ends = np.empty(n, dtype=np.int64)
+        ends[:-1] = newlines
+        ends[-1] = len(complete)
+        if not (
+            np.all(spaces > starts)
+            and np.all(spaces + 1 < ends)
+            and int((ends - starts).max()) <= MAX_LINE_BYTES
+        ):
+            return None
+        try:
+            values = np.array(list(map(float, complete.split())), dtype=np.float64)
+        except ValueError:
+            return None
+        ts = values[0::2]
+        vs = values[1::2]
+        lo = 0.0 if self._last_t is None else max(0.0, self._last_t)
+        if not (np.isfinite(values).all() and ts[0] >= lo and np.all(ts[1:] >= ts[:-1])):
+            return None
+        max_t = self.max_t
+        if self.max_ahead_s is not None and now is not None and ts[-1] > now + self.max_ahead_s:
+            return None  # ahead of the talk clock: the line-by-line way names the lines
+        keep = n
+        if max_t is not None and ts[-1] > max_t:
+            keep = int(np.searchsorted(ts, max_t, side="right"))
+            if self._beyond == 0:
+                self._warn_beyond(self._line_no + keep + 1, float(ts[keep]), max_t)
+            self._beyond += n - keep
+        self._line_no += n
+        if keep:
+            self._last_t = float(ts[keep - 1])
+        return list(map(Sample, repeat(self.metric), ts[:keep].tolist(), vs[:keep].tolist()))
+
     def _feed(self, data: bytes, now: float | None) -> list[Sample]:
         self._offset += len(data)
         # Only the last bytes matter: never copy a whole (possibly large) read to keep them.
@@ -399,6 +462,12 @@ class StreamTailer:
         # cannot fail), so lines take the short path below; a bad one still goes to parse_line
         # for its reason.
         plain = complete.isascii() and b"_" not in complete
+        if plain and not self._skipping and len(complete) >= BULK_MIN_BYTES:
+            bulk = self._feed_bulk(complete, now)
+            if bulk is not None:
+                self._samples += len(bulk)
+                self._keep_pending(rest)
+                return bulk
         try:
             lines: Iterable[str | bytes] = complete.decode("utf-8").split("\n")
         except UnicodeDecodeError:
@@ -419,7 +488,9 @@ class StreamTailer:
             if ahead is not None and now is not None:
                 hi = min(hi, now + ahead)
             lo = -math.inf if last_t is None else last_t
+            clock_hi = math.inf if ahead is None or now is None else now + ahead
             done = 0
+            beyond = 0  # well-formed lines stamped after max_t: counted, not kept
             for line in lines:
                 fields = line.split()
                 if len(fields) != 2 or len(line) > MAX_LINE_BYTES:
@@ -431,13 +502,27 @@ class StreamTailer:
                     break
                 # x - x == 0.0 is false for inf and nan
                 if not (lo <= tf <= hi and tf >= 0.0 and value - value == 0.0):
+                    if (
+                        hi == max_t
+                        and hi < tf <= clock_hi
+                        and tf - tf == 0.0
+                        and value - value == 0.0
+                    ):
+                        # after the talk's end (what the general path below does with it)
+                        if beyond == 0 and self._beyond == 0:
+                            self._warn_beyond(self._line_no + done + 1, tf, hi)
+                        beyond += 1
+                        done += 1
+                        continue
                     break
                 lo = tf
                 append(Sample(metric, tf, value))
                 done += 1
             if done:
                 self._line_no += done
-                last_t = lo
+                self._beyond += beyond
+                if lo != -math.inf:
+                    last_t = lo
                 lines = lines[done:]
         for raw in lines:
             self._line_no += 1
@@ -487,14 +572,7 @@ class StreamTailer:
             if max_t is not None and t > max_t:
                 self._beyond += 1
                 if self._beyond == 1:
-                    log.warning(
-                        "%s:%d: t=%g is after the talk's end (%.1f s); skipped (further ones "
-                        "only counted)",
-                        self._name,
-                        self._line_no,
-                        t,
-                        max_t,
-                    )
+                    self._warn_beyond(self._line_no, t, max_t)
                 continue
             if last_t is not None and t < last_t:
                 self._out_of_order += 1

@@ -410,3 +410,76 @@ def test_bare_values_read_afterwards_get_the_times_the_live_reader_gave_them(
     assert [s.t for s in live.poll(5.0)] == [5.0]
     assert read_stream(stream, M)[0] == [Sample(M, 5.0, 190.0)]
     assert stamps_path(stream).name == "speech_speed.txt.stamps"
+
+
+# -- large reads in one go ------------------------------------------------------------------
+
+_DEFECTS: dict[str, bytes] = {
+    "clean": b"",
+    "garbage": b"2499.75 abc\n",
+    "three fields": b"2499.75 1 2\n",
+    "one field": b"2499.75\n",
+    "tab": b"2499.75\t3\n",
+    "two spaces": b"2499.75  3\n",
+    "leading space": b" 2499.75 3\n",
+    "blank": b"\n",
+    "nan": b"2499.75 nan\n",
+    "inf time": b"inf 3\n",
+    "overflow": b"2499.75 1e999\n",
+    "back in time": b"0.25 3\n",
+    "negative time": b"-1 3\n",
+    "long line": b"2499.75 " + b"1" * (MAX_LINE_BYTES + 10) + b"\n",
+    "crlf": b"2499.75 3\r\n",
+    "exponent": b"2499.75 +3.5e-2\n",
+}
+
+
+@pytest.mark.parametrize("defect", sorted(_DEFECTS))
+@pytest.mark.parametrize("max_t", [None, 100.0, 5000.0])
+def test_a_large_file_read_in_one_go_gives_what_line_by_line_gives(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, defect: str, max_t: float | None
+) -> None:
+    # 10,000 lines (~130 KB) with one defect in the middle: the one-go reader must take the
+    # file exactly as the line-by-line reader does (same samples bit for bit, same counters
+    # and problems) or leave it to it.
+    import prezence.streams.tail as tail
+
+    lines = [f"{k * 0.5!r} {140.0 + (k * 7919 % 97) / 3.0!r}\n".encode() for k in range(10_000)]
+    body = b"".join(lines[:5000]) + _DEFECTS[defect] + b"".join(lines[5000:])
+    path = tmp_path / "speech_speed.txt"
+    path.write_bytes(body)
+    taken: list[bool] = []
+    one_go = tail.StreamTailer._feed_bulk
+
+    def spy(self: StreamTailer, complete: bytes, now: float | None) -> list[Sample] | None:
+        out = one_go(self, complete, now)
+        taken.append(out is not None)
+        return out
+
+    monkeypatch.setattr(tail.StreamTailer, "_feed_bulk", spy)
+    fast_problems: list[StreamProblem] = []
+    fast = read_stream(path, M, problems=fast_problems, max_t=max_t)
+    # a clean file (and one whose only oddity float() takes as it is) goes in one go
+    assert taken == [defect in ("clean", "exponent")]
+    monkeypatch.setattr(tail, "BULK_MIN_BYTES", 1 << 40)
+    slow_problems: list[StreamProblem] = []
+    slow = read_stream(path, M, problems=slow_problems, max_t=max_t)
+    assert fast[0] == slow[0]
+    assert fast[1] == slow[1]
+    assert fast_problems == slow_problems
+    if defect == "clean" and max_t == 100.0:
+        assert fast[1].beyond_talk == 10_000 - 201 and len(fast[0]) == 201
+
+
+def test_a_large_read_while_following_gives_what_small_reads_give(stream: Path) -> None:
+    # A module that wrote a lot before the tailer looked, then more: same samples as a tailer
+    # that saw each line as it came.
+    body = b"".join(f"{k * 0.25!r} {k % 13}.5\n".encode() for k in range(20_000))
+    stream.write_bytes(body[: len(body) // 2 + 3])  # ends mid-line
+    big = StreamTailer(stream, M)
+    got = big.poll(5000.0)
+    append(stream, body[len(body) // 2 + 3 :])
+    got += big.poll(5000.0)
+    want = [Sample(M, k * 0.25, float(f"{k % 13}.5")) for k in range(20_000)]
+    assert got == want
+    assert big.stats().malformed == 0
