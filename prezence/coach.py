@@ -153,12 +153,13 @@ class Coach:
             if decision.cue is not None or key != last:
                 self._last_logged = key
                 rec = decision.to_dict()
-                views = self.processor.views(now)
                 if decision.cue is None and last is not None:
                     # only the metrics whose state changed; a cue's line has them all
-                    views = tuple(
-                        v for v, a, b in zip(views, status, last[2], strict=True) if a != b
+                    views = self.processor.views(
+                        now, [i for i, (a, b) in enumerate(zip(status, last[2])) if a != b]
                     )
+                else:
+                    views = self.processor.views(now)
                 rec["metrics"] = [m.to_dict() for m in views]
                 self._decisions.write(rec)
         if decision.cue is not None:
@@ -183,7 +184,7 @@ class Coach:
         if self.backend.busy or self._current is not None:
             return False
         if cue.metric is not None:
-            self.processor.state(cue.metric).fired(cue.t)
+            self.processor.fired(cue.metric, cue.t)
         if self.log_mode != "off":
             rec = {"t": round(cue.t, 6), "cue": cue.to_dict(), "reason": cue.reason}
             self._decisions.write(rec)
@@ -210,7 +211,7 @@ class Coach:
 
     def _settle(self) -> None:
         perf = self._current
-        if perf is None or not (perf.dropped is not None or perf.done):
+        if perf is None or (perf.dropped is None and not perf.done):
             return
         rec = perf.record()
         self._cues.write(rec)

@@ -254,7 +254,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             out += [
                 min(max(value, lo), hi),
                 min(max(signed, -_DEV_CLIP), _DEV_CLIP),
-                min(st.weight / thr, _WEIGHT_CLIP) if thr > 0 else 0.0,
+                min(st.weight_at(t) / thr, _WEIGHT_CLIP) if thr > 0 else 0.0,
                 0.0 if st.stale(t) else 1.0,
             ]
         perf = self.talk.coach.current if self.talk.coach is not None else None
@@ -430,7 +430,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         for r in self.rules:
             st = proc.state(r.metric)
             v = "-" if st.value is None else f"{st.value:.3g}"
-            parts.append(f"{r.metric}={v}(w{st.weight:.0f})")
+            parts.append(f"{r.metric}={v}(w{st.weight_at(float(ep['t'])):.0f})")
         return " ".join(parts)
 
     def _frame(self) -> npt.NDArray[np.uint8]:

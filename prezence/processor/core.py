@@ -75,6 +75,7 @@ class Processor:
                 persistence_s=self.persistence_s,
                 effect_s=effect_s,
                 rearm_after_s=s.refractory_s,
+                threshold=s.threshold,
             )
             for r in config.rules
         }
@@ -94,6 +95,10 @@ class Processor:
         self.escalations: list[dict[str, Any]] = []
         self._escalated: set[str] = set()
         self._undo: tuple[Cue, str | None, MetricState | None, set[float], float] | None = None
+        # status(): the last one worked out, and the time before which it cannot change
+        # unless a sample or a cue changes it (then it is dropped)
+        self._status: tuple[tuple[bool, str | None, bool], ...] = ()
+        self._status_until = -math.inf
 
     # -- input -----------------------------------------------------------------------------
     def ingest(self, samples: Iterable[Sample], *, now: float | None = None) -> None:
@@ -115,8 +120,10 @@ class Processor:
             if s.t > horizon:
                 st.ahead += 1
                 continue
-            if st.ingest(s.t, s.value) and whole:
-                self.policy.feed(st.rule, s.t, s.value)
+            if st.ingest(s.t, s.value):
+                self._status_until = -math.inf
+                if whole:
+                    self.policy.feed(st.rule, s.t, s.value)
 
     def counts(self) -> dict[str, dict[str, int]]:
         """Per metric: samples used, and samples dropped as ``late`` or ``ahead`` of the clock."""
@@ -127,6 +134,16 @@ class Processor:
 
     def state(self, metric: str) -> MetricState:
         return self._states[metric]
+
+    def fired(self, metric: str, now: float) -> None:
+        """``metric`` was cued at ``now`` (by the processor or an agent): its weight starts
+        again from 0, its strict warning is spent, its refractory time begins."""
+        self._states[metric].fired(now)
+        self._status_until = -math.inf
+
+    def weight(self, metric: str, now: float) -> float:
+        """``metric``'s weight W at ``now`` (%·s; see :mod:`prezence.processor.state`)."""
+        return self._states[metric].weight_at(now)
 
     @property
     def states(self) -> tuple[MetricState, ...]:
@@ -156,11 +173,6 @@ class Processor:
         """
         if samples:
             self.ingest(samples, now=now)
-        for st in self._states.values():
-            if st.value is not None and now > st.integrated_to:
-                st.advance(now)
-            elif now > st.integrated_to:
-                st.integrated_to = now  # what advance() does without a value
         views = self.views(now) if with_views else ()
         if self.policy.whole:
             chosen = self.policy.decide(now, free_since is not None)
@@ -190,31 +202,38 @@ class Processor:
         cue = self._fire(chosen, cands, now)
         return Decision(now, cue, cue.reason, False, tuple(cands), views)
 
-    def views(self, now: float) -> tuple[MetricView, ...]:
-        """Every metric's state at ``now`` (the decision log, live views)."""
-        return tuple(self._view(st, now) for st in self._states.values())
+    def views(self, now: float, only: Iterable[int] | None = None) -> tuple[MetricView, ...]:
+        """Every metric's state at ``now`` (the decision log, live views); with ``only``,
+        those of the metrics at these places in the rules' order."""
+        if only is None:
+            return tuple([self._view(st, now) for st in self._states.values()])
+        states = tuple(self._states.values())
+        return tuple([self._view(states[i], now) for i in only])
 
     def status(self, now: float) -> tuple[tuple[bool, str | None, bool], ...]:
         """A cheap summary of every metric's state: (stale or no value, side out of range,
         strict cue pending). The decision log writes a line when it changes."""
-        return tuple(
-            [
-                # side is None while there is no value
-                (
-                    st.value is None or now - st.last_sample_t > st.stale_after_s,
-                    st.side,
-                    st.strict_pending,
-                )
-                for st in self._states.values()
-            ]
-        )
+        if now < self._status_until:
+            return self._status
+        until = math.inf
+        out = []
+        for st in self._states.values():
+            # side is None while there is no value
+            stale = st.value is None or now - st.last_sample_t > st.stale_after_s
+            out.append((stale, st.side, st.strict_pending))
+            if not stale and st.last_sample_t + st.stale_after_s < until:
+                until = st.last_sample_t + st.stale_after_s
+        self._status = status = tuple(out)
+        # a little early, so that rounding never keeps a status that has changed
+        self._status_until = until - 1e-6 * (1.0 + abs(until))
+        return status
 
     def _view(self, st: MetricState, now: float) -> MetricView:
         return MetricView(
             metric=st.rule.metric,
             value=st.value,
             deviation=st.deviation(),
-            weight=st.weight,
+            weight=st.weight_at(now),
             stale=st.stale(now),
             refractory=now - st.last_fired < self.settings.refractory_s,
             strict_pending=st.strict_pending,
@@ -222,24 +241,31 @@ class Processor:
 
     def _candidates(self, now: float) -> list[Candidate]:
         s = self.settings
-        out: list[Candidate] = []
-        out.extend(self._time_candidates(now))
+        out: list[Candidate] = self._time_candidates(now)
         all_out = self.policy.wants_all_out_of_range
+        praise_after_s = s.praise_after_s
+        refractory_s = s.refractory_s
+        escalated = self._escalated
         any_problem_recent = False
+        any_fresh = False
         for st in self._states.values():
-            r = st.rule
-            if st.value is None or st.stale(now):
-                continue
-            if now - st.last_problem_t < s.praise_after_s:
+            if st.value is None or now - st.last_sample_t > st.stale_after_s:
+                continue  # no value, or stale
+            any_fresh = True
+            if now - st.last_problem_t < praise_after_s:
                 any_problem_recent = True
-            if now - st.last_fired < s.refractory_s:
+            if now - st.last_fired < refractory_s:
                 continue
-            if r.metric in self._escalated:
+            if not st.strict_pending and (st.dev <= 0.0 or (now < st.reach_t and not all_out)):
+                continue  # in range, or its weight cannot have reached the threshold yet
+            r = st.rule
+            if r.metric in escalated:
                 continue
             dev = st.dev
             side = st.side
             if r.strict and st.strict_pending and now - st.last_problem_t > st.stale_after_s:
                 # The excursion ended longer ago than the stale time: too old to be worth a cue.
+                self._status_until = -math.inf
                 st.strict_pending = False
                 st.strict_onset = None
                 st.strict_peak = 0.0
@@ -266,10 +292,13 @@ class Processor:
                 continue
             if dev <= 0.0 or side is None:
                 continue
+            if now < st.reach_t and not all_out:
+                continue  # (a strict rule's warning given) cannot have reached it yet
             command = r.below if side == "below" else r.above
             if command is None:
                 continue
-            eligible = st.weight >= s.threshold
+            weight = st.weight_at(now)
+            eligible = weight >= s.threshold
             if eligible and self._escalate(st, now, command):
                 continue
             if eligible or all_out:
@@ -279,7 +308,7 @@ class Processor:
                         command,
                         r.metric,
                         eligible=eligible,
-                        weight=st.weight,
+                        weight=weight,
                         deviation=dev,
                         value=st.value,
                         side=side,
@@ -293,7 +322,7 @@ class Processor:
             and not out
             and not any_problem_recent
             and now - max(self._last_cue_t, 0.0) >= s.praise_after_s
-            and any(st.value is not None and not st.stale(now) for st in self._states.values())
+            and any_fresh
         ):
             out.append(Candidate(Kind.PRAISE, s.praise_command, None, eligible=True, recency=now))
         return out
@@ -372,6 +401,7 @@ class Processor:
         _, metric, state, marks, overtime = undo
         if metric is not None and state is not None:
             self._states[metric] = state
+            self._status_until = -math.inf
         self._time_marks_given = marks
         self._last_overtime = overtime
         self.policy.cue_dropped(cue)
@@ -394,7 +424,7 @@ class Processor:
                     m for m in self.config.time.warn_at_s_left if m >= mark
                 )
         elif c.metric is not None and c.metric in self._states and not self.policy.whole:
-            self._states[c.metric].fired(now)
+            self.fired(c.metric, now)
         params = {k: v for k, v in c.params.items() if k != "mark_s"}
         cue = Cue(
             t=now,

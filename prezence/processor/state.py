@@ -12,8 +12,9 @@ exponential average of "out of range" (1) and "in range" (0) with time constant
 P near 1 and weighs its full deviation × time; a flicker (out 1 s of every 2 s) has P near 0.5,
 so each of its out-of-range seconds weighs about half, and the decay in between takes back most
 of it: the seed's "a brief or intermittent deviation weighs less". With ``persistence_s = 0``
-P is 1 at once (the plain integral). Both W and P are integrated in closed form over each
-interval, so the batching of samples does not change the result.
+P is 1 at once (the plain integral). Both W and P are integrated in closed form from the last
+event (a sample taken, a cue given) to the time asked, and only events move that base: neither
+the batching of samples nor when or how often the weight is looked at changes the result.
 
 The held value (the newest sample) applies from its timestamp until the next sample, so a module
 that writes twice as often reaches the threshold at the same time, not twice as soon.
@@ -27,7 +28,7 @@ from dataclasses import dataclass, field
 from prezence.config.model import Rule
 
 
-@dataclass
+@dataclass(slots=True)
 class MetricState:
     """The processor's running memory of one metric."""
 
@@ -38,9 +39,12 @@ class MetricState:
     effect_s: float = 10.0
     value: float | None = None
     last_sample_t: float = -math.inf
-    integrated_to: float = 0.0
-    weight: float = 0.0
-    persistence: float = 0.0  # share of the recent past out of range (see the module doc)
+    #: W and P are kept as of this time (the last sample taken or cue given): between two
+    #: such events they follow in closed form (:meth:`weight_at`), so looking at the weight
+    #: at any time changes nothing, and the result does not depend on when it is looked at.
+    base_t: float = 0.0
+    base_weight: float = 0.0
+    base_persistence: float = 0.0  # share of the recent past out of range (see the module doc)
     out_since: float | None = None  # onset of the current out-of-range stretch (sample time)
     last_problem_t: float = -math.inf  # newest sample time that was out of range
     strict_pending: bool = False
@@ -59,23 +63,25 @@ class MetricState:
     samples: int = 0
     late: int = 0  # samples older than the newest one already seen: dropped
     ahead: int = 0  # samples stamped too far ahead of the talk clock: dropped
+    #: The weight the processor's threshold asks for (only :attr:`reach_t` uses it).
+    threshold: float = math.inf
     # The held value's deviation and side of the band, set with it in ingest (the hot path
     # reads them every step instead of recomputing them from the rule).
     dev: float = field(default=0.0, repr=False, compare=False)
     side: str | None = field(default=None, repr=False, compare=False)
+    #: No earlier than this can W reach ``threshold`` with the value held now (W grows by at
+    #: most gain × deviation% per second), so before it the weight need not be worked out.
+    reach_t: float = field(default=math.inf, repr=False, compare=False)
 
-    def advance(self, to_t: float) -> None:
-        """Integrate the held value's deviation from ``integrated_to`` up to ``to_t``."""
-        t0 = self.integrated_to
-        if to_t <= t0:
-            return
-        self.integrated_to = to_t
-        if self.value is None:
-            return
+    def _integrate(self, to_t: float) -> tuple[float, float]:
+        """W and P at ``to_t``, integrated from ``base_t`` with the value held since then."""
+        t0 = self.base_t
+        w = self.base_weight
+        p = self.base_persistence
+        if to_t <= t0 or self.value is None:
+            return w, p
         fresh_until = self.last_sample_t + self.stale_after_s
         dev = self.dev
-        w = self.weight
-        p = self.persistence
         tau = self.persistence_s
         # Fresh part of the interval: grow (out of range) or decay (in range).
         t_fresh_end = to_t if to_t <= fresh_until else fresh_until  # min(), without the call
@@ -99,8 +105,36 @@ class MetricState:
             if w > 0.0:
                 w *= 0.5 ** ((to_t - t0) / self.half_life_s)
             p = p * math.exp(-(to_t - t0) / tau) if tau > 0.0 else 0.0
-        self.weight = w
-        self.persistence = p
+        return w, p
+
+    def weight_at(self, now: float) -> float:
+        """The weight W at ``now`` (``now`` at or after the last sample or cue)."""
+        return self._integrate(now)[0]
+
+    def persistence_at(self, now: float) -> float:
+        """The persistence P at ``now``."""
+        return self._integrate(now)[1]
+
+    def _rebase(self, t: float, weight: float | None = None) -> None:
+        """Move the base to ``t`` (W and P integrated there; ``weight`` replaces W)."""
+        if t > self.base_t:
+            w, self.base_persistence = self._integrate(t)
+            self.base_t = t
+        else:
+            w = self.base_weight
+        self.base_weight = w if weight is None else weight
+        self._reach()
+
+    def _reach(self) -> None:
+        rate = self.rule.gain * self.dev
+        if self.base_weight >= self.threshold:
+            self.reach_t = -math.inf
+        elif rate > 0.0:
+            # a little early, so that rounding never makes it late
+            reach = self.base_t + (self.threshold - self.base_weight) / rate
+            self.reach_t = reach - 1e-6 * (1.0 + abs(reach))
+        else:
+            self.reach_t = math.inf
 
     def ingest(self, t: float, value: float) -> bool:
         """Take a new sample at time ``t``.
@@ -113,13 +147,56 @@ class MetricState:
         if t < self.last_sample_t:
             self.late += 1
             return False
-        self.advance(t)
+        if t > self.base_t:
+            if self.value is not None and t <= self.last_sample_t + self.stale_after_s:
+                # the common case of _integrate (fresh throughout), inlined with the same
+                # operations in the same order, so with the same result
+                dt = t - self.base_t
+                tau = self.persistence_s
+                p = self.base_persistence
+                if self.dev > 0.0:
+                    if tau > 0.0:
+                        k = math.exp(-dt / tau)
+                        self.base_weight += (
+                            self.rule.gain * self.dev * (dt - (1.0 - p) * tau * (1.0 - k))
+                        )
+                        self.base_persistence = 1.0 - (1.0 - p) * k
+                    else:
+                        self.base_weight += self.rule.gain * self.dev * dt
+                        self.base_persistence = 1.0
+                else:
+                    self.base_weight *= 0.5 ** (dt / self.half_life_s)
+                    self.base_persistence = p * math.exp(-dt / tau) if tau > 0.0 else 0.0
+            else:
+                self.base_weight, self.base_persistence = self._integrate(t)
+            self.base_t = t
         self.value = value
         self.last_sample_t = t
         self.samples += 1
+        # Rule.deviation and Rule.side in one pass (same arithmetic)
         rule = self.rule
-        self.dev = dev = rule.deviation(value)
-        self.side = rule.side(value)
+        v = value + rule.offset
+        low = rule.low
+        high = rule.high
+        if low is not None and v < low:
+            dev = 100.0 * (low - v) / (rule.scale if rule.scale is not None else low)
+            self.side = "below"
+        elif high is not None and v > high:
+            dev = 100.0 * (v - high) / (rule.scale if rule.scale is not None else high)
+            self.side = "above"
+        else:
+            dev = 0.0
+            self.side = None
+        self.dev = dev
+        # _reach(), inlined
+        rate = rule.gain * dev
+        if self.base_weight >= self.threshold:
+            self.reach_t = -math.inf
+        elif rate > 0.0:
+            reach = self.base_t + (self.threshold - self.base_weight) / rate
+            self.reach_t = reach - 1e-6 * (1.0 + abs(reach))
+        else:
+            self.reach_t = math.inf
         if dev > 0.0:
             if self.out_since is None:
                 self.out_since = t
@@ -157,8 +234,8 @@ class MetricState:
         return 0.0 if self.value is None else self.dev
 
     def fired(self, now: float) -> None:
-        """Reset after this metric was cued."""
-        self.weight = 0.0
+        """Reset after this metric was cued at ``now``: its weight starts again from 0."""
+        self._rebase(now, 0.0)
         self.strict_pending = False
         self.strict_onset = None
         self.strict_peak = 0.0

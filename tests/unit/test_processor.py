@@ -226,7 +226,7 @@ def test_stale_metric_is_excluded_and_flagged() -> None:
     assert d.cue is None
     assert d.metrics[0].stale is True
     # weight accrued only while fresh (3 s × 250 %), then decayed
-    assert p.state("cv_headGaze").weight < 750.0
+    assert p.weight("cv_headGaze", 30.0) < 750.0
 
 
 def test_time_warnings_at_marks_then_overtime_repeats() -> None:
@@ -294,7 +294,7 @@ def test_unknown_metric_samples_are_counted_not_fatal() -> None:
 def test_weights_never_negative_and_decay_when_back_in_range() -> None:
     p = make(SPEED)
     talk(p, {"speech_speed": lambda t: 200.0 if t < 20 else 160.0}, until=100)
-    w = p.state("speech_speed").weight
+    w = p.weight("speech_speed", 100.0)
     assert 0.0 <= w < 10.0
 
 
@@ -334,3 +334,92 @@ def test_an_old_sample_neither_overwrites_the_value_nor_rearms_a_strict_rule() -
     assert d.cue is None
     assert p.state("speech_accuracy").value == 0.95
     assert p.counts()["speech_accuracy"]["late"] == 1
+
+
+# -- the weight between events -------------------------------------------------------------
+
+
+def _noisy_talk(seed: int) -> list[Sample]:
+    """Four metrics sampled at their own irregular times, wandering in and out of range."""
+    import random
+
+    rng = random.Random(seed)
+    out: list[Sample] = []
+    for rule, (lo, hi), rate in (
+        (SPEED, (100.0, 230.0), 1.0),
+        (GAZE, (-40.0, 5.0), 5.0),
+        (STRICT_CLARITY, (0.4, 1.0), 0.5),
+        (Rule("volume", Check.MIN, low=60.0, below="louder"), (45.0, 75.0), 2.0),
+    ):
+        t = 0.0
+        while t < 600.0:
+            t += rng.expovariate(rate) if rng.random() > 0.02 else 8.0  # a gap now and then
+            out.append(Sample(rule.metric, round(t, 3), rng.uniform(lo, hi)))
+    return sorted(out, key=lambda s: s.t)
+
+
+def _run(
+    samples: list[Sample], *, dt: float, look: bool, persistence_s: float
+) -> tuple[list[tuple[float, str]], list[tuple[str, float]]]:
+    rules = (SPEED, GAZE, STRICT_CLARITY, Rule("volume", Check.MIN, low=60.0, below="louder"))
+    policy = f"weighted:persistence_s={persistence_s:g}"
+    p = make(*rules, policy=policy, min_gap_s=2.0)
+    busy_until = 0.0
+    cues_given: list[tuple[float, str]] = []
+    seen: list[tuple[str, float]] = []
+    i, n = 0, len(samples)
+    for k in range(1, int(600.0 / dt) + 1):
+        now = round(k * dt, 9)
+        j = i
+        while j < n and samples[j].t <= now:
+            j += 1
+        free = None if now < busy_until else busy_until
+        d = p.step(now, samples[i:j], free_since=free, with_views=look)
+        i = j
+        if look:
+            p.status(now)
+            seen += [(v.metric, v.weight) for v in p.views(now)]
+        if d.cue is not None:
+            cues_given.append((now, d.cue.command))
+            seen.append((d.cue.command, d.cue.weight))
+            busy_until = now + 4.0
+    return cues_given, [x for x in seen if x[0] in {"speedUp", "lookUp", "louder", "slowDown"}]
+
+
+@pytest.mark.parametrize("persistence_s", [0.0, 4.0])
+def test_looking_at_the_weights_every_tick_changes_nothing(persistence_s: float) -> None:
+    # The weights are worked out from the last sample or cue when asked: a live view or a
+    # decision log that asks for every metric's view at every tick must see the same cues,
+    # with the same weights bit for bit, as a headless run that never asks.
+    samples = _noisy_talk(7)
+    quiet = _run(samples, dt=0.5, look=False, persistence_s=persistence_s)
+    looked = _run(samples, dt=0.5, look=True, persistence_s=persistence_s)
+    assert len(quiet[0]) >= 5 and len(quiet[1]) >= 3  # weighted cues among them
+    assert looked[0] == quiet[0]
+    assert looked[1] == quiet[1]
+
+
+def test_weight_at_a_time_does_not_depend_on_the_decision_points_before_it() -> None:
+    # Same samples, decided on every 0.5 s or every 0.1 s with the robot always busy (so no
+    # cue resets anything): the weight at each whole second is the same, bit for bit.
+    rules = (SPEED, GAZE, STRICT_CLARITY)
+    samples = [s for s in _noisy_talk(3) if s.metric != "volume"]
+
+    def weights(dt: float) -> dict[float, tuple[float, ...]]:
+        p = make(*rules, policy="weighted:persistence_s=4")
+        out: dict[float, tuple[float, ...]] = {}
+        i = 0
+        for k in range(1, int(300.0 / dt) + 1):
+            now = round(k * dt, 9)
+            j = i
+            while j < len(samples) and samples[j].t <= now:
+                j += 1
+            p.step(now, samples[i:j], free_since=None, with_views=False)
+            i = j
+            if now == int(now):
+                out[now] = tuple(p.weight(r.metric, now) for r in rules)
+        return out
+
+    coarse, fine = weights(0.5), weights(0.1)
+    assert coarse == fine
+    assert max(max(w) for w in coarse.values()) > 600.0  # the weights did grow
