@@ -55,8 +55,8 @@ class Candidate:
             "command": self.command,
             "metric": self.metric,
             "eligible": self.eligible,
-            "weight": round(self.weight, 3),
-            "deviation": round(self.deviation, 3),
+            "weight": _logged(self.weight),
+            "deviation": _logged(self.deviation),
             "value": self.value,
             "side": self.side,
             "onset": self.onset,
@@ -85,6 +85,12 @@ def _num(x: Any) -> float:
     return math.inf if x is None else float(x)
 
 
+def _logged(x: float) -> float | None:
+    """A weight or deviation as logged: rounded; an infinite one (a time warning) as null,
+    which standard JSON has and :func:`_num` reads back as infinity."""
+    return round(x, 3) if x - x == 0.0 else None
+
+
 @dataclass(frozen=True, slots=True)
 class Cue:
     """The one piece of feedback chosen at time ``t``."""
@@ -108,8 +114,8 @@ class Cue:
             "reason": self.reason,
             "params": self.params,
             "onset": self.onset,
-            "deviation": round(self.deviation, 3),
-            "weight": round(self.weight, 3),
+            "deviation": _logged(self.deviation),
+            "weight": _logged(self.weight),
         }
 
     @classmethod
@@ -145,8 +151,8 @@ class MetricView:
         return {
             "metric": self.metric,
             "value": self.value,
-            "deviation": round(self.deviation, 3),
-            "weight": round(self.weight, 3),
+            "deviation": _logged(self.deviation),
+            "weight": _logged(self.weight),
             "stale": self.stale,
             "refractory": self.refractory,
             "strict_pending": self.strict_pending,
