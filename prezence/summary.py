@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import bisect
 from collections.abc import Mapping, Sequence
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -22,38 +23,34 @@ if TYPE_CHECKING:
 
 
 def _in_range_time(
-    rule: Rule, samples: Sequence[Sample], talk_s: float, stale_s: float
+    rule: Rule, ts: np.ndarray, vs: np.ndarray, talk_s: float, stale_s: float
 ) -> dict[str, float]:
-    """Sample-and-hold the values over the talk: seconds in range, out of range, no data."""
-    in_s = out_s = 0.0
+    """Sample-and-hold the values over the talk: seconds in range, out of range, no data.
+
+    ``ts`` (sorted) and ``vs`` are the samples' times and values. Each value holds from its
+    time until the next sample, the stale time or the talk's end, whichever comes first; a
+    stretch out of range is broken by a value in range or by a gap (a stale module).
+    """
+    k = int(np.searchsorted(ts, talk_s, side="left"))  # samples before the talk's end
+    t = ts[:k]
+    nxt = np.append(ts[1:], talk_s)[:k]
+    end = np.minimum(np.minimum(nxt, t + stale_s), talk_s)
+    dt = np.maximum(end - t, 0.0)
+    v = vs[:k] + rule.offset
+    out = np.zeros(k, dtype=bool)
+    if rule.low is not None:
+        out |= v < rule.low
+    if rule.high is not None:
+        out |= v > rule.high
+    in_s = float(dt[~out].sum())
+    out_s = float(dt[out].sum())
     longest_out = 0.0
-    run_out = 0.0
-    side = rule.side
-    n = len(samples)
-    for i in range(n):  # min()/max() written out: this runs once per sample of the talk
-        s = samples[i]
-        t = s.t
-        if t >= talk_s:
-            break
-        nxt = samples[i + 1].t if i + 1 < n else talk_s
-        end = nxt
-        if t + stale_s < end:
-            end = t + stale_s
-        if talk_s < end:
-            end = talk_s
-        dt = end - t
-        if dt < 0.0:
-            dt = 0.0
-        if side(s.value) is None:
-            in_s += dt
-            run_out = 0.0
-        else:
-            out_s += dt
-            run_out += dt
-            if run_out > longest_out:
-                longest_out = run_out
-        if end < nxt:  # a gap (stale) breaks a stretch
-            run_out = 0.0
+    if out.any():
+        gap = end < nxt
+        # a stretch starts at an out-of-range sample after one in range or after a gap
+        starts = out & np.concatenate(([True], ~out[:-1] | gap[:-1]))
+        stretch = np.cumsum(starts) - 1
+        longest_out = float(np.bincount(stretch[out], weights=dt[out]).max())
     covered = in_s + out_s
     return {
         "in_range_s": round(in_s, 3),
@@ -119,11 +116,12 @@ def build_summary(
     metrics: dict[str, Any] = {}
     stale_default = config.processor.stale_after_s
     for rule in config.rules:
-        ss = sorted(streams.get(rule.metric, ()), key=lambda s: s.t)
+        ss = sorted(streams.get(rule.metric, ()), key=attrgetter("t"))
+        ts = np.array([s.t for s in ss], dtype=float)
         vals = np.array([s.value for s in ss], dtype=float)
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         m: dict[str, Any] = {"samples": len(ss), "unit": rule.unit}
-        m.update(_in_range_time(rule, ss, talk_s, stale_s))
+        m.update(_in_range_time(rule, ts, vals, talk_s, stale_s))
         if len(vals):
             p = np.percentile(vals, [10, 50, 90])
             with np.errstate(over="ignore", invalid="ignore"):  # 1e308s: mean inf, then None
@@ -134,9 +132,9 @@ def build_summary(
                 p50=round(float(p[1]), 4),
                 p90=round(float(p[2]), 4),
             )
-        gaps = [b.t - a.t for a, b in zip(ss, ss[1:], strict=False) if b.t - a.t > stale_s]
+        gaps = int(np.count_nonzero(np.diff(ts) > stale_s))
         # No sample at all is one stale episode as long as the talk: the module never reported.
-        m["stale_episodes"] = len(gaps) + (1 if not ss or talk_s - ss[-1].t > stale_s else 0)
+        m["stale_episodes"] = gaps + (1 if not ss or talk_s - ss[-1].t > stale_s else 0)
         if truth is not None:
             m["truth_time_in_range"] = _truth_in_range_fraction(truth, rule.metric, talk_s)
         if stream_stats and rule.metric in stream_stats:
