@@ -23,8 +23,10 @@ from __future__ import annotations
 import logging
 import shutil
 import time
+from bisect import bisect_right
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from operator import attrgetter
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -206,6 +208,9 @@ class SourceBase:
         return None
 
 
+_sample_t = attrgetter("t")
+
+
 class RecordedSource(SourceBase):
     """Samples already recorded (a replay, a rehearsal's module files), in time order."""
 
@@ -248,10 +253,10 @@ class RecordedSource(SourceBase):
 
     def poll(self, now: float) -> Sequence[Sample]:
         ss = self._samples
-        i = j = self._i
-        n = len(ss)
-        while j < n and ss[j].t <= now:
-            j += 1
+        i = self._i
+        if i >= len(ss) or ss[i].t > now:
+            return ()
+        j = bisect_right(ss, now, lo=i, key=_sample_t)
         self._i = j
         return ss[i:j]
 
