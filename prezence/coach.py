@@ -156,7 +156,8 @@ class Coach:
                 if decision.cue is None and last is not None:
                     # only the metrics whose state changed; a cue's line has them all
                     views = self.processor.views(
-                        now, [i for i, (a, b) in enumerate(zip(status, last[2])) if a != b]
+                        now,
+                        [i for i, (a, b) in enumerate(zip(status, last[2], strict=True)) if a != b],
                     )
                 else:
                     views = self.processor.views(now)
