@@ -111,19 +111,11 @@ class MetricState:
         """The weight W at ``now`` (``now`` at or after the last sample or cue)."""
         return self._integrate(now)[0]
 
-    def persistence_at(self, now: float) -> float:
-        """The persistence P at ``now``."""
-        return self._integrate(now)[1]
-
-    def _rebase(self, t: float, weight: float | None = None) -> None:
-        """Move the base to ``t`` (W and P integrated there; ``weight`` replaces W)."""
+    def _move_base(self, t: float) -> None:
+        """Integrate W and P up to ``t`` and keep them as of ``t`` (a sample or a cue)."""
         if t > self.base_t:
-            w, self.base_persistence = self._integrate(t)
+            self.base_weight, self.base_persistence = self._integrate(t)
             self.base_t = t
-        else:
-            w = self.base_weight
-        self.base_weight = w if weight is None else weight
-        self._reach()
 
     def _reach(self) -> None:
         rate = self.rule.gain * self.dev
@@ -147,56 +139,14 @@ class MetricState:
         if t < self.last_sample_t:
             self.late += 1
             return False
-        if t > self.base_t:
-            if self.value is not None and t <= self.last_sample_t + self.stale_after_s:
-                # the common case of _integrate (fresh throughout), inlined with the same
-                # operations in the same order, so with the same result
-                dt = t - self.base_t
-                tau = self.persistence_s
-                p = self.base_persistence
-                if self.dev > 0.0:
-                    if tau > 0.0:
-                        k = math.exp(-dt / tau)
-                        self.base_weight += (
-                            self.rule.gain * self.dev * (dt - (1.0 - p) * tau * (1.0 - k))
-                        )
-                        self.base_persistence = 1.0 - (1.0 - p) * k
-                    else:
-                        self.base_weight += self.rule.gain * self.dev * dt
-                        self.base_persistence = 1.0
-                else:
-                    self.base_weight *= 0.5 ** (dt / self.half_life_s)
-                    self.base_persistence = p * math.exp(-dt / tau) if tau > 0.0 else 0.0
-            else:
-                self.base_weight, self.base_persistence = self._integrate(t)
-            self.base_t = t
+        self._move_base(t)  # with the value held until now
         self.value = value
         self.last_sample_t = t
         self.samples += 1
-        # Rule.deviation and Rule.side in one pass (same arithmetic)
         rule = self.rule
-        v = value + rule.offset
-        low = rule.low
-        high = rule.high
-        if low is not None and v < low:
-            dev = 100.0 * (low - v) / (rule.scale if rule.scale is not None else low)
-            self.side = "below"
-        elif high is not None and v > high:
-            dev = 100.0 * (v - high) / (rule.scale if rule.scale is not None else high)
-            self.side = "above"
-        else:
-            dev = 0.0
-            self.side = None
-        self.dev = dev
-        # _reach(), inlined
-        rate = rule.gain * dev
-        if self.base_weight >= self.threshold:
-            self.reach_t = -math.inf
-        elif rate > 0.0:
-            reach = self.base_t + (self.threshold - self.base_weight) / rate
-            self.reach_t = reach - 1e-6 * (1.0 + abs(reach))
-        else:
-            self.reach_t = math.inf
+        self.dev = dev = rule.deviation(value)
+        self.side = rule.side(value)
+        self._reach()
         if dev > 0.0:
             if self.out_since is None:
                 self.out_since = t
@@ -235,7 +185,9 @@ class MetricState:
 
     def fired(self, now: float) -> None:
         """Reset after this metric was cued at ``now``: its weight starts again from 0."""
-        self._rebase(now, 0.0)
+        self._move_base(now)
+        self.base_weight = 0.0
+        self._reach()
         self.strict_pending = False
         self.strict_onset = None
         self.strict_peak = 0.0

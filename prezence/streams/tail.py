@@ -488,9 +488,7 @@ class StreamTailer:
             if ahead is not None and now is not None:
                 hi = min(hi, now + ahead)
             lo = -math.inf if last_t is None else last_t
-            clock_hi = math.inf if ahead is None or now is None else now + ahead
             done = 0
-            beyond = 0  # well-formed lines stamped after max_t: counted, not kept
             for line in lines:
                 fields = line.split()
                 if len(fields) != 2 or len(line) > MAX_LINE_BYTES:
@@ -502,27 +500,13 @@ class StreamTailer:
                     break
                 # x - x == 0.0 is false for inf and nan
                 if not (lo <= tf <= hi and tf >= 0.0 and value - value == 0.0):
-                    if (
-                        hi == max_t
-                        and hi < tf <= clock_hi
-                        and tf - tf == 0.0
-                        and value - value == 0.0
-                    ):
-                        # after the talk's end (what the general path below does with it)
-                        if beyond == 0 and self._beyond == 0:
-                            self._warn_beyond(self._line_no + done + 1, tf, hi)
-                        beyond += 1
-                        done += 1
-                        continue
                     break
                 lo = tf
                 append(Sample(metric, tf, value))
                 done += 1
             if done:
                 self._line_no += done
-                self._beyond += beyond
-                if lo != -math.inf:
-                    last_t = lo
+                last_t = lo
                 lines = lines[done:]
         for raw in lines:
             self._line_no += 1
