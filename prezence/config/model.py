@@ -74,6 +74,17 @@ class Rule:
         if not self.stream:
             object.__setattr__(self, "stream", f"{self.metric}.txt")
 
+    def judge(self, value: float) -> tuple[float, str | None]:
+        """``(deviation(value), side(value))`` in one pass (the processor's per-sample path)."""
+        v = value + self.offset
+        if self.low is not None and v < self.low:
+            ref = self.scale if self.scale is not None else self.low
+            return 100.0 * (self.low - v) / ref, "below"
+        if self.high is not None and v > self.high:
+            ref = self.scale if self.scale is not None else self.high
+            return 100.0 * (v - self.high) / ref, "above"
+        return 0.0, None
+
     def deviation(self, value: float) -> float:
         """Percent deviation of ``value`` from the ideal band (0 inside it).
 
@@ -86,23 +97,11 @@ class Rule:
             >>> Rule("cv_headGaze", Check.MIN, low=0.0, scale=10.0).deviation(-25.0)
             250.0
         """
-        v = value + self.offset
-        if self.low is not None and v < self.low:
-            ref = self.scale if self.scale is not None else self.low
-            return 100.0 * (self.low - v) / ref
-        if self.high is not None and v > self.high:
-            ref = self.scale if self.scale is not None else self.high
-            return 100.0 * (v - self.high) / ref
-        return 0.0
+        return self.judge(value)[0]
 
     def side(self, value: float) -> str | None:
         """``"below"``, ``"above"`` or None (in range)."""
-        v = value + self.offset
-        if self.low is not None and v < self.low:
-            return "below"
-        if self.high is not None and v > self.high:
-            return "above"
-        return None
+        return self.judge(value)[1]
 
     def command_for(self, value: float) -> str | None:
         """The command that corrects ``value``, or None when in range or none is configured."""

@@ -143,9 +143,9 @@ class MetricState:
         self.value = value
         self.last_sample_t = t
         self.samples += 1
-        rule = self.rule
-        self.dev = dev = rule.deviation(value)
-        self.side = rule.side(value)
+        dev, side = self.rule.judge(value)
+        self.dev = dev
+        self.side = side
         self._reach()
         if dev > 0.0:
             if self.out_since is None:
