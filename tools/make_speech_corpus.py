@@ -21,6 +21,15 @@ each rate of :data:`TARGET_WPM` with ``sox tempo -s`` (keeps the pitch). Truth: 
 duration x 60; articulation = words / speaking time x 60, speaking time from an energy VAD
 (10 ms frames within 35 dB of the loudest 5 %, gaps under 0.25 s bridged).
 
+Files put together from pieces whose words are known (the real reading: ten utterances with
+their transcripts; the ``pauses`` condition: one sentence per piece) also carry ``segments`` in
+the manifest, ``[start_s, end_s, words]`` per piece: :func:`window_wpm` gives the true rate of
+any stretch of them, since a real reader's pace varies from sentence to sentence and a 30 s
+window need not read the file's average.
+
+sox runs with ``-D`` (no dither), so a rebuild with the same packages gives the same files,
+byte for byte (checked: two builds, 63 files, same checksums).
+
 Conditions (on the middle rate): ``pauses`` (1.5 s of silence between sentences), ``snr20``,
 ``snr10``, ``snr5`` (seeded white noise against the active-speech power), ``reverb``
 (``sox reverb 90 50 100``), ``lowpass`` (``sox lowpass 800`` twice).
@@ -103,7 +112,22 @@ def _run(cmd: list[str], **kw: object) -> subprocess.CompletedProcess[bytes]:
 def read(path: Path) -> np.ndarray:
     """16 kHz mono samples of ``path`` as float64 (int16 scale)."""
     raw = _run(
-        ["sox", str(path), "-t", "raw", "-e", "signed", "-b", "16", "-c", "1", "-r", str(RATE), "-"]
+        [
+            "sox",
+            "-D",
+            str(path),
+            "-t",
+            "raw",
+            "-e",
+            "signed",
+            "-b",
+            "16",
+            "-c",
+            "1",
+            "-r",
+            str(RATE),
+        ]
+        + ["-"]
     ).stdout
     return np.frombuffer(raw, dtype="<i2").astype(np.float64)
 
@@ -117,6 +141,7 @@ def write(path: Path, x: np.ndarray) -> None:
     _run(
         [
             "sox",
+            "-D",  # no dither: the same input gives the same file
             "-t",
             "raw",
             "-e",
@@ -198,7 +223,7 @@ def tempo(x: np.ndarray, factor: float, tmp: Path) -> np.ndarray:
     """``sox tempo -s factor`` (pitch kept)."""
     a, b = tmp / "a.wav", tmp / "b.wav"
     write(a, x)
-    _run(["sox", str(a), str(b), "tempo", "-s", f"{factor:.4f}"])
+    _run(["sox", "-D", str(a), str(b), "tempo", "-s", f"{factor:.4f}"])
     return trim(read(b))
 
 
@@ -206,7 +231,7 @@ def sox_effect(x: np.ndarray, effect: list[str], tmp: Path) -> np.ndarray:
     """Apply a sox effect chain; the output keeps the input's length."""
     a, b = tmp / "a.wav", tmp / "b.wav"
     write(a, x)
-    _run(["sox", str(a), str(b), *effect])
+    _run(["sox", "-D", str(a), str(b), *effect])
     y = read(b)[: len(x)]
     return np.pad(y, (0, len(x) - len(y)))
 
@@ -219,14 +244,40 @@ def active_power(x: np.ndarray) -> float:
     return float(np.mean(p[db >= np.percentile(db, 95) - 30.0]))
 
 
+def window_wpm(segments: list[list[float]], lo: float, hi: float, max_pause_s: float) -> float:
+    """The true rate (words per minute) of the talk between ``lo`` and ``hi`` seconds, from a
+    manifest entry's ``segments`` (``[start, end, words]``; words spread evenly over their
+    segment), over the talk time as the speech module counts it: speech plus the pauses,
+    each pause at most ``max_pause_s``."""
+    words = talk = 0.0
+    cursor = lo
+    for a, b, w in segments:
+        if b <= lo:
+            continue
+        if a >= hi:
+            break
+        talk += min(max(0.0, min(a, hi) - cursor), max_pause_s)  # the pause before it
+        inside = min(b, hi) - max(a, lo)
+        words += float(w) * inside / (b - a)
+        talk += inside
+        cursor = min(b, hi)
+    talk += min(max(0.0, hi - cursor), max_pause_s)
+    return words / talk * 60.0 if talk > 0 else float("nan")
+
+
 def _entry(
-    out: Path, name: str, x: np.ndarray, words: int, meta: dict[str, object]
+    out: Path,
+    name: str,
+    x: np.ndarray,
+    words: int,
+    meta: dict[str, object],
+    segments: list[list[float]] | None = None,
 ) -> dict[str, object]:
     path = out / f"{name}.flac"
     write(path, x)
     dur = len(x) / RATE
     speak = speaking_time(x)
-    return {
+    e: dict[str, object] = {
         **meta,
         "file": path.name,
         "words": words,
@@ -235,6 +286,10 @@ def _entry(
         "true_wpm": round(words / dur * 60.0, 2),
         "true_articulation": round(words / speak * 60.0, 2) if speak > 0 else None,
     }
+    if segments is not None:
+        assert sum(int(w) for _, _, w in segments) == words
+        e["segments"] = segments
+    return e
 
 
 def _conditions(
@@ -246,15 +301,16 @@ def _conditions(
     tmp: Path,
     sents: list[np.ndarray] | None,
     rng: np.random.Generator,
+    sent_words: list[int] | None = None,
 ) -> dict[str, dict[str, object]]:
     res: dict[str, dict[str, object]] = {}
     p = active_power(x)
     for cond in CONDITIONS:
+        segments = None
         if cond == "pauses":
-            if sents is None:
+            if sents is None or sent_words is None:
                 continue
-            gap = np.zeros(int(1.5 * RATE))
-            y = np.concatenate([s for piece in sents for s in (piece, gap)][:-1])
+            y, segments = join(sents, sent_words, 1.5)
             clean_speech = True
         elif cond.startswith("snr"):
             snr = float(cond[3:])
@@ -266,7 +322,7 @@ def _conditions(
         else:
             y = sox_effect(x, ["lowpass", "800", "lowpass", "800"], tmp)
             clean_speech = False
-        e = _entry(out, f"{name}__{cond}", y, words, {**meta, "condition": cond})
+        e = _entry(out, f"{name}__{cond}", y, words, {**meta, "condition": cond}, segments)
         if cond.startswith("snr"):
             # truth from the clean signal (the noise has no words)
             e["speaking_s"] = meta.get("speaking_s_clean")
@@ -276,22 +332,43 @@ def _conditions(
     return res
 
 
-def librivox(sdist: Path, tmp: Path) -> tuple[list[np.ndarray], int]:
-    """The five LibriVox utterances and their word count, from the pocketsphinx sdist."""
+def librivox(sdist: Path, tmp: Path) -> tuple[list[np.ndarray], list[int]]:
+    """The five LibriVox utterances and the word count of each, from the pocketsphinx sdist."""
     with tarfile.open(sdist) as tf:
         ids = tf.extractfile(f"{LIBRIVOX}/fileids")
         assert ids is not None
         names = ids.read().decode().split()
-        pieces, words = [], 0
+        pieces, words = [], []
         for n in names:
             base = n.split("/")[-1]
             txt = tf.extractfile(f"{LIBRIVOX}/{base}.txt")
             wav = tf.extractfile(f"{LIBRIVOX}/{base}.wav")
             assert txt is not None and wav is not None
-            words += count_words(txt.read().decode())
+            words.append(count_words(txt.read().decode()))
             (tmp / "l.wav").write_bytes(wav.read())
             pieces.append(trim(read(tmp / "l.wav")))
     return pieces, words
+
+
+def join(
+    pieces: list[np.ndarray], words: list[int], gap_s: float
+) -> tuple[np.ndarray, list[list[float]]]:
+    """The pieces one after another with ``gap_s`` of silence between them, and the truth's
+    segments: ``[start_s, end_s, words]`` of each piece in the result. A window's true rate is
+    worked out from them (words spread evenly over their piece), since a real reader's rate
+    varies from sentence to sentence and a 30 s window need not match the file's average."""
+    gap = np.zeros(int(gap_s * RATE))
+    out: list[np.ndarray] = []
+    segments: list[list[float]] = []
+    pos = 0
+    for k, (x, w) in enumerate(zip(pieces, words, strict=True)):
+        if k:
+            out.append(gap)
+            pos += len(gap)
+        segments.append([round(pos / RATE, 4), round((pos + len(x)) / RATE, 4), w])
+        out.append(x)
+        pos += len(x)
+    return np.concatenate(out), segments
 
 
 def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
@@ -307,7 +384,9 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
     with tempfile.TemporaryDirectory() as tmp_s:
         tmp = Path(tmp_s)
         for vname, (engine, voice, sex) in VOICES.items():
-            sents = [synth(engine, voice, s, out, tmp) for t in TEXTS for s in sentences(t)]
+            sent_texts = [s for t in TEXTS for s in sentences(t)]
+            sents = [synth(engine, voice, s, out, tmp) for s in sent_texts]
+            sent_words = [count_words(s) for s in sent_texts]
             x = synth(engine, voice, text, out, tmp)
             natural = words / (len(x) / RATE) * 60.0
             f0 = f0_median(x)
@@ -336,17 +415,16 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
                         "speaking_s_clean": e["speaking_s"],
                         "articulation_clean": e["true_articulation"],
                     }
-                    for k, v in _conditions(out, name, y, words, meta2, tmp, ys, rng).items():
+                    conds = _conditions(out, name, y, words, meta2, tmp, ys, rng, sent_words)
+                    for k, v in conds.items():
                         v.pop("speaking_s_clean", None)
                         v.pop("articulation_clean", None)
                         manifest[k] = v
         if sdist is not None:
             pieces, lw = librivox(sdist, tmp)
-            gap = np.zeros(int(0.5 * RATE))
-            x = np.concatenate([s for piece in pieces for s in (piece, gap)][:-1])
             # Twice over (the two rounds in different orders) so there is a full 30 s window.
-            order = [4, 2, 0, 3, 1]
-            x2 = np.concatenate([x, gap] + [s for k in order for s in (pieces[k], gap)][:-1])
+            order = [0, 1, 2, 3, 4, 4, 2, 0, 3, 1]
+            x2, segs = join([pieces[k] for k in order], [lw[k] for k in order], 0.5)
             for vname, y, note in (
                 ("real_librivox", x2, "LibriVox reader from the pocketsphinx 5.1.1 sdist"),
                 (
@@ -365,7 +443,8 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
                     "target_wpm": None,
                     "clean": True,
                 }
-                e = _entry(out, vname, y, 2 * lw, meta)
+                # sox pitch keeps the timing: the same segments
+                e = _entry(out, vname, y, 2 * sum(lw), meta, segs)
                 manifest[vname] = e
                 print(vname, e["true_wpm"], "wpm", e["f0_hz"], "Hz", flush=True)
     (out / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
@@ -408,13 +487,12 @@ def ship(out: Path, sdist: Path) -> dict[str, dict[str, object]]:
                 },
             )
         pieces, lw = librivox(sdist, tmp)
-        gap = np.zeros(int(0.5 * RATE))
-        x = np.concatenate([s for piece in pieces for s in (piece, gap)][:-1])
+        x, segs = join(pieces, lw, 0.5)
         manifest["librivox"] = _entry(
             out,
             "librivox",
             x,
-            lw,
+            sum(lw),
             {
                 "voice": "real_librivox",
                 "engine": "LibriVox reader, pocketsphinx 5.1.1 sdist",
@@ -424,6 +502,7 @@ def ship(out: Path, sdist: Path) -> dict[str, dict[str, object]]:
                 "split": "heldout",
                 "condition": "clean",
             },
+            segs,
         )
     (out / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return manifest

@@ -781,6 +781,7 @@ class SpeechAnalyser:
             self.window_log.append(
                 {
                     "t": t_out,
+                    "from": lo,
                     "until": t,
                     "talk_s": talk_s,
                     "voiced_s": voiced_s,
