@@ -76,13 +76,15 @@ SETTINGS: dict[str, speech.SpeechOptions] = {
 }
 
 
-def make_test_audio() -> ModuleType:
-    """tools/make_test_audio.py as a module (for :func:`long_talk` and :func:`with_noise`)."""
-    path = ROOT / "tools" / "make_test_audio.py"
-    spec = importlib.util.spec_from_file_location("make_test_audio", path)
+def tool(name: str) -> ModuleType:
+    """``tools/<name>.py`` as a module, loaded once: make_test_audio (:func:`long_talk`,
+    :func:`with_noise`), make_speech_corpus (the truth of a window: :func:`window_wpm`)."""
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault(spec.name, mod)
+    sys.modules[name] = mod
     spec.loader.exec_module(mod)
     return mod
 
@@ -224,17 +226,6 @@ def roc_auc(pos: list[float], neg: list[float]) -> float:
     return float(np.mean((p > n) + 0.5 * (p == n)))
 
 
-def corpus_tools() -> ModuleType:
-    """tools/make_speech_corpus.py as a module (the truth of a window: :func:`window_wpm`)."""
-    path = ROOT / "tools" / "make_speech_corpus.py"
-    spec = importlib.util.spec_from_file_location("make_speech_corpus", path)
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault(spec.name, mod)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def _analyse_seeded(job: tuple[str, int | None]) -> dict[str, object]:
     return _analyse_file(*job)
 
@@ -255,7 +246,7 @@ def speed_figures(m: dict[str, object], r: dict[str, object]) -> tuple[float, fl
         log = cast(list[dict[str, float]], r["log"])
         span = {round(w["t"], 3): (w["from"], w["until"]) for w in log}
         ts = [t for t, _ in sp if t >= speech.WORD_WINDOW_S - 1e-6]
-        wpm = corpus_tools().window_wpm
+        wpm = tool("make_speech_corpus").window_wpm
         wtruth = np.array([wpm(segs, *span[round(t, 3)], speech.MAX_PAUSE_S) for t in ts])
     w10 = np.mean(np.abs(full / wtruth - 1) <= 0.10) * 100 if len(full) else float("nan")
     w12 = np.mean(np.abs(full / wtruth - 1) <= 0.12) * 100 if len(full) else float("nan")
@@ -432,7 +423,7 @@ def main(argv: list[str] | None = None) -> int:
     parts = args.part or ["files", "windows", "clarity"]
     if args.defaults:
         speech.DECODER_CONFIG = {}
-    mta = make_test_audio()
+    mta = tool("make_test_audio")
     made = talks(mta) if "windows" in parts or "clarity" in parts else {}
     audio = {k: v for k, (v, _) in made.items()}
     results: dict[tuple[str, str], list[Sample]] = {}

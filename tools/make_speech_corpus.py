@@ -105,30 +105,17 @@ def sentences(text: str) -> list[str]:
     return [s.strip() + "." for s in text.split(".") if s.strip()]
 
 
+#: sox's description of the raw samples passed through pipes: 16 kHz mono 16-bit signed.
+RAW = ["-t", "raw", "-e", "signed", "-b", "16", "-c", "1", "-r", str(RATE)]
+
+
 def _run(cmd: list[str], **kw: object) -> subprocess.CompletedProcess[bytes]:
     return subprocess.run(cmd, check=True, capture_output=True, **kw)  # type: ignore[call-overload, no-any-return]
 
 
 def read(path: Path) -> np.ndarray:
     """16 kHz mono samples of ``path`` as float64 (int16 scale)."""
-    raw = _run(
-        [
-            "sox",
-            "-D",
-            str(path),
-            "-t",
-            "raw",
-            "-e",
-            "signed",
-            "-b",
-            "16",
-            "-c",
-            "1",
-            "-r",
-            str(RATE),
-        ]
-        + ["-"]
-    ).stdout
+    raw = _run(["sox", "-D", str(path), *RAW, "-"]).stdout
     return np.frombuffer(raw, dtype="<i2").astype(np.float64)
 
 
@@ -139,22 +126,7 @@ def write(path: Path, x: np.ndarray) -> None:
         x = x * (32000 / peak)
     pcm = np.clip(np.round(x), -32768, 32767).astype("<i2").tobytes()
     _run(
-        [
-            "sox",
-            "-D",  # no dither: the same input gives the same file
-            "-t",
-            "raw",
-            "-e",
-            "signed",
-            "-b",
-            "16",
-            "-c",
-            "1",
-            "-r",
-            str(RATE),
-            "-",
-            str(path),
-        ],
+        ["sox", "-D", *RAW, "-", str(path)],  # -D: no dither, the same input gives the same file
         input=pcm,
     )
 

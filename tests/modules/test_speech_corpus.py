@@ -18,6 +18,7 @@ import json
 import re
 from functools import cache
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
@@ -37,14 +38,21 @@ MANIFEST = json.loads((CORPUS / "manifest.json").read_text())
 NAMES = sorted(MANIFEST)
 
 
-def window_wpm(segments: list[list[float]], lo: float, hi: float) -> float:
-    """The truth of one window: tools/make_speech_corpus.py's definition."""
-    path = ROOT / "tools" / "make_speech_corpus.py"
-    spec = importlib.util.spec_from_file_location("make_speech_corpus", path)
+@cache
+def corpus_tool() -> ModuleType:
+    """tools/make_speech_corpus.py, loaded once: the truth of a window is defined there."""
+    spec = importlib.util.spec_from_file_location(
+        "make_speech_corpus", ROOT / "tools" / "make_speech_corpus.py"
+    )
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    return float(mod.window_wpm(segments, lo, hi, speech.MAX_PAUSE_S))
+    return mod
+
+
+def window_wpm(segments: list[list[float]], lo: float, hi: float) -> float:
+    """The true rate of the talk between ``lo`` and ``hi`` (tools/make_speech_corpus.py)."""
+    return float(corpus_tool().window_wpm(segments, lo, hi, speech.MAX_PAUSE_S))
 
 
 def default_clarity_threshold() -> float:
