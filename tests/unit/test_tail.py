@@ -431,7 +431,19 @@ _DEFECTS: dict[str, bytes] = {
     "long line": b"2499.75 " + b"1" * (MAX_LINE_BYTES + 10) + b"\n",
     "crlf": b"2499.75 3\r\n",
     "exponent": b"2499.75 +3.5e-2\n",
+    # fields that look numeric but are not all numbers float() takes
+    "trailing point": b"2499.75 3.\n",
+    "leading point": b"2499.75 .5e1\n",
+    "double exponent": b"2499.75 1ee5\n",
+    "dangling exponent": b"2499.75 1e+\n",
+    "two points": b"2499.75 1.2.3\n",
+    "sign inside": b"2499.75 5-3\n",
+    "bare point": b"2499.75 .\n",
+    "hex": b"2499.75 0x1p3\n",
+    "underscore": b"2499.75 1_0\n",
 }
+#: Defects that float() takes as numbers, so the file still goes in one go.
+_TAKEN = ("clean", "exponent", "trailing point", "leading point")
 
 
 @pytest.mark.parametrize("defect", sorted(_DEFECTS))
@@ -460,7 +472,8 @@ def test_a_large_file_read_in_one_go_gives_what_line_by_line_gives(
     fast_problems: list[StreamProblem] = []
     fast = read_stream(path, M, problems=fast_problems, max_t=max_t)
     # a clean file (and one whose only oddity float() takes as it is) goes in one go
-    assert taken == [defect in ("clean", "exponent")]
+    # ("_" is Python's digit separator, which a stream line must not use: not even tried)
+    assert taken == ([] if defect == "underscore" else [defect in _TAKEN])
     monkeypatch.setattr(tail, "BULK_MIN_BYTES", 1 << 40)
     slow_problems: list[StreamProblem] = []
     slow = read_stream(path, M, problems=slow_problems, max_t=max_t)
