@@ -224,8 +224,9 @@ class Processor:
             if not stale and st.last_sample_t + st.stale_after_s < until:
                 until = st.last_sample_t + st.stale_after_s
         self._status = status = tuple(out)
-        # a little early, so that rounding never keeps a status that has changed
-        self._status_until = until - 1e-6 * (1.0 + abs(until))
+        # a little early, so that rounding never keeps a status that has changed (with no
+        # fresh metric, until stays inf: inf - inf would be nan, and nan keeps nothing)
+        self._status_until = until - 1e-6 * (1.0 + abs(until)) if until < math.inf else until
         return status
 
     def _view(self, st: MetricState, now: float) -> MetricView:
