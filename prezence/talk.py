@@ -651,7 +651,7 @@ def run_talk(
 
 def _with_views(talk: Talk, d: Decision) -> Decision:
     """``d`` with every metric's view (views are built only for those who show them)."""
-    return d if d.metrics else replace(d, metrics=talk.processor.views(d.t))
+    return d if d.metrics else d._replace(metrics=talk.processor.views(d.t))
 
 
 def _abandon(talk: Talk) -> None:

@@ -6,7 +6,7 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 
 class Kind(enum.IntEnum):
@@ -171,9 +171,13 @@ class MetricView:
         )
 
 
-@dataclass(frozen=True, slots=True)
-class Decision:
-    """The outcome of one decision point: a cue or none, with the reason and the evidence."""
+class Decision(NamedTuple):
+    """The outcome of one decision point: a cue or none, with the reason and the evidence.
+
+    A named tuple, not a frozen dataclass like the other values here: one is made at every
+    decision point (43,200 in a 6-hour replay), and a frozen dataclass's ``__init__`` took
+    0.77 µs against 0.28 µs (timeit). Change a field with ``d._replace(...)``.
+    """
 
     t: float
     cue: Cue | None
