@@ -209,6 +209,8 @@ class SourceBase:
 
 
 _sample_t = attrgetter("t")
+#: Samples :meth:`RecordedSource.poll` steps over one by one before it bisects the rest.
+_SCAN = 16
 
 
 class RecordedSource(SourceBase):
@@ -254,9 +256,17 @@ class RecordedSource(SourceBase):
     def poll(self, now: float) -> Sequence[Sample]:
         ss = self._samples
         i = self._i
-        if i >= len(ss) or ss[i].t > now:
+        n = len(ss)
+        if i >= n or ss[i].t > now:
             return ()
-        j = bisect_right(ss, now, lo=i, key=_sample_t)
+        # A decision point takes a few samples (one per module): stepping over them costs
+        # less than a bisection of the whole recording (17 key calls for 100k samples).
+        j = i + 1
+        while j < n and ss[j].t <= now:
+            j += 1
+            if j - i >= _SCAN:
+                j = bisect_right(ss, now, lo=j, key=_sample_t)
+                break
         self._i = j
         return ss[i:j]
 

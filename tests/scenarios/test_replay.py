@@ -193,3 +193,23 @@ def test_a_real_time_backend_is_paced_without_being_named(
         options=RunOptions.default(),
     )
     assert sum(wall.slept) == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("burst", [1, 5, 16, 17, 200])
+def test_a_recording_gives_each_decision_point_exactly_its_new_samples(burst: int) -> None:
+    """Every sample once, at the first point at or after its stamp, in recorded order,
+    whether a point takes a few samples or a long burst (a module that wrote late)."""
+    from prezence.samples import Sample
+    from prezence.talk import RecordedSource
+
+    stamps = [0.1 * k for k in range(40)] + [4.5] * burst + [4.5 + 0.25 * k for k in range(1, 9)]
+    samples = [Sample("volume", t, float(i)) for i, t in enumerate(stamps)]
+    src = RecordedSource(samples, talk_s=10.0)
+    points = [0.5 * k for k in range(1, 21)]
+    got = [list(src.poll(now)) for now in points]
+    assert [s for batch in got for s in batch] == samples
+    prev = -1.0
+    for now, batch in zip(points, got, strict=True):
+        assert all(prev < s.t <= now for s in batch)
+        prev = now
+    assert src.poll(100.0) == ()
