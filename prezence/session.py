@@ -197,10 +197,30 @@ def dumps(obj: Any, **kwargs: Any) -> str:
     return json.dumps(strict_json(obj), allow_nan=False, **kwargs)
 
 
+_ONE_LINE = json.JSONEncoder(allow_nan=False, sort_keys=True, separators=(", ", ": ")).encode
+
+
+def _layout(obj: Any, depth: int) -> str:
+    """``obj`` as JSON laid out for reading: an object's keys one per line (sorted, indented by
+    two spaces a level), a list of objects or lists one item per line, anything else on one
+    line: a record is one line to read or diff, and each line is written by json's C encoder
+    (``indent=`` makes json use its Python encoder: 17 ms against 10 for a 6-hour talk's
+    summary with 868 cues)."""
+    pad = "  " * (depth + 1)
+    if isinstance(obj, dict) and obj and all(isinstance(k, str) for k in obj):
+        rows = [f"{pad}{_ONE_LINE(k)}: {_layout(obj[k], depth + 1)}" for k in sorted(obj)]
+        return "{\n" + ",\n".join(rows) + "\n" + "  " * depth + "}"
+    if isinstance(obj, list) and any(isinstance(v, dict | list) for v in obj):
+        return "[\n" + ",\n".join(pad + _ONE_LINE(v) for v in obj) + "\n" + "  " * depth + "]"
+    return _ONE_LINE(obj)
+
+
 def write_json(path: Path, data: Any) -> None:
-    """Write JSON atomically enough for a summary: to a temp file, then rename."""
+    """Write JSON (standard: :func:`strict_json`), laid out for reading (keys one per line, a
+    list of records one record per line), atomically enough for a summary: to a temp file,
+    then rename."""
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(dumps(data, indent=2, sort_keys=True) + "\n")
+    tmp.write_text(_layout(strict_json(data), 0) + "\n")
     tmp.replace(path)
 
 

@@ -38,3 +38,33 @@ def test_an_offset_moves_the_band_and_samples_after_the_end_do_not_count() -> No
     m = build_summary(cfg, {"volume": ss}, [], talk_s=4.0)["metrics"]["volume"]
     assert (m["in_range_s"], m["out_of_range_s"], m["no_data_s"]) == (3.0, 1.0, 0.0)
     assert m["longest_out_of_range_s"] == 1.0
+
+
+def test_summary_json_reads_back_as_written_with_one_record_per_line(tmp_path) -> None:
+    # The layout is for people (a cue per line); the content is standard JSON, exactly.
+    import json
+    import math
+
+    from prezence.session import write_json
+
+    cues = [{"t": 1.5 * k, "command": "louder", "params": {"k": k}, "r": [1, 2]} for k in range(3)]
+    data = {
+        "cues": cues,
+        "counts": {"cues": 3, "nested": {"a": [], "b": {}}},
+        "mean": math.inf,
+        "ratio": math.nan,
+        "text": 'a "quoted", {braced} line\nand another',
+        "empty": [],
+        "values": [0.1, None, True],
+        "by_minute": {3: 1, 1: 2},
+    }
+    path = tmp_path / "summary.json"
+    write_json(path, data)
+    text = path.read_text()
+    want = json.loads(json.dumps(data, sort_keys=True).replace("Infinity", "null"))
+    want["ratio"] = None
+    assert json.loads(text) == want
+    lines = text.splitlines()
+    for cue in cues:
+        assert sum(json.dumps(cue["params"]) in line for line in lines) == 1
+    assert lines[0] == "{" and lines[-1] == "}" and len(lines) > len(data) + len(cues)
