@@ -314,42 +314,39 @@ def _grid(
 RAY_LOOPBACK_ENV = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
 
 
-def _loopback_ray() -> Any:
-    """``ray``, set so that a local cluster started now listens on 127.0.0.1 only.
+def _import_ray(*, local: bool) -> Any:
+    """``ray``; with ``local``, set so that a local cluster started now listens on 127.0.0.1
+    only.
 
     Ray reads :data:`RAY_LOOPBACK_ENV` once, when it is first imported. When something
     imported it before (a notebook, a test runner), setting the variable comes too late and
     the cluster would listen on every interface: the constant Ray derived from it is set
     instead. A Ray that no longer has that constant is refused rather than exposed.
     """
-    import os
+    if local:
+        import os
 
-    os.environ[RAY_LOOPBACK_ENV] = "0"
+        os.environ[RAY_LOOPBACK_ENV] = "0"
     try:
         import ray
     except ImportError as e:
         raise PrezenceError('--ray needs ray: pip install "prezence[ray]"') from e
-    try:
-        from ray._private import ray_constants
-    except ImportError:
-        ray_constants = None  # type: ignore[assignment]
-    if getattr(ray_constants, "ENABLE_RAY_CLUSTER", None) is None:
-        raise PrezenceError(
-            f"ray {ray.__version__}: cannot make a local cluster listen on loopback only; "
-            "start one yourself (ray start --head --node-ip-address 127.0.0.1) and use --ray auto"
-        )
-    ray_constants.ENABLE_RAY_CLUSTER = False
+    if local:
+        try:
+            from ray._private import ray_constants
+        except ImportError:
+            ray_constants = None  # type: ignore[assignment]
+        if getattr(ray_constants, "ENABLE_RAY_CLUSTER", None) is None:
+            raise PrezenceError(
+                f"ray {ray.__version__}: Prezence cannot make sure a local cluster listens on "
+                "loopback only; use --ray auto with a cluster you started yourself"
+            )
+        ray_constants.ENABLE_RAY_CLUSTER = False
     return ray
 
 
 def _run_ray(tasks: Sequence[Task], address: str, jobs: int) -> list[dict[str, Any]]:
-    if address == "local":
-        ray = _loopback_ray()
-    else:
-        try:
-            import ray
-        except ImportError as e:
-            raise PrezenceError('--ray needs ray: pip install "prezence[ray]"') from e
+    ray = _import_ray(local=address == "local")
     if not ray.is_initialized():
         if address == "local":
             # a new cluster here (never one found through RAY_ADDRESS or an earlier

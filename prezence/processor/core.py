@@ -294,7 +294,7 @@ class Processor:
             if dev <= 0.0 or side is None:
                 continue
             if now < st.reach_t and not all_out:
-                continue  # (a strict rule's warning given) cannot have reached it yet
+                continue  # (a strict warning just dropped as too old) cannot have reached it yet
             command = r.below if side == "below" else r.above
             if command is None:
                 continue
