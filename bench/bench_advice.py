@@ -1,0 +1,179 @@
+"""The pace advice a speaker gets, voice by voice: ``prezence rehearse`` on 5-minute talks.
+
+    python bench/bench_advice.py [--corpus /tmp/speech_corpus] [--minutes 5] [--jobs 2]
+        [--only NAME ...] [--extra FILE:WORDS ...]
+
+The speech-speed table (``bench_speech.py --part corpus``) says how far the module's readings
+are from the truth; this says what the coach then tells the speaker, which is what a user
+feels. Issue 11's case: a 5-minute talk by festival's ``kal`` at a true 157 wpm, inside the
+default band of 140-180 wpm the whole time, got 7 ``speedUp`` cues.
+
+For every clean file of the corpus (``tools/make_speech_corpus.py``: each voice at 110, 160 and
+210 wpm, and the real reading), the file is played back to back until the talk lasts at least
+``--minutes`` (its true rate is the file's), written as a WAV and given to ``prezence rehearse``
+(the speech module as its own process, the default rules and weighted policy, fake robot). The
+table counts the cues about ``speech_speed``: *right* when the true rate is outside the band and
+the cue asks for the way back (``speedUp`` below 140, ``slowDown`` above 180), *wrong* when the
+true rate is inside the band, or the cue points the wrong way. ``--extra FILE:WORDS`` adds
+recordings of your own (the truth is WORDS over the file's length).
+
+Prints figures only; asserts nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import wave
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from prezence.modules.audio_io import SAMPLE_RATE, read_file
+
+BAND = (140.0, 180.0)  # the default rule: speech_speed inRange 140 180
+PACE = {"speedUp", "slowDown"}
+
+
+def looped(src: Path, dst: Path, minutes: float) -> float:
+    """Write ``src`` played back to back for at least ``minutes`` to ``dst``; its seconds."""
+    pcm = read_file(src)
+    n = max(1, math.ceil(minutes * 60.0 * SAMPLE_RATE / len(pcm)))
+    out = np.tile(pcm, n)
+    with wave.open(str(dst), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(SAMPLE_RATE)
+        w.writeframes(out.astype("<i2").tobytes())
+    return len(out) / SAMPLE_RATE
+
+
+def rehearse(wav: Path, out: Path) -> tuple[list[dict[str, object]], list[float], list[float]]:
+    """Run ``prezence rehearse`` on ``wav``: the speech_speed cues, readings and sources."""
+    cmd = [sys.executable, "-m", "prezence", "rehearse", str(wav), "--out", str(out)]
+    cmd += ["--no-report", "-q"]
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode not in (0, 3):
+        raise SystemExit(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr[-2000:]}")
+    cues = []
+    with open(out / "cues.jsonl", encoding="utf-8") as f:
+        for line in f:
+            c = json.loads(line)
+            if c.get("metric") == "speech_speed":
+                cues.append(c)
+    speeds = _stream(out / "streams" / "speech_speed.txt")
+    sources = _stream(out / "streams" / "speech_speed_source.txt")
+    return cues, speeds, sources
+
+
+def _stream(path: Path) -> list[float]:
+    if not path.exists():
+        return []
+    vals = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        parts = line.split()
+        if len(parts) == 2:
+            vals.append(float(parts[1]))
+    return vals
+
+
+def judge(true_wpm: float, command: str) -> str:
+    lo, hi = BAND
+    if true_wpm < lo:
+        return "right" if command == "speedUp" else "wrong"
+    if true_wpm > hi:
+        return "right" if command == "slowDown" else "wrong"
+    return "wrong"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--corpus", type=Path, default=Path("/tmp/speech_corpus"))
+    ap.add_argument("--minutes", type=float, default=5.0)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--only", nargs="*", help="corpus files whose name contains one of these")
+    ap.add_argument("--extra", nargs="*", default=[], help="FILE:WORDS recordings of your own")
+    args = ap.parse_args()
+
+    todo: list[tuple[str, Path, float, str]] = []  # name, file, true wpm, split
+    manifest = args.corpus / "manifest.json"
+    if manifest.exists():
+        entries = json.loads(manifest.read_text(encoding="utf-8"))
+        for name, e in sorted(entries.items()):
+            if e.get("condition") != "clean":
+                continue
+            if args.only and not any(o in name for o in args.only):
+                continue
+            todo.append((name, args.corpus / e["file"], float(e["true_wpm"]), e["split"]))
+    elif not args.extra:
+        raise SystemExit(
+            f"{manifest}: not found; build the corpus with tools/make_speech_corpus.py "
+            "or give --extra FILE:WORDS"
+        )
+    for spec in args.extra:
+        path_s, _, words_s = spec.rpartition(":")
+        path = Path(path_s)
+        secs = len(read_file(path)) / SAMPLE_RATE
+        todo.append((path.stem, path, float(words_s) * 60.0 / secs, "extra"))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+
+        def one(item: tuple[str, Path, float, str]) -> tuple[str, str, float, float, list[str],
+                                                             float, float, float]:
+            name, src, true_wpm, split = item
+            wav = d / f"{name}.wav"
+            secs = looped(src, wav, args.minutes)
+            cues, speeds, sources = rehearse(wav, d / name)
+            wav.unlink()
+            med = statistics.median(speeds) if speeds else math.nan
+            rec = sum(1 for s in sources if s == 1.0) / len(sources) if sources else math.nan
+            return name, split, true_wpm, secs, [str(c["command"]) for c in cues], med, rec, (
+                float(cues[0]["t"]) if cues else math.nan
+            )
+
+        jobs = max(1, min(args.jobs, os.cpu_count() or 1))
+        with ThreadPoolExecutor(jobs) as pool:
+            rows = list(pool.map(one, todo))
+
+    print(f"default band {BAND[0]:.0f}-{BAND[1]:.0f} wpm; talks of >= {args.minutes:g} min")
+    print(
+        f"{'talk':<22} {'split':<8} {'true':>6} {'min':>5} {'median read':>11} "
+        f"{'recogniser':>10} {'right':>5} {'wrong':>5}  first cue, commands"
+    )
+    wrong_in_band = right_out = out_talks = in_talks = silent_out = 0
+    for name, split, true_wpm, secs, cmds, med, rec, first in rows:
+        verdicts = [judge(true_wpm, c) for c in cmds]
+        right = verdicts.count("right")
+        wrong = verdicts.count("wrong")
+        inside = BAND[0] <= true_wpm <= BAND[1]
+        if inside:
+            in_talks += 1
+            wrong_in_band += wrong
+        else:
+            out_talks += 1
+            right_out += right
+            silent_out += right == 0
+        shown = " ".join(cmds) if cmds else "-"
+        first_s = f"{first:6.1f} s" if cmds else "      -"
+        print(
+            f"{name:<22} {split:<8} {true_wpm:6.1f} {secs / 60:5.1f} {med:11.1f} "
+            f"{rec:10.0%} {right:5d} {wrong:5d}  {first_s} {shown}"
+        )
+    print(
+        f"talks inside the band: {in_talks}, pace cues on them {wrong_in_band}; "
+        f"talks outside: {out_talks}, right cues {right_out}, "
+        f"talks without a right cue {silent_out}; "
+        f"wrong-way cues {sum(judge(r[2], c) == 'wrong' for r in rows for c in r[4]) - wrong_in_band}"
+    )
+
+
+if __name__ == "__main__":
+    main()
