@@ -14,8 +14,9 @@ For every clean file of the corpus (``tools/make_speech_corpus.py``: each voice 
 (the speech module as its own process, the default rules and weighted policy, fake robot). The
 table counts the cues about ``speech_speed``: *right* when the true rate is outside the band and
 the cue asks for the way back (``speedUp`` below 140, ``slowDown`` above 180), *wrong* when the
-true rate is inside the band, or the cue points the wrong way. ``--extra FILE:WORDS`` adds
-recordings of your own (the truth is WORDS over the file's length).
+true rate is inside the band, or the cue points the wrong way; and the ``articulate`` cues
+(``speech_accuracy`` under the default 0.5), every one of them wrong on this clean speech.
+``--extra FILE:WORDS`` adds recordings of your own (the truth is WORDS over the file's length).
 
 Prints figures only; asserts nothing.
 """
@@ -33,13 +34,28 @@ import tempfile
 import wave
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from prezence.modules.audio_io import SAMPLE_RATE, read_file
 
+
+class Row(NamedTuple):
+    """One talk's figures."""
+
+    name: str
+    split: str
+    true_wpm: float
+    secs: float
+    commands: list[str]  # the speech_speed cues' commands, in order
+    first_t: float
+    median: float  # of the speech_speed readings
+    recogniser: float  # share of windows whose speed came from the recogniser
+    unclear: int  # articulate cues
+
+
 BAND = (140.0, 180.0)  # the default rule: speech_speed inRange 140 180
-PACE = {"speedUp", "slowDown"}
 
 
 def looped(src: Path, dst: Path, minutes: float) -> float:
@@ -55,22 +71,25 @@ def looped(src: Path, dst: Path, minutes: float) -> float:
     return len(out) / SAMPLE_RATE
 
 
-def rehearse(wav: Path, out: Path) -> tuple[list[dict[str, object]], list[float], list[float]]:
-    """Run ``prezence rehearse`` on ``wav``: the speech_speed cues, readings and sources."""
+def rehearse(wav: Path, out: Path) -> tuple[list[dict[str, Any]], int, list[float], list[float]]:
+    """Run ``prezence rehearse`` on ``wav``: the speech_speed cues, the number of
+    speech_accuracy cues, the speed readings and their sources."""
     cmd = [sys.executable, "-m", "prezence", "rehearse", str(wav), "--out", str(out)]
     cmd += ["--no-report", "-q"]
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode not in (0, 3):
         raise SystemExit(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr[-2000:]}")
     cues = []
+    unclear = 0
     with open(out / "cues.jsonl", encoding="utf-8") as f:
         for line in f:
             c = json.loads(line)
             if c.get("metric") == "speech_speed":
                 cues.append(c)
+            unclear += c.get("metric") == "speech_accuracy"
     speeds = _stream(out / "streams" / "speech_speed.txt")
     sources = _stream(out / "streams" / "speech_speed_source.txt")
-    return cues, speeds, sources
+    return cues, unclear, speeds, sources
 
 
 def _stream(path: Path) -> list[float]:
@@ -126,17 +145,22 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
 
-        def one(item: tuple[str, Path, float, str]) -> tuple[str, str, float, float, list[str],
-                                                             float, float, float]:
+        def one(item: tuple[str, Path, float, str]) -> Row:
             name, src, true_wpm, split = item
             wav = d / f"{name}.wav"
             secs = looped(src, wav, args.minutes)
-            cues, speeds, sources = rehearse(wav, d / name)
+            cues, unclear, speeds, sources = rehearse(wav, d / name)
             wav.unlink()
-            med = statistics.median(speeds) if speeds else math.nan
-            rec = sum(1 for s in sources if s == 1.0) / len(sources) if sources else math.nan
-            return name, split, true_wpm, secs, [str(c["command"]) for c in cues], med, rec, (
-                float(cues[0]["t"]) if cues else math.nan
+            return Row(
+                name,
+                split,
+                true_wpm,
+                secs,
+                [str(c["command"]) for c in cues],
+                float(cues[0]["t"]) if cues else math.nan,
+                statistics.median(speeds) if speeds else math.nan,
+                sum(1 for s in sources if s == 1.0) / len(sources) if sources else math.nan,
+                unclear,
             )
 
         jobs = max(1, min(args.jobs, os.cpu_count() or 1))
@@ -146,32 +170,33 @@ def main() -> None:
     print(f"default band {BAND[0]:.0f}-{BAND[1]:.0f} wpm; talks of >= {args.minutes:g} min")
     print(
         f"{'talk':<22} {'split':<8} {'true':>6} {'min':>5} {'median read':>11} "
-        f"{'recogniser':>10} {'right':>5} {'wrong':>5}  first cue, commands"
+        f"{'recogniser':>10} {'right':>5} {'wrong':>5} {'articulate':>10}  first pace cue, commands"
     )
-    wrong_in_band = right_out = out_talks = in_talks = silent_out = 0
-    for name, split, true_wpm, secs, cmds, med, rec, first in rows:
-        verdicts = [judge(true_wpm, c) for c in cmds]
+    in_band = wrong_in_band = right_out = out_talks = silent_out = wrong_way = unclear = 0
+    for r in rows:
+        verdicts = [judge(r.true_wpm, c) for c in r.commands]
         right = verdicts.count("right")
         wrong = verdicts.count("wrong")
-        inside = BAND[0] <= true_wpm <= BAND[1]
-        if inside:
-            in_talks += 1
+        unclear += r.unclear
+        if BAND[0] <= r.true_wpm <= BAND[1]:
+            in_band += 1
             wrong_in_band += wrong
         else:
             out_talks += 1
             right_out += right
             silent_out += right == 0
-        shown = " ".join(cmds) if cmds else "-"
-        first_s = f"{first:6.1f} s" if cmds else "      -"
+            wrong_way += wrong
+        shown = " ".join(r.commands) if r.commands else "-"
+        first_s = f"{r.first_t:6.1f} s" if r.commands else "      -"
         print(
-            f"{name:<22} {split:<8} {true_wpm:6.1f} {secs / 60:5.1f} {med:11.1f} "
-            f"{rec:10.0%} {right:5d} {wrong:5d}  {first_s} {shown}"
+            f"{r.name:<22} {r.split:<8} {r.true_wpm:6.1f} {r.secs / 60:5.1f} {r.median:11.1f} "
+            f"{r.recogniser:10.0%} {right:5d} {wrong:5d} {r.unclear:10d}  {first_s} {shown}"
         )
     print(
-        f"talks inside the band: {in_talks}, pace cues on them {wrong_in_band}; "
-        f"talks outside: {out_talks}, right cues {right_out}, "
-        f"talks without a right cue {silent_out}; "
-        f"wrong-way cues {sum(judge(r[2], c) == 'wrong' for r in rows for c in r[4]) - wrong_in_band}"
+        f"talks inside the band: {in_band}, pace cues on them {wrong_in_band}; "
+        f"talks outside: {out_talks}, right cues {right_out}, wrong-way cues {wrong_way}, "
+        f"talks without a right cue {silent_out}; articulate cues on clean speech {unclear} "
+        f"(in {sum(r.unclear > 0 for r in rows)} of {len(rows)} talks)"
     )
 
 
