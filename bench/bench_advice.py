@@ -39,6 +39,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from prezence.modules.audio_io import SAMPLE_RATE, read_file
+from prezence.session import read_jsonl
+from prezence.streams.tail import read_stream
 
 
 class Row(NamedTuple):
@@ -79,28 +81,13 @@ def rehearse(wav: Path, out: Path) -> tuple[list[dict[str, Any]], int, list[floa
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode not in (0, 3):
         raise SystemExit(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr[-2000:]}")
-    cues = []
-    unclear = 0
-    with open(out / "cues.jsonl", encoding="utf-8") as f:
-        for line in f:
-            c = json.loads(line)
-            if c.get("metric") == "speech_speed":
-                cues.append(c)
-            unclear += c.get("metric") == "speech_accuracy"
-    speeds = _stream(out / "streams" / "speech_speed.txt")
-    sources = _stream(out / "streams" / "speech_speed_source.txt")
-    return cues, unclear, speeds, sources
-
-
-def _stream(path: Path) -> list[float]:
-    if not path.exists():
-        return []
-    vals = []
-    for line in path.read_text(encoding="utf-8").splitlines():
-        parts = line.split()
-        if len(parts) == 2:
-            vals.append(float(parts[1]))
-    return vals
+    cues = read_jsonl(out / "cues.jsonl")
+    pace = [c for c in cues if c.get("metric") == "speech_speed"]
+    unclear = sum(c.get("metric") == "speech_accuracy" for c in cues)
+    streams = out / "streams"
+    speeds, _ = read_stream(streams / "speech_speed.txt", "speech_speed")
+    sources, _ = read_stream(streams / "speech_speed_source.txt", "speech_speed_source")
+    return pace, unclear, [s.value for s in speeds], [s.value for s in sources]
 
 
 def judge(true_wpm: float, command: str) -> str:
