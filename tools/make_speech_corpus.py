@@ -43,11 +43,13 @@ finds speech in :data:`NO_PAUSE_FOUND` of the file or more (reverb, and real rec
 room noise is within 35 dB of the voice: it hears no pause, and words / duration would pass
 for an articulation rate).
 
-Files put together from pieces whose words are known (the real reading: ten utterances with
-their transcripts; the ``pauses`` condition: one sentence per piece) also carry ``segments`` in
-the manifest, ``[start_s, end_s, words]`` per piece: :func:`window_wpm` gives the true rate of
-any stretch of them, since a real reader's pace varies from sentence to sentence and a 30 s
-window need not read the file's average.
+Every file whose words' places are known carries ``segments`` in the manifest,
+``[start_s, end_s, words]`` per piece: :func:`window_wpm` gives the true rate of any stretch of
+it, since a 30 s window need not read the file's average. The pieces: a synthetic voice's
+words, placed by a forced alignment of the known text (:func:`word_segments`; where it fails,
+another rate's times rescaled, since ``sox tempo`` stretches time evenly; the noise, reverb and
+low-pass conditions keep the clean file's timing, so its segments); the ``pauses``
+condition's sentences; the real readings' utterances or timed lines.
 
 sox runs with ``-D`` (no dither), so a rebuild with the same packages gives the same files,
 byte for byte (checked: two builds, 63 files, same checksums).
@@ -330,6 +332,47 @@ def window_wpm(segments: list[list[float]], lo: float, hi: float, max_pause_s: f
     return words / talk * 60.0 if talk > 0 else float("nan")
 
 
+def word_segments(x: np.ndarray, text: str) -> list[list[float]] | None:
+    """Where each word of ``text`` is spoken in ``x``: ``[start_s, end_s, 1]`` per word, by a
+    forced alignment of the known text (pocketsphinx's acoustic model and dictionary: the words
+    are given, only their times are found). None, with a note, when not every word is placed.
+
+    A voice reading at a steady tempo still says more words a minute where the words are short:
+    over this corpus's text a 30 s window of a 110 wpm file covers 96 to 117 wpm, so the file's
+    rate is no truth for a window (:func:`window_wpm` uses these segments)."""
+    import pocketsphinx
+
+    words = [re.sub(r"[^a-z']", "", t.lower()) for t in text.split() if any(map(str.isalpha, t))]
+    peak = float(np.max(np.abs(x))) if len(x) else 0.0
+    if peak > 32000:  # as :func:`write` stores it
+        x = x * (32000 / peak)
+    pcm = np.clip(np.round(x), -32768, 32767).astype("<i2").tobytes()
+    frate = 100.0  # pocketsphinx's default frames per second
+    got = 0
+    # pocketsphinx's default beams, then wider ones: the default search can prune the only
+    # path through the text (espeak-ng's male voice)
+    for beams in ({}, {"beam": 1e-80, "pbeam": 1e-80, "wbeam": 1e-60}):
+        dec = pocketsphinx.Decoder(loglevel="FATAL", **beams)
+        try:
+            dec.set_align_text(" ".join(words))
+        except (RuntimeError, KeyError) as e:
+            print(f"note: no word timings ({type(e).__name__}: {e})", file=sys.stderr)
+            return None
+        dec.start_utt()
+        dec.process_raw(pcm, full_utt=True)
+        dec.end_utt()
+        segs = [
+            [round(s.start_frame / frate, 3), round((s.end_frame + 1) / frate, 3), 1]
+            for s in dec.seg() or ()  # None: the search found no path through the text
+            if s.word not in ("<s>", "</s>", "<sil>") and not s.word.startswith(("[", "+"))
+        ]
+        if len(segs) == len(words):
+            return segs
+        got = max(got, len(segs))
+    print(f"note: no word timings ({got} of {len(words)} words placed)", file=sys.stderr)
+    return None
+
+
 def _entry(
     out: Path,
     name: str,
@@ -369,11 +412,13 @@ def _conditions(
     sents: list[np.ndarray] | None,
     rng: np.random.Generator,
     sent_words: list[int] | None = None,
+    clean_segments: list[list[float]] | None = None,
 ) -> dict[str, dict[str, object]]:
     res: dict[str, dict[str, object]] = {}
     p = active_power(x)
     for cond in CONDITIONS:
-        segments = None
+        # noise, reverb and the low-pass keep the clean file's timing: its word timings
+        segments = clean_segments
         if cond == "pauses":
             if sents is None or sent_words is None:
                 continue
@@ -457,9 +502,10 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
             natural = words / (len(x) / RATE) * 60.0
             f0 = f0_median(x)
             split = "heldout" if vname in HELDOUT else "dev"
-            for target in TARGET_WPM:
+            rated = {target: tempo(x, target / natural, tmp) for target in TARGET_WPM}
+            timed = {target: word_segments(y, text) for target, y in rated.items()}
+            for target, y in rated.items():
                 fac = target / natural
-                y = tempo(x, fac, tmp)
                 name = f"{vname}__{int(target)}"
                 meta: dict[str, object] = {
                     "voice": vname,
@@ -471,7 +517,16 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
                     "target_wpm": target,
                     "clean": True,
                 }
-                e = _entry(out, name, y, words, meta)
+                segs = timed[target]
+                if segs is None:
+                    # sox tempo stretches time evenly: another rate's word times, rescaled
+                    for other, osegs in timed.items():
+                        if osegs is not None:
+                            k = len(y) / len(rated[other])
+                            segs = [[round(a * k, 3), round(b * k, 3), w] for a, b, w in osegs]
+                            print(f"note: {name}: word times of the {other:g} wpm file, rescaled")
+                            break
+                e = _entry(out, name, y, words, meta, segs)
                 manifest[name] = e
                 print(name, e["true_wpm"], "wpm", e["f0_hz"], "Hz", flush=True)
                 if target == TARGET_WPM[1] and vname in CONDITION_VOICES:
@@ -481,7 +536,7 @@ def build(out: Path, sdist: Path | None) -> dict[str, dict[str, object]]:
                         "speaking_s_clean": e["speaking_s"],
                         "articulation_clean": e["true_articulation"],
                     }
-                    conds = _conditions(out, name, y, words, meta2, tmp, ys, rng, sent_words)
+                    conds = _conditions(out, name, y, words, meta2, tmp, ys, rng, sent_words, segs)
                     for k, v in conds.items():
                         v.pop("speaking_s_clean", None)
                         v.pop("articulation_clean", None)
@@ -718,6 +773,7 @@ def ship(out: Path, sdist: Path, registry: Path) -> dict[str, dict[str, object]]
                     "split": "heldout" if vname in HELDOUT else "dev",
                     "condition": "clean",
                 },
+                word_segments(y, TEXTS[para]),
             )
         pieces, lw = librivox(sdist, tmp)
         x, segs = join(pieces, lw, 0.5)
