@@ -29,8 +29,11 @@ Four parts (``--part``, all by default):
     speech_accuracy and the CPU per audio second; then per split (dev / held-out voices) the
     worst and mean median error, and the clarity ROC AUC of clean against degraded windows with
     the clean / degraded shares under candidate thresholds. A window of a file whose manifest
-    entry has ``segments`` (the real reading, the pauses condition) is held against the true
-    rate of the talk it covers. ``--perturb N`` runs each clean and pauses file again with N
+    entry has ``segments`` (every file of a current build: the synthetic voices' word times,
+    the real readers' utterances or lines) is held against the true rate of the talk it covers.
+    Clarity is given per split, for speech_accuracy (what the coach cues on) and for
+    speech_confidence (the recogniser's confidence alone, without the clean-signal credit).
+    ``--perturb N`` runs each clean and pauses file again with N
     seeds of +-1 LSB noise and prints how far the figures move (the recogniser's decisions can
     flip on inaudible differences).
 
@@ -275,8 +278,9 @@ def part_corpus(args: argparse.Namespace) -> None:
     print(
         "speech_speed against the truth per corpus file (module defaults); med = error of the "
         "median reading; ±10/±12 = share of full 30 s windows (t >= 30 s) within that of the "
-        "true rate of the talk the window covers (files with segments, marked *: the real "
-        "reading and the pauses condition) or of the file's rate (the rest); src = "
+        "true rate of the talk the window covers (files with segments, marked *: word times "
+        "of the synthetic voices, sentences or lines of the real readers) or of the file's "
+        "rate (the rest); src = "
         "share of windows from the recogniser (rest: syllables); art = articulation median error "
         "(truth from an energy VAD); clar = median speech_accuracy (0-1)"
     )
@@ -286,6 +290,8 @@ def part_corpus(args: argparse.Namespace) -> None:
     )
     clean_scores: list[float] = []
     bad_scores: list[float] = []
+    # (split, real speaker?, degraded?) -> (speech_accuracy, speech_confidence) per window
+    by_group: dict[tuple[str, bool, bool], tuple[list[float], list[float]]] = {}
     per_split: dict[str, list[tuple[float, float]]] = {}
     tot_cpu = tot_dur = 0.0
     for name, r in zip(names, res, strict=True):
@@ -304,6 +310,14 @@ def part_corpus(args: argparse.Namespace) -> None:
         acc = [v for _, v in st.get(speech.SPEECH_ACCURACY, [])]
         clar = float(np.median(acc)) if acc else float("nan")
         cond = str(m["condition"])
+        conf = [v for _, v in st.get("speech_confidence", [])]
+        if cond in ("clean", "pauses", "snr10", "snr5", "reverb", "lowpass"):
+            g = by_group.setdefault(
+                (str(m["split"]), name.startswith("real_"), cond not in ("clean", "pauses")),
+                ([], []),
+            )
+            g[0].extend(acc)
+            g[1].extend(conf)
         if cond in ("clean", "pauses"):
             clean_scores += acc
             if cond == "clean" and len(vals):
@@ -320,10 +334,12 @@ def part_corpus(args: argparse.Namespace) -> None:
         )
     for split, rows in sorted(per_split.items()):
         meds = np.array([a for a, _ in rows])
+        windowed = [w for _, w in rows if not np.isnan(w)]
         print(
             f"{split}: {len(rows)} clean files, |median error| max {np.max(np.abs(meds)):.1f} %, "
             f"mean {np.mean(np.abs(meds)):.1f} %; files with >= 90 % of windows within ±12 %: "
-            f"{sum(1 for _, w in rows if w >= 90)}/{len(rows)}"
+            f"{sum(1 for w in windowed if w >= 90)}/{len(windowed)}"
+            f" ({len(rows) - len(windowed)} too short for a full window)"
         )
     if clean_scores and bad_scores:
         auc = roc_auc(clean_scores, bad_scores)
@@ -341,6 +357,25 @@ def part_corpus(args: argparse.Namespace) -> None:
             c = np.mean(np.asarray(clean_scores) < th) * 100
             b = np.mean(np.asarray(bad_scores) < th) * 100
             print(f"  threshold {th:.2f}: clean windows under it {c:.1f} %, degraded {b:.1f} %")
+        for k, metric in enumerate(("speech_accuracy", "speech_confidence")):
+            for split in ("dev", "heldout"):
+                parts = []
+                for real in (False, True):
+                    v = by_group.get((split, real, False), ([], []))[k]
+                    if v:
+                        kind = "real" if real else "synthetic"
+                        parts.append(f"clean {kind} {np.mean(np.asarray(v) < 0.5) * 100:.1f} %")
+                bad = by_group.get((split, False, True), ([], []))[k]
+                clean = [
+                    x
+                    for real in (False, True)
+                    for x in by_group.get((split, real, False), ([], []))[k]
+                ]
+                if bad and clean:
+                    print(
+                        f"  {metric} {split}: AUC {roc_auc(clean, bad):.3f}; under 0.5: degraded "
+                        f"{np.mean(np.asarray(bad) < 0.5) * 100:.1f} %, " + ", ".join(parts)
+                    )
     print(
         f"CPU: {tot_cpu:.1f} s for {tot_dur:.1f} s of audio = {tot_cpu / tot_dur:.3f} CPU s per "
         "audio s (one core per file)"

@@ -157,7 +157,8 @@ METRICS: Mapping[str, Metric] = {
             physical_range=(0.0, 1.0),
             band=("min", 0.5, None),
         ),
-        Metric("speech_clarity", "0..1", "clarity (acoustic)", "speech", _SPEECH),
+        Metric("speech_confidence", "0..1", "recogniser confidence", "speech", _SPEECH),
+        Metric("speech_clarity", "0..100", "clarity score", "speech", _SPEECH),
         Metric("speech_activity", "0..1", "voice activity", "speech", _SPEECH),
         Metric(
             "cv_headGaze",

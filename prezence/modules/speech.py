@@ -30,9 +30,12 @@ speech_volume          active-speech level in estimated dB SPL: RMS dBFS of the 
                        plus ``--calibration-db`` (see "Calibrating the volume")
 speech_loudness        integrated loudness of the window, LUFS (ITU-R BS.1770, pyloudnorm),
                        relative to full scale, uncalibrated; only when pyloudnorm is installed
-speech_accuracy        recogniser confidence 0..1 over the word window: the summed word
-                       posteriors over the number of words spoken (the larger of the recognised
-                       and the syllable count)
+speech_accuracy        clarity 0..1: the recogniser's confidence over the word window (the
+                       summed word posteriors over the number of words spoken, the larger of
+                       the recognised and the syllable count), plus
+                       :data:`CLEAN_SIGNAL_CREDIT` where the signal is clean (see "Clarity");
+                       capped at 1
+speech_confidence      that recogniser confidence alone, without the credit
 speech_clarity         speech_accuracy as a 0-100 score: 0.2 -> 0, 0.8 -> 100, clipped
 speech_activity        the fraction of the last ``--window`` seconds with voice activity, 0..1;
                        written every hop, in silence too: the module's heartbeat
@@ -84,6 +87,19 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
   speech_articulation are not written there and the log says why (once per change of source).
 * Volume: RMS of the 30 ms frames inside voice activity and within 30 dB of the window's
   95th-percentile speech frame, so pauses do not dilute it and it follows a gain change exactly.
+* **Clarity** (speech_accuracy). The recogniser's confidence falls where the speech is hard to
+  hear (noise, reverberation, a muffled voice) and where the speaker mumbles, but also where the
+  words are rare: its language model doubts Shakespeare as it doubts mumbling (clean real
+  readers scored 0.43-0.50 on the corpus against the cue threshold 0.5). An acoustic,
+  vocabulary-free confidence cannot be had from pocketsphinx (it scores every frame against
+  that frame's best-fitting state, so the absolute fit is gone; a phone-loop decode scored
+  worse than the present value, AUC 0.66-0.90). So the signal's own state counts as evidence:
+  where it is clean, the window's SNR estimate at least :data:`CLEAN_SIGNAL_SNR_DB` and its
+  speech frames' 1.5-4 kHz energy at most :data:`CLEAN_SIGNAL_BAND_DB` below their 0.1-1 kHz
+  energy (a muffled voice loses its high band), the confidence gets
+  :data:`CLEAN_SIGNAL_CREDIT`. Mumbling into a clean microphone is still cued when the
+  recogniser doubts it more than rare words make it (confidence under 0.4). speech_confidence
+  keeps the confidence alone.
 
 Calibrating the volume (once per microphone, gain setting and distance):
     1. Put a phone sound-level meter app (A-weighted, "slow") where the listeners' ears would be,
@@ -136,6 +152,7 @@ log = logging.getLogger(__name__)
 SPEECH_ACTIVITY = "speech_activity"
 SPEECH_ARTICULATION = "speech_articulation"
 SPEECH_CLARITY = "speech_clarity"
+SPEECH_CONFIDENCE = "speech_confidence"
 SPEECH_LOUDNESS = "speech_loudness"
 SPEECH_SPEED_SYLLABLES = "speech_speed_syllables"
 SPEECH_SPEED_SOURCE = "speech_speed_source"
@@ -154,6 +171,7 @@ METRICS = (
     SPEECH_VOLUME,
     SPEECH_LOUDNESS,
     SPEECH_ACCURACY,
+    SPEECH_CONFIDENCE,
     SPEECH_CLARITY,
     SPEECH_ACTIVITY,
 )
@@ -226,6 +244,16 @@ RATE_FULL_TRUST_S = 10.0
 #: An utterance is decoded again (with quiet after it) when at least this many syllable nuclei
 #: follow its last recognised word (pocketsphinx's search ended early).
 MIN_UNDECODED_SYLLABLES = 3
+#: A window's signal is clean (speech_accuracy's credit) when its estimated SNR is at least
+#: this (dB; dev corpus windows: degraded at most 14.5, clean at least 30.5; the estimate
+#: under-reads unbroken speech, so a value nearer the degraded side) ...
+CLEAN_SIGNAL_SNR_DB = 20.0
+#: ... and the energy of its speech frames in 1.5-4 kHz is at most this far below that in
+#: 0.1-1 kHz (dB; dev: low-passed -37.5 or lower, clean -23 or higher: the middle of the gap).
+CLEAN_SIGNAL_BAND_DB = -30.0
+#: What a clean signal adds to the recogniser's confidence: the least that lifts 99 % of the
+#: dev corpus's clean windows to the cue threshold 0.5 (their 1st percentile: 0.395).
+CLEAN_SIGNAL_CREDIT = 0.1
 #: speech_accuracy -> speech_clarity anchors: (accuracy, score).
 CLARITY_ANCHORS = ((0.2, 0.0), (0.8, 100.0))
 #: Warn when a live input is this many seconds behind.
@@ -245,6 +273,19 @@ DECODER_CONFIG: dict[str, Any] = {
 _ORDER = {m: i for i, m in enumerate(METRICS)}
 _FRAME = 480  # 30 ms at 16 kHz: the endpointer's frame
 _FRAME_S = _FRAME / SAMPLE_RATE
+_BAND_TAPER = np.hanning(_FRAME)
+_BAND_FREQS = np.fft.rfftfreq(512, 1.0 / SAMPLE_RATE)
+_BAND_LOW = (_BAND_FREQS >= 100.0) & (_BAND_FREQS < 1000.0)
+_BAND_HIGH = (_BAND_FREQS >= 1500.0) & (_BAND_FREQS < 4000.0)
+
+
+def band_energies(frame: np.ndarray) -> tuple[float, float]:
+    """Energy of a 30 ms frame in 0.1-1 kHz and in 1.5-4 kHz (Hann window, 512-point FFT)."""
+    x = np.zeros(_FRAME)
+    n = min(len(frame), _FRAME)
+    x[:n] = frame[:n]
+    p = np.abs(np.fft.rfft(x * _BAND_TAPER, 512)) ** 2
+    return float(p[_BAND_LOW].sum()), float(p[_BAND_HIGH].sum())
 
 
 @dataclass(frozen=True)
@@ -441,6 +482,7 @@ class SpeechAnalyser:
         self._n_frames = 0  # 30 ms frames given to the endpointer
         self._n_samples = 0  # samples fed
         self._frame_ms: list[float] = []  # mean square per frame, for the volume
+        self._frame_bands: list[tuple[float, float]] = []  # band_energies per frame (clarity)
         # The last few windows' audio, for LUFS: samples from absolute index _ring_start.
         self._ring = np.zeros(0, np.int16)
         self._ring_start = 0
@@ -524,6 +566,7 @@ class SpeechAnalyser:
         if len(tail):
             ms = float(np.mean(tail.astype(np.float64) ** 2))
             self._frame_ms.append(ms)
+            self._frame_bands.append(band_energies(tail.astype(np.float64)))
             self._ring = np.concatenate([self._ring, tail])
         # end_stream needs a non-empty partial frame; one zero sample flushes it all the same.
         speech = self._ep.end_stream(tail.tobytes() if len(tail) else b"\x00\x00")
@@ -554,7 +597,9 @@ class SpeechAnalyser:
     # ---- per frame ---------------------------------------------------------------------
 
     def _frame(self, frame: np.ndarray) -> None:
-        self._frame_ms.append(float(np.mean(frame.astype(np.float64) ** 2)))
+        x = frame.astype(np.float64)
+        self._frame_ms.append(float(np.mean(x**2)))
+        self._frame_bands.append(band_energies(x))
         speech = self._ep.process(frame.tobytes())
         self._n_frames += 1
         if speech is not None:
@@ -795,6 +840,7 @@ class SpeechAnalyser:
         spoken = max(n_asr, n_syl / opt.syllables_per_word)
         coverage = covered / voiced_s if voiced_s > 0 else 0.0
         snr = self._snr_db(lo, t)
+        band = self._band_db(lo, t)
         source = self._choose_source(mean_post, coverage, snr)
         if self.window_log is not None:
             self.window_log.append(
@@ -809,6 +855,7 @@ class SpeechAnalyser:
                     "mean_post": mean_post,
                     "coverage": coverage,
                     "snr_db": snr,
+                    "band_db": band if band is not None else math.nan,
                     "source": source,
                 }
             )
@@ -856,8 +903,11 @@ class SpeechAnalyser:
         if speaking_s > 0 and source != SOURCE_NONE:
             out.append(Sample(SPEECH_ARTICULATION, t_out, words / speaking_s * 60.0))
         if spoken > 0:
-            accuracy = min(1.0, p_sum / spoken)
+            confidence = min(1.0, p_sum / spoken)
+            clean = snr >= CLEAN_SIGNAL_SNR_DB and band is not None and band >= CLEAN_SIGNAL_BAND_DB
+            accuracy = min(1.0, confidence + CLEAN_SIGNAL_CREDIT) if clean else confidence
             out.append(Sample(SPEECH_ACCURACY, t_out, accuracy))
+            out.append(Sample(SPEECH_CONFIDENCE, t_out, confidence))
             out.append(Sample(SPEECH_CLARITY, t_out, clarity_score(accuracy)))
         return out
 
@@ -894,6 +944,19 @@ class SpeechAnalyser:
         ms = np.asarray(self._frame_ms[i0:i1]) + 1.0  # +1: int16 rounding floor
         p10, p90 = np.percentile(ms, [10, 90])
         return float(10.0 * np.log10(p90 / p10))
+
+    def _band_db(self, lo: float, t: float) -> float | None:
+        """Energy in 1.5-4 kHz over that in 0.1-1 kHz (dB) of the loud frames of ``[lo, t)``
+        (within 30 dB of the 95th percentile, as for the volume); None without frames."""
+        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+        if i1 - i0 < 10:
+            return None
+        ms = np.asarray(self._frame_ms[i0:i1]) + 1.0
+        db = 10.0 * np.log10(ms)
+        loud = np.flatnonzero(db >= np.percentile(db, 95) - 30.0)
+        bands = np.asarray(self._frame_bands[i0:i1])[loud]
+        low, high = float(bands[:, 0].sum()), float(bands[:, 1].sum())
+        return 10.0 * math.log10((high + 1e-9) / (low + 1e-9))
 
     def _active_dbfs(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float | None:
         i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
