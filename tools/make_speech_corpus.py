@@ -52,7 +52,8 @@ low-pass conditions keep the clean file's timing, so its segments); the ``pauses
 condition's sentences; the real readings' utterances or timed lines.
 
 sox runs with ``-D`` (no dither), so a rebuild with the same packages gives the same files,
-byte for byte (checked: two builds, 63 files, same checksums).
+byte for byte (checked: two builds, 63 files, same checksums; on one machine: a build of
+session 9 and one of session 10 differ by a few LSBs on most files and in espeak-ng's timing).
 
 Conditions (on the middle rate): ``pauses`` (1.5 s of silence between sentences), ``snr20``,
 ``snr10``, ``snr5`` (seeded white noise against the active-speech power), ``reverb``
