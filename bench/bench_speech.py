@@ -310,7 +310,7 @@ def part_corpus(args: argparse.Namespace) -> None:
         acc = [v for _, v in st.get(speech.SPEECH_ACCURACY, [])]
         clar = float(np.median(acc)) if acc else float("nan")
         cond = str(m["condition"])
-        conf = [v for _, v in st.get("speech_confidence", [])]
+        conf = [v for _, v in st.get(speech.SPEECH_CONFIDENCE, [])]
         if cond in ("clean", "pauses", "snr10", "snr5", "reverb", "lowpass"):
             g = by_group.setdefault(
                 (str(m["split"]), name.startswith("real_"), cond not in ("clean", "pauses")),
