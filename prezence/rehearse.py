@@ -9,6 +9,7 @@ over those files on the recording's clock, exactly as it does on a live talk's f
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import logging
 import shlex
@@ -159,6 +160,19 @@ def newest_stamp(streams: Path) -> float:
     return newest
 
 
+def _remove_what_we_wrote(session: SessionDir, *, logs: Sequence[str]) -> None:
+    """Remove the files a failed rehearsal wrote (config, module logs, empty streams) and the
+    folder if that empties it."""
+    for path in [session.config, *(session.root / n for n in logs)]:
+        path.unlink(missing_ok=True)
+    for path in session.streams.glob("*"):
+        if path.is_file() and path.stat().st_size == 0:
+            path.unlink()
+    for folder in (session.streams, session.root):
+        with contextlib.suppress(OSError):  # not empty: something else is in it, keep it
+            folder.rmdir()
+
+
 def recording_length_s(recording: Path) -> float:
     """The recording's length in seconds from its container (0.0 when it cannot be read)."""
     try:
@@ -206,6 +220,8 @@ def rehearse(
     recording = Path(recording)
     if not recording.is_file():
         raise ConfigError("no such recording", path=recording)
+    if recording.stat().st_size == 0:
+        raise ConfigError("the recording is empty", path=recording)
     config = config or load_config(None)
     if allocated_s is not None:
         config = config.with_allocated(allocated_s)
@@ -220,11 +236,19 @@ def rehearse(
             name: subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=logs[name], text=True)
             for name, argv in cmds.items()
         }
-        total = recording_length_s(recording) if progress is not None else 0.0
+        total = recording_length_s(recording)
         while any(p.poll() is None for p in procs.values()):
             if progress is not None:
                 progress(min(newest_stamp(session.streams), total or MAX_TALK_S), total)
             time.sleep(PROGRESS_PERIOD_S)
+    except KeyboardInterrupt:
+        log.warning(
+            "stopped by Ctrl-C while the modules analysed the recording; what they measured "
+            "is kept in %s: `prezence report %s` reports on it",
+            session.root,
+            session.root,
+        )
+        raise
     finally:
         for f in logs.values():
             f.close()
@@ -236,13 +260,21 @@ def rehearse(
         if p.returncode != 0:
             msg = err.strip().splitlines()[-1] if err.strip() else f"exit status {p.returncode}"
             failures[name] = msg
-            log.warning("module %s failed: %s", name, msg)
     if len(failures) == len(procs):
+        if not any(f.stat().st_size for f in session.streams.glob("*")):
+            # Nothing was measured: leave no half-made folder that a second try, once the
+            # file is mended, would be refused for. The error carries the modules' messages.
+            _remove_what_we_wrote(session, logs=[f"{n}.log" for n in cmds])
         raise PrezenceError("; ".join(f"{n}: {m}" for n, m in failures.items()))
+    for name, msg in failures.items():
+        log.warning("module %s failed: %s", name, msg)
     paths = find_streams(session.root, config)
     readings = read_streams(paths, max_t=MAX_TALK_S)
     samples = merge_readings(readings)
-    talk_s = samples[-1].t if samples else 0.0
+    # The talk lasted as long as the recording, not up to its last measured value: a talk that
+    # ends in silence (or a module that stopped measuring) still used that time.
+    heard = total if total > 0 else newest_stamp(session.streams)
+    talk_s = max(samples[-1].t if samples else 0.0, min(heard, MAX_TALK_S))
     return process_recorded(
         session,
         config,

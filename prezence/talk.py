@@ -465,7 +465,8 @@ class Talk:
             )
             # what the coach stopped repeating (escalation): said once at the end, reported
             notes = end_of_talk_notes(self.processor)
-            if self.source.talk_s is None or truncated:
+            if self.source.talk_s is None or truncated or interrupted:
+                # the talk's length is where it stopped
                 self.session.write_meta({**self._meta, "talk_s": round(talk_s, 3)})
             if self.options.report and completed:
                 post = self._post_talk(coach, end, notes, step_s=clock.drain_step_s, pace=pace)
@@ -510,7 +511,9 @@ class Talk:
         if self.options.report and completed:
             from prezence.report.build import write_report
 
-            page = write_report(self.session.root, config=self.config, plots=self.options.plots)
+            page = write_report(
+                self.session.root, config=self.config, plots=self.options.plots, ended=True
+            )
         return TalkRun(
             self.session,
             summary,
@@ -538,7 +541,7 @@ class Talk:
         from prezence.report.build import build_report
         from prezence.report.speech import summary_phrase
 
-        report = build_report(self.session.root, config=self.config)
+        report = build_report(self.session.root, config=self.config, ended=True)
         report["stopped_repeating"] = notes  # summary.json is written after this
         phrase = summary_phrase(report)
         try:

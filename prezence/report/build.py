@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from prezence.config.model import Config, Rule
 from prezence.errors import ConfigError, PrezenceError
 from prezence.metrics import METRICS
+from prezence.report.speech import was
 from prezence.samples import Sample
 from prezence.session import (
     CUE_KEYS,
@@ -158,19 +159,28 @@ def cue_effect(
 
 
 def rank_priorities(
-    config: Config, dev_s: Mapping[str, Mapping[str, float]], *, talk_s: float, top: int = 2
+    config: Config,
+    dev_s: Mapping[str, Mapping[str, float]],
+    *,
+    talk_s: float,
+    top: int = 2,
+    cued: Collection[str] = (),
 ) -> list[dict[str, Any]]:
     """The things to work on first: metrics ranked by deviation × time out of range.
 
     The score of a metric is its deviation integrated over the talk (%·s), which is the time it
     spent out of range times its mean deviation while out; the side with the larger share names
-    the advice. Metrics that never left their band are not listed.
+    the advice. Metrics that never left their band are not listed, nor those the coach did not
+    cue whose score over the whole talk adds up to less than one cue's worth (the processor's
+    ``threshold``, 600 %·s by default: 20 % off for 30 s): a glance down for a second is not
+    the first thing to work on. A strict rule's metric is listed when it left its band at all.
 
     Args:
         config: the rules.
         dev_s: per metric, :func:`deviation_seconds`'s result.
         talk_s: the talk's length (to express the score per minute of talk).
         top: how many to return.
+        cued: the metrics the coach cued during the talk.
     """
     rows: list[dict[str, Any]] = []
     for rule in config.rules:
@@ -179,6 +189,9 @@ def rank_priorities(
             continue
         score = float(d.get("below", 0.0)) + float(d.get("above", 0.0))
         if score <= 0.0:
+            continue
+        minor = score < config.processor.threshold and rule.metric not in cued
+        if minor and not rule.strict:
             continue
         side = "above" if d.get("above", 0.0) > d.get("below", 0.0) else "below"
         rows.append(
@@ -222,12 +235,15 @@ def _talk_length(
     streams: Mapping[str, Sequence[Sample]],
     cues: Sequence[Mapping[str, Any]],
     stale_s: float,
+    ended: bool = False,
 ) -> tuple[float, bool]:
     """The talk's length and whether the record covers it.
 
-    ``session.json`` states the planned length; when the records stop more than a stale
-    period before it (the processor or the modules died), the talk is taken to have ended
-    at the last record.
+    ``session.json`` states the planned length. A talk the coach ran to its end (``ended``)
+    lasted that long even when the metrics stop well before it (the presenter fell silent,
+    a module stopped writing). Otherwise, when the records stop more than a stale period
+    before it (the process died mid-talk), the talk is taken to have ended at the last
+    record.
     """
     last = max(
         [s[-1].t for s in streams.values() if s] + [float(c["t"]) for c in cues if "t" in c],
@@ -237,7 +253,7 @@ def _talk_length(
     if planned is None:
         return last, True
     planned = float(planned)
-    if last + stale_s < planned:
+    if not ended and last + stale_s < planned:
         return last, False
     return planned, True
 
@@ -250,11 +266,9 @@ def _why(rule: Rule, row: Mapping[str, Any]) -> str:
     strict = "must-keep limit: " if row.get("kind") == "strict" else ""
     limit = "lowest" if side == "below" else "highest"
     value = row.get("value")
-    was = f" ({float(value):.3g}{unit})" if isinstance(value, int | float) else ""
-    return (
-        f"{strict}{metric_label(rule.metric)} was {side} the {limit} good value, "
-        f"{bound:g}{unit}{was}"
-    )
+    then = f" ({float(value):.3g}{unit})" if isinstance(value, int | float) else ""
+    label = metric_label(rule.metric)
+    return f"{strict}{label} {was(label)} {side} the {limit} good value, {bound:g}{unit}{then}"
 
 
 def _why_other(row: Mapping[str, Any]) -> str:
@@ -273,13 +287,17 @@ def _cue_dicts(summary: Mapping[str, Any]) -> list[dict[str, Any]]:
     return [dict(c) for c in summary.get("cues", [])]
 
 
-def build_report(session_dir: str | Path, *, config: Config | None = None) -> dict[str, Any]:
+def build_report(
+    session_dir: str | Path, *, config: Config | None = None, ended: bool | None = None
+) -> dict[str, Any]:
     """Rebuild the report of one talk from its session folder.
 
     Args:
         session_dir: the session folder (see :mod:`prezence.session`).
         config: the rules to judge by; None reads the folder's ``config.toml`` (or the
             built-in configuration if the talk died before writing it).
+        ended: the coach ran the talk to its end (None: it did if its ``summary.json`` says
+            when the talk ended, as a finished talk's does).
 
     Returns:
         The report as a JSON-ready dict: ``time`` (used vs allocated), ``metrics`` (the
@@ -291,11 +309,22 @@ def build_report(session_dir: str | Path, *, config: Config | None = None) -> di
         ConfigError: the folder does not exist, its ``config.toml`` is invalid, or it is not a
             session folder (no ``session.json`` nor ``cues.jsonl``) and holds no stream file.
     """
-    return _rebuild(session_dir, config)[0]
+    return _rebuild(session_dir, config, ended)[0]
+
+
+def _coach_ended(session: SessionDir) -> bool:
+    """Whether the folder's ``summary.json`` was written by a coach that ran to the end."""
+    if not session.summary.is_file():
+        return False
+    try:
+        summary = read_json_object(session.summary)
+    except ConfigError:
+        return False
+    return summary.get("ended_at_s") is not None
 
 
 def _rebuild(
-    session_dir: str | Path, config: Config | None
+    session_dir: str | Path, config: Config | None, ended: bool | None = None
 ) -> tuple[dict[str, Any], dict[str, list[Sample]]]:
     session = SessionDir(Path(session_dir))
     if not session.root.is_dir():
@@ -321,7 +350,9 @@ def _rebuild(
     cues = read_jsonl(session.cues, require=CUE_KEYS)
     truth = read_jsonl(session.truth, require=TRUTH_KEYS) if session.truth.exists() else None
     stale_default = cfg.processor.stale_after_s
-    talk_s, complete = _talk_length(meta, streams, cues, stale_default)
+    if ended is None:
+        ended = _coach_ended(session)
+    talk_s, complete = _talk_length(meta, streams, cues, stale_default, ended)
     talk_s = min(talk_s, limit)
     if not complete:
         log.warning(
@@ -393,7 +424,8 @@ def _rebuild(
     helped = [r for r in cue_rows if r.get("improved") is not None]
 
     time_used = dict(summary["time"])
-    priorities = rank_priorities(cfg, dev_s, talk_s=talk_s)
+    cued = {str(c["metric"]) for c in cues if c.get("metric")}
+    priorities = rank_priorities(cfg, dev_s, talk_s=talk_s, cued=cued)
     counts = dict(summary["counts"])
     counts["cues_improved"] = sum(1 for r in helped if r["improved"])
     counts["cues_judged"] = len(helped)
@@ -494,6 +526,7 @@ def write_report(
     config: Config | None = None,
     progress: Callable[[float, float], None] | None = None,
     plots: bool = True,
+    ended: bool | None = None,
 ) -> Path:
     """Build the report and write it into ``SESSION/report/``.
 
@@ -502,7 +535,7 @@ def write_report(
     ``summary.png`` and ``timeline_<metric>.png`` (for each metric with data; the page says "no
     data" for the others). Without matplotlib, or with ``plots=False`` (a synthetic talk's
     default: drawing costs about 1 s of CPU, more than the talk), the page has tables only and
-    says how to get the plots.
+    says how to get the plots. ``ended``: as for :func:`build_report`.
 
     Returns:
         The path of ``report.html``.
@@ -515,7 +548,7 @@ def write_report(
     from prezence.session import write_json
 
     session = SessionDir(Path(session_dir))
-    report, streams = _rebuild(session.root, config)
+    report, streams = _rebuild(session.root, config, ended)
     from prezence.progress import progress_for
 
     report["progress"] = progress_for(session.root)

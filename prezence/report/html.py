@@ -7,7 +7,7 @@ import html
 from collections.abc import Mapping
 from typing import Any
 
-from prezence.report.speech import summary_phrase, time_sentence
+from prezence.report.speech import measured_share, summary_phrase, time_sentence, was
 
 _CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0;
@@ -183,7 +183,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             limit = "lowest" if p["side"] == "below" else "highest"
             out.append(
                 f"<li><b>{_e(p['advice'].capitalize())}</b> ({_e(p['label'])}). "
-                f'<span class="why">Your {_e(p["label"])} was {_e(p["side"])} the {limit} '
+                f'<span class="why">Your {_e(p["label"])} {was(p["label"])} '
+                f"{_e(p['side'])} the {limit} "
                 f"good value ({_e(_num(p['bound']))} {_e(p['unit'] or '')}) for "
                 f"{m.get('out_of_range_s', 0.0):.0f} s in all; the longest stretch lasted "
                 f"{m.get('longest_out_of_range_s', 0.0):.0f} s.</span></li>"
@@ -194,7 +195,15 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             "longest and the farthest.</p>"
         )
     else:
-        out.append("<p>Every metric stayed in its ideal range. Well done.</p>")
+        out.append(
+            {
+                "none": "<p><b>Nothing was measured</b>: no metric has a sample. The input "
+                "modules' logs in the session folder say why (no sound, no face, no audio "
+                "track…).</p>",
+                "some": "<p>Every measured metric stayed in its ideal range. Well done.</p>",
+                "all": "<p>Every metric stayed in its ideal range. Well done.</p>",
+            }[measured_share(report)]
+        )
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, dict)]
     if stopped:
         from prezence.report.build import metric_label
@@ -251,7 +260,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             elif not m.get("samples") and m.get("data") == "not measured":
                 out.append(
                     f'<p class="nodata"><b>{_e(m.get("label"))}</b>: not measured (no module '
-                    "wrote it in this session: was its camera or microphone module started?)</p>"
+                    "wrote it in this session: its module was not started, or could not "
+                    "measure it; the modules' logs in the session folder say which)</p>"
                 )
             elif not m.get("samples"):
                 out.append(

@@ -66,6 +66,22 @@ def time_sentence(report: Mapping[str, Any]) -> str:
     return f"You used {said_used} of {said_alloc}, {how}."
 
 
+def was(label: str) -> str:
+    """The verb for a metric's label: "pace was", "gestures were"."""
+    return "were" if label.endswith("s") else "was"
+
+
+def measured_share(report: Mapping[str, Any]) -> str:
+    """Which of the report's metrics have samples: ``"all"``, ``"some"`` or ``"none"``.
+
+    Praise needs something measured: a talk whose microphone gave nothing is not a talk
+    whose delivery stayed in range.
+    """
+    metrics = list((report.get("metrics") or {}).values())
+    n = sum(1 for m in metrics if isinstance(m, Mapping) and m.get("samples"))
+    return "none" if n == 0 else "all" if n == len(metrics) else "some"
+
+
 def summary_phrase(report: Mapping[str, Any]) -> str:
     """What the robot says after the talk (at most :data:`MAX_SPOKEN_WORDS` words).
 
@@ -87,7 +103,14 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         parts.append(f"I stopped reminding you about your {names}: work on it next time.")
     pri = list(report.get("priorities") or [])
     if not pri:
-        parts.append("Your delivery stayed in the ideal range. Well done!")
+        parts.append(
+            {
+                "none": "I could not measure your delivery this time: check the microphone "
+                "and the camera.",
+                "some": "Everything I could measure stayed in the ideal range. Well done!",
+                "all": "Your delivery stayed in the ideal range. Well done!",
+            }[measured_share(report)]
+        )
     else:
         parts.append(f"Work first on this: {pri[0]['advice']}.")
         if len(pri) > 1:
@@ -129,12 +152,20 @@ def format_text(report: Mapping[str, Any]) -> str:
             m = report["metrics"].get(p["metric"], {})
             limit = "lowest" if p["side"] == "below" else "highest"
             lines.append(
-                f"    {i}. {p['advice']} (your {p['label']} was {p['side']} the {limit} good "
+                f"    {i}. {p['advice']} (your {p['label']} {was(p['label'])} {p['side']} "
+                f"the {limit} good "
                 f"value, {_num(p['bound'])} {p.get('unit') or ''}, for "
                 f"{m.get('out_of_range_s', 0.0):.0f} s in all)".replace(" ,", ",")
             )
     else:
-        lines.append("  Every metric stayed in its ideal range.")
+        lines.append(
+            {
+                "none": "  Nothing was measured: no metric has a sample (see the modules' logs "
+                "in the session folder).",
+                "some": "  Every measured metric stayed in its ideal range.",
+                "all": "  Every metric stayed in its ideal range.",
+            }[measured_share(report)]
+        )
     lines.append("")
     lines.append(
         f"  {'metric':<12} {'in range':>8} {'mean':>7} {'p10':>7} {'p90':>7} {'longest out':>12}"

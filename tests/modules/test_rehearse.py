@@ -119,3 +119,49 @@ def test_rehearse_reports_its_progress_through_the_recording(tmp_path: Path) -> 
     assert seen[-1][0] == total  # finished
     done = [d for d, _ in seen]
     assert all(0.0 <= d <= total for d in done)
+
+
+def test_a_talk_that_ends_in_silence_used_the_whole_recording(tmp_path: Path) -> None:
+    """Time used is the recording's length, not the last measured value's time (the speech
+    module writes no pace in silence): 17.6 s of speech then 20 s of silence is 37.6 s."""
+    import wave
+
+    import numpy as np
+
+    from prezence.modules.audio_io import read_file
+
+    x = read_file(FAST)
+    rec = tmp_path / "then_silence.wav"
+    with wave.open(str(rec), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(16000)
+        w.writeframes(np.concatenate([x, np.zeros(20 * 16000, np.int16)]).tobytes())
+    length = (len(x) + 20 * 16000) / 16000
+    out = tmp_path / "s"
+    assert main(["rehearse", str(rec), "--out", str(out), "--allocated", "60", "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["talk_s"] == pytest.approx(length, abs=0.05)
+    report = json.loads((out / "report" / "report.json").read_text())
+    assert report["complete"] is True
+    assert report["time"]["used_s"] == pytest.approx(length, abs=0.05)
+    assert "stopped early" not in (out / "report" / "report.html").read_text()
+    # the pace stops with the speech; every decision point of the recording was still taken
+    last = (out / "streams" / "speech_speed.txt").read_text().splitlines()[-1]
+    assert float(last.split()[0]) < length - 10
+    assert summary["decisions"] == int(round(length / 0.5))
+
+
+def test_a_recording_no_module_can_read_leaves_no_folder_behind(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "not_audio.wav"
+    bad.write_text("hello, this is text")
+    out = tmp_path / "s"
+    assert main(["rehearse", str(bad), "--out", str(out)]) == 2
+    assert "not_audio.wav" in capsys.readouterr().err
+    assert not out.exists()  # a second try, once the file is mended, is not refused
+    empty = tmp_path / "empty.wav"
+    empty.write_bytes(b"")
+    assert main(["rehearse", str(empty), "--out", str(out)]) == 2
+    assert "the recording is empty" in capsys.readouterr().err and not out.exists()

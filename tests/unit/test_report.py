@@ -14,7 +14,7 @@ from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError
 from prezence.report import build_report, summary_phrase, write_report
 from prezence.report.build import cue_effect, deviation_seconds, rank_priorities
-from prezence.report.speech import MAX_SPOKEN_WORDS
+from prezence.report.speech import MAX_SPOKEN_WORDS, format_text
 from prezence.samples import Sample
 from prezence.session import SessionDir
 
@@ -118,12 +118,32 @@ def test_metric_figures_come_from_the_stream_files(session: SessionDir) -> None:
     assert m["low"] == 140 and m["high"] == 180 and m["label"] == "pace"
 
 
-def test_priorities_rank_deviation_times_duration(session: SessionDir) -> None:
+def test_priorities_are_what_was_cued_or_off_by_a_cues_worth(session: SessionDir) -> None:
     pri = build_report(session.root)["priorities"]
-    # pace: 40 s out, ~15 % on average; eye contact: 10 s out at 50 %; volume never out.
-    assert [p["metric"] for p in pri] == ["speech_speed", "cv_headGaze"]
+    # pace: 40 s out, ~15 % on average, and cued; eye contact: 10 s out at 50 % (500 %·s,
+    # less than the 600 %·s a cue takes) and never cued: not the first thing to work on.
+    assert [p["metric"] for p in pri] == ["speech_speed"]
     assert pri[0]["advice"] == "slow down"
-    assert pri[1]["advice"] == "look up at your audience"
+
+
+def test_priorities_rank_deviation_times_duration() -> None:
+    dev = {
+        "speech_speed": {"below": 0.0, "above": 700.0},
+        "cv_headGaze": {"below": 2500.0, "above": 0.0},
+        "speech_volume": {"below": 900.0, "above": 0.0},
+    }
+    pri = rank_priorities(CONFIG, dev, talk_s=600.0)
+    assert [p["metric"] for p in pri] == ["cv_headGaze", "speech_volume"]
+    assert pri[0]["advice"] == "look up at your audience"
+    assert pri[1]["advice"] == "speak louder"
+
+
+def test_a_glance_away_is_no_priority_unless_the_coach_cued_it() -> None:
+    # about a second looking down at 50 % past the band: 31 %·s over a 48 s clip
+    dev = {"cv_headGaze": {"below": 31.0, "above": 0.0}}
+    assert rank_priorities(CONFIG, dev, talk_s=48.0) == []
+    cued = rank_priorities(CONFIG, dev, talk_s=48.0, cued={"cv_headGaze"})
+    assert [p["metric"] for p in cued] == ["cv_headGaze"]
 
 
 def test_a_cue_records_latency_and_whether_the_presenter_improved(session: SessionDir) -> None:
@@ -149,7 +169,7 @@ def test_deviation_seconds_does_not_depend_on_the_sample_rate() -> None:
 
 
 def test_rank_priorities_leaves_out_metrics_that_stayed_in_range() -> None:
-    dev = {"speech_speed": {"below": 0.0, "above": 0.0}, "speech_volume": {"below": 5.0}}
+    dev = {"speech_speed": {"below": 0.0, "above": 0.0}, "speech_volume": {"below": 605.0}}
     assert [p["metric"] for p in rank_priorities(CONFIG, dev, talk_s=60.0)] == ["speech_volume"]
 
 
@@ -175,12 +195,68 @@ def test_a_record_that_stops_early_is_reported_as_incomplete(tmp_path: Path) -> 
     assert report["metrics"]["speech_volume"]["no_data_s"] == pytest.approx(1.0)
 
 
+def test_a_talk_the_coach_ran_to_its_end_is_complete_though_its_metrics_stop(
+    tmp_path: Path,
+) -> None:
+    # the presenter fell silent at 50 s of a 110 s talk the coach ran to its end
+    session = make_session(tmp_path / "t", seconds=50, talk_s=110.0)
+    session.cues.write_text(session.cues.read_text().splitlines()[0] + "\n")
+    ended = build_report(session.root, ended=True)
+    assert ended["complete"] is True and ended["time"]["used_s"] == 110.0
+    # read back later: a finished talk's summary.json says when it ended
+    session.summary.write_text(json.dumps({"ended_at_s": 110.0}))
+    report = build_report(session.root)
+    assert report["complete"] is True and report["time"]["used_s"] == 110.0
+    assert "stopped early" not in summary_phrase(report)
+
+
+def test_praise_needs_something_measured() -> None:
+    time = {"used_s": 60.0, "allocated_s": 60.0, "over_under_pct": 0.0}
+    nothing = {"speech_speed": {"samples": 0}, "cv_headGaze": {"samples": 0}}
+    phrase = summary_phrase({"time": time, "priorities": [], "metrics": nothing})
+    assert "Well done" not in phrase and "could not measure" in phrase
+    text = format_text(
+        {
+            "time": time,
+            "priorities": [],
+            "metrics": nothing,
+            "session": "s",
+            "cues": [],
+            "counts": {},
+        }
+    )
+    assert "Nothing was measured" in text and "ideal range" not in text
+    some = {"speech_speed": {"samples": 30}, "cv_headGaze": {"samples": 0}}
+    phrase = summary_phrase({"time": time, "priorities": [], "metrics": some})
+    assert "Everything I could measure stayed in the ideal range" in phrase
+    every = {"speech_speed": {"samples": 30}, "cv_headGaze": {"samples": 30}}
+    phrase = summary_phrase({"time": time, "priorities": [], "metrics": every})
+    assert "Your delivery stayed in the ideal range" in phrase
+
+
 def test_missing_folder_raises_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no such session folder"):
         build_report(tmp_path / "nope")
 
 
-def test_summary_phrase_names_time_and_the_two_priorities(session: SessionDir) -> None:
+def test_summary_phrase_names_time_and_the_two_priorities(tmp_path: Path) -> None:
+    session = make_session(tmp_path / "t")
+    with session.cues.open("a") as f:  # the glance down was cued: it is the second priority
+        look_up = {
+            "t": 75.0,
+            "command": "lookUp",
+            "metric": "cv_headGaze",
+            "kind": "weighted",
+            "reason": "cv_headGaze -20 is 50% below -15 deg",
+            "params": {},
+            "onset": 70.0,
+            "deviation": 50.0,
+            "phrase": "Look up.",
+            "planned_s": 3.0,
+            "measured_s": 3.0,
+            "dropped": False,
+        }
+        f.write(json.dumps(look_up) + "\n")
     phrase = summary_phrase(build_report(session.root))
     assert "10% over" in phrase
     assert "slow down" in phrase and "look up at your audience" in phrase
