@@ -470,8 +470,10 @@ class Processor:
                 why = f"strict: {c.metric} went {c.side} {bound:g}{unit}{since}{now_}"
             else:
                 why = f"{c.metric} {c.value:.4g} is {c.deviation:.0f}% {c.side} {bound:g}{unit}"
-                if c.eligible:
+                if c.eligible and not self.policy.whole:
                     why += f"{since} (weight {c.weight:.0f} >= {thr:g})"
+                elif c.eligible:  # an anchor fires by its own rule, not by the threshold
+                    why += since
         others = [o for o in cands if o is not c]
         if others:
             beat = ", ".join(

@@ -150,3 +150,14 @@ def test_the_anchors_coach_in_the_gym_env_by_name(name: str) -> None:
     finally:
         env.close()
     assert ep["cues"] > 0 and ep["ignored"] == 0
+
+
+@pytest.mark.parametrize("name", ["pz16", "presentation_trainer", "rhema"])
+def test_an_anchors_cue_does_not_claim_the_weighted_threshold(name: str) -> None:
+    # the anchors fire by their own rules: a reason "(weight 20 >= 600)" would be false
+    sig = dict(OK, speech_speed=lambda t: 230.0 if t >= 5 else 160.0)
+    cs = drive(builtin(), series(120, **sig), name)
+    assert cs, f"{name} gave no cue on two minutes of speech far too fast"
+    for c in cs:
+        assert ">=" not in c.reason and "weight" not in c.reason, c.reason
+        assert c.reason.endswith(f"[{name}]"), c.reason
