@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from prezence import __version__
+from prezence.argtypes import non_negative_int, speed_fraction
 from prezence.errors import PrezenceError
 from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION
 
@@ -68,10 +69,14 @@ def format_timeline(summary: dict[str, Any]) -> str:
     for name, m in summary["metrics"].items():
         tir = m.get("time_in_range")
         tt = m.get("truth_time_in_range")
+        mean = m.get("mean")
+        if not m.get("samples"):  # nothing measured: no figure to show
+            tir = None
         lines.append(
             f"{name:<18} {(f'{100 * tir:.0f}%' if tir is not None else '-'):>9} "
             f"{(f'{100 * tt:.0f}%' if tt is not None else '-'):>7} "
-            f"{m.get('mean', float('nan')):>9.2f} {m.get('longest_out_of_range_s', 0):>11.1f}s"
+            f"{(f'{mean:.2f}' if mean is not None else 'no data'):>9} "
+            f"{m.get('longest_out_of_range_s', 0):>11.1f}s"
         )
     tm = summary["time"]
     if tm.get("allocated_s"):
@@ -129,6 +134,8 @@ def parse_seconds(text: str) -> float:
     try:
         if ":" in t:
             m, _, sec = t.partition(":")
+            if not 0.0 <= float(sec) < 60.0:
+                raise ValueError("seconds past the minute must be under 60")
             value = 60.0 * int(m) + float(sec)
         elif t.endswith("min"):
             value = 60.0 * float(t[:-3])
@@ -490,7 +497,20 @@ def cmd_sim_serve(args: argparse.Namespace) -> int:
     argv += ["--model", args.model]
     if args.speech_log:
         argv += ["--speech-log", args.speech_log]
-    return int(serve_main(argv) or 0)
+    return _exit_now(int(serve_main(argv) or 0))
+
+
+def _exit_now(code: int) -> int:
+    """End the process at once, output flushed: once a NAOqi client has connected, libqi's
+    threads make the interpreter's own exit abort (``terminate called without an active
+    exception``, SIGABRT) after the server was closed cleanly."""
+    import os
+
+    logging.shutdown()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):
+            stream.flush()
+    os._exit(code)
 
 
 def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
@@ -508,7 +528,7 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
     )
     p.add_argument(
         "--speed",
-        type=float,
+        type=speed_fraction,
         default=DEFAULT_SPEED_FRACTION,
         help=f"gesture speed fraction (0..1], default {DEFAULT_SPEED_FRACTION}",
     )
@@ -557,7 +577,9 @@ def _add_force(p: argparse.ArgumentParser) -> None:
 
 def _add_run_args(p: argparse.ArgumentParser) -> None:
     _add_robot_args(p, out_help="sessions/<scenario>")
-    p.add_argument("--seed", type=int, default=None, help="presenter seed (default: scenario's)")
+    p.add_argument(
+        "--seed", type=non_negative_int, default=None, help="presenter seed (default: scenario's)"
+    )
     p.add_argument("--realtime", action="store_true", help="pace to the wall clock")
     p.add_argument(
         "--plots",
@@ -568,7 +590,9 @@ def _add_run_args(p: argparse.ArgumentParser) -> None:
 
 def _add_recorded_args(p: argparse.ArgumentParser) -> None:
     """``replay`` and ``rehearse``: the coach runs over recorded streams."""
-    p.add_argument("--seed", type=int, default=0, help="seed of policies that use chance")
+    p.add_argument(
+        "--seed", type=non_negative_int, default=0, help="seed of policies that use chance"
+    )
     p.add_argument(
         "--realtime",
         action="store_true",
@@ -666,9 +690,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_module_args(p)
     _add_allocated(p)
-    p.add_argument("--grace", type=float, default=30.0, help="seconds after the allocated time")
+    p.add_argument(
+        "--grace",
+        type=float,
+        default=30.0,
+        help="seconds after the allocated time (default 30)",
+    )
     p.add_argument("--duration", type=parse_seconds, help="stop after this long (seconds)")
-    p.add_argument("--seed", type=int, default=0, help="seed of policies that use chance")
+    p.add_argument(
+        "--seed", type=non_negative_int, default=0, help="seed of policies that use chance"
+    )
     _add_robot_args(p, out_help="a new sessions/[NAME/]live-YYYYMMDD-HHMMSS")
     _add_force(p)
     _add_speaker(p)

@@ -54,6 +54,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
+from prezence.argtypes import non_negative_int, positive_int
 from prezence.errors import PrezenceError
 
 log = logging.getLogger(__name__)
@@ -727,18 +728,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--presenters",
         nargs="+",
+        type=_presenter_spec,
         default=list(DEFAULT_PRESENTERS),
         help="presenter models: free, cost, cost:K (assumptions x K), each optionally "
         "+measured (module noise from the measured errors) (default: %(default)s)",
     )
-    p.add_argument("--seeds", type=int, default=3, help="N seeds per pair (default 3)")
+    p.add_argument("--seeds", type=positive_int, default=3, help="N seeds per pair (default 3)")
     p.add_argument(
         "--first-seed",
-        type=int,
+        type=non_negative_int,
         default=0,
         help="seeds K..K+N-1 (default 0); another K gives held-out talks for a tuned policy",
     )
-    p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--jobs", type=positive_int, default=1, help="worker processes (default 1)")
     p.add_argument("--backend", default="fake", help="robot backend (default fake)")
     p.add_argument("--out", default="evaluation", help="folder for the CSV and Markdown")
     p.add_argument("--keep-sessions", action="store_true", help="keep each talk's folder")
@@ -748,6 +750,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="run the talks on Ray: 'local' starts one here, 'auto' or an address joins one",
     )
     return p
+
+
+def _presenter_spec(text: str) -> str:
+    """A presenter model the grid can run (``free``, ``cost``, ``cost:K``, ``…+measured``)."""
+    from prezence.synthetic.presenters import parse_presenter_model
+
+    try:
+        parse_presenter_model(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text
 
 
 def evaluate_main(argv: Sequence[str] | None = None) -> int:

@@ -81,7 +81,7 @@ def claim_session_dir(
         if not force:
             raise ConfigError(
                 "already exists and is not empty; nothing recorded is overwritten: give "
-                "another --out, leave --out out for a new timestamped folder, or add --force "
+                "another --out, leave --out out for a new folder of its own, or add --force "
                 f"to move it aside to {path.name}.old-<time>",
                 path=path,
             )

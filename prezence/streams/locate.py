@@ -29,6 +29,12 @@ def locate_streams(src: Path, config: Config) -> dict[str, Path]:
 
 def no_streams_error(src: Path, config: Config) -> ConfigError:
     """The error for a folder in which :func:`locate_streams` finds nothing."""
+    if not src.exists():
+        return ConfigError("no such folder", path=src)
+    if not src.is_dir():
+        return ConfigError(
+            "not a folder (give a session folder or a folder of stream files)", path=src
+        )
     names = ", ".join(r.stream for r in config.rules)
     return ConfigError(
         f"no stream files found (looked for {names} in streams/ and the folder)", path=src

@@ -70,6 +70,7 @@ from prezence.config.model import FORMAT
 from prezence.errors import ConfigError, UnknownName, did_you_mean
 from prezence.feedback.commands import load_commands
 from prezence.metrics import SYNTHETIC_METRICS
+from prezence.session import MAX_TALK_S
 from prezence.tomlio import loads_toml
 
 log = logging.getLogger(__name__)
@@ -597,6 +598,8 @@ class _Parser:
         duration = self.time(doc["duration_s"], "duration_s")
         if duration <= 0:
             raise self.error("duration_s", "must be above 0")
+        if duration > MAX_TALK_S:  # a typo's 1e12 s would be terabytes of samples
+            raise self.error("duration_s", f"at most {MAX_TALK_S:g} s (6 hours)")
         allocated = None
         if "allocated_s" in doc:
             allocated = self.time(doc["allocated_s"], "allocated_s")

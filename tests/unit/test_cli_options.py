@@ -127,3 +127,28 @@ def test_check_config_warns_about_a_misspelt_metric(
     assert main(["check-config", str(rules)]) == 0  # a module of your own may write it
     err = capsys.readouterr().err
     assert f"warning: {rules}:1: " in err and "did you mean 'speech_speed'?" in err
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["demo", "--speed", "0"], "--speed: '0': the speed fraction must be in (0, 1]"),
+        (["demo", "--speed", "nan"], "the speed fraction must be in (0, 1]"),
+        (["replay", "x", "--speed", "1.5"], "the speed fraction must be in (0, 1]"),
+        (["run", "demo", "--seed", "-1"], "--seed: '-1': must be 0 or more"),
+        (["replay", "x", "--policy", "random", "--seed", "-1"], "must be 0 or more"),
+        (["evaluate", "--seeds", "0"], "--seeds: '0': must be 1 or more"),
+        (["evaluate", "--jobs", "0"], "--jobs: '0': must be 1 or more"),
+        (["evaluate", "--first-seed", "-1"], "--first-seed: '-1': must be 0 or more"),
+        (["evaluate", "--presenters", "cost:-1"], "presenter model 'cost:-1'"),
+        (["rehearse", "x.wav", "--allocated", "99:99"], "'99:99' is not a length of time"),
+    ],
+)
+def test_a_bad_value_is_an_error_line_not_a_traceback(
+    argv: list[str], says: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err

@@ -384,3 +384,9 @@ def test_max_cues() -> None:
     s = scenario_expecting(max_cues=2)
     assert check_expectations(s, [cue(1.0, "encourage"), cue(2.0, "encourage")]) == []
     assert len(check_expectations(s, [cue(float(t), "encourage") for t in range(3)])) == 1
+
+
+def test_a_talk_longer_than_six_hours_is_refused_before_any_sample_is_made() -> None:
+    # a typo's 1e12 s once asked numpy for 72 TiB of samples
+    e = parse_error(doc(duration_s=1e12))
+    assert e.key == "duration_s" and "at most 21600 s" in str(e)
