@@ -1241,7 +1241,7 @@ def _maybe_reexec(argv: list[str]) -> None:
     log.info("mediapipe is not here; running in the vision env %s", py)
     sys.stdout.flush()
     sys.stderr.flush()
-    env = dict(os.environ, **{_REEXEC_GUARD: "1"})
+    env = vision_env.child_env({**os.environ, _REEXEC_GUARD: "1"})
     os.execve(str(py), [str(py), "-m", "prezence.modules.vision", *argv], env)
 
 

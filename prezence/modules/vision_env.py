@@ -31,6 +31,7 @@ import shutil
 import subprocess
 import sys
 import venv
+from collections.abc import Mapping
 from pathlib import Path
 
 log = logging.getLogger(__name__)
@@ -105,13 +106,34 @@ def check(path: Path | None = None, *, timeout_s: float = 120.0) -> tuple[bool, 
         "print(mp.__version__, numpy.__version__, cv2.__version__)"
     )
     proc = subprocess.run(
-        [str(py), "-c", code], capture_output=True, text=True, timeout=timeout_s, check=False
+        [str(py), "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=timeout_s,
+        check=False,
+        env=child_env(),
     )
     if proc.returncode != 0:
         tail = proc.stderr.strip().splitlines()[-1:] or ["(no output)"]
         return False, f"{py}: import failed: {tail[0]}"
     mp_v, np_v, cv_v = proc.stdout.split()
     return True, f"mediapipe {mp_v}, numpy {np_v}, opencv {cv_v} ({py})"
+
+
+def child_env(env: Mapping[str, str] | None = None) -> dict[str, str]:
+    """The environment for a process of the vision env that must run *this* prezence.
+
+    The env's own install of prezence may be another checkout's (an editable install points
+    at the tree it was made from, and the default env is shared by every clone): a source
+    tree this prezence runs from goes first on ``PYTHONPATH``. An installed prezence is not
+    put on the path (its site-packages would bring this environment's numpy along).
+    """
+    out = dict(os.environ if env is None else env)
+    root = _source_root()
+    if root is not None:
+        rest = out.get("PYTHONPATH")
+        out["PYTHONPATH"] = str(root) + (os.pathsep + rest if rest else "")
+    return out
 
 
 def _source_root() -> Path | None:
