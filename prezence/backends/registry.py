@@ -46,6 +46,8 @@ TOOLS: dict[str, str] = {
     "render": "sim.render:render_gesture",
     "serve": "sim.virtual_nao:main",
 }
+#: The extras each tool needs (the virtual NAO serves NAOqi through qi).
+TOOL_EXTRAS: dict[str, str] = {"render": "sim", "serve": "sim,naoqi"}
 
 
 def _load(target: str, what: str, extra: str) -> Any:
@@ -63,7 +65,7 @@ def load_tool(name: str) -> Any:
         target = TOOLS[name]
     except KeyError:
         raise UnknownName("tool", name, TOOLS) from None
-    return _load(target, f"the {name} tool", "sim")
+    return _load(target, f"the {name} tool", TOOL_EXTRAS.get(name, "sim"))
 
 
 def make_backend(name: str, **kwargs: Any) -> Backend:
