@@ -246,7 +246,9 @@ def check_gestures(
         )
     measured = [r for r in rows if "ratio" in r]
     worst = max(measured, key=lambda r: r["ratio"]) if measured else None
-    summary = f"{sum(r['ok'] for r in rows)}/{len(rows)} gestures ok"
+    names = {str(r["gesture"]).partition("[")[0] for r in rows}
+    summary = f"{sum(r['ok'] for r in rows)}/{len(rows)} timings ok ({len(names)} gestures"
+    summary += ", some at several parameter values)" if len(names) < len(rows) else ")"
     if worst is not None:
         summary += (
             f"; largest ratio {worst['ratio']:.3f} ({worst['gesture']}), bound {MAX_RATIO:.2f}"
