@@ -275,3 +275,14 @@ def test_an_utterance_decoded_again_leaves_the_decoder_sound(
     assert spy.ends >= 3, "the utterance without words was not decoded again"
     assert not any(spy.full_utt), "an utterance went to the decoder in batch mode"
     assert any(s.metric == SPEECH_SPEED for s in out), "no words after the second decode"
+
+
+@pytest.mark.parametrize("hop", ["0.0001", "0", "-1", "nan"])
+def test_a_hop_that_would_flood_the_streams_is_refused(
+    hop: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # --hop 0.0001 wrote 10,000 lines per second of audio and ran 3x slower than real time
+    from prezence.modules import speech
+
+    assert speech.main(["--audio", "missing.wav", "--out", "unused", "--hop", hop]) == 2
+    assert "hop_s" in capsys.readouterr().err
