@@ -557,11 +557,12 @@ def cmd_progress(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_speaker(p: argparse.ArgumentParser) -> None:
+def _add_speaker(p: argparse.ArgumentParser, help_text: str | None = None) -> None:
     p.add_argument(
         "--speaker",
         metavar="NAME",
-        help="whose rehearsal this is: sessions go to sessions/NAME/ and the report shows "
+        help=help_text
+        or "whose rehearsal this is: sessions go to sessions/NAME/ and the report shows "
         "the progress across NAME's rehearsals",
     )
 
@@ -725,7 +726,7 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="?",
         help="a folder of one speaker's sessions, or one session (its folder's sessions)",
     )
-    _add_speaker(p)
+    _add_speaker(p, help_text="read sessions/NAME/ (when no folder is given)")
     p.set_defaults(func=cmd_progress)
 
     p = sub.add_parser(
