@@ -210,6 +210,58 @@ def rank_priorities(
     return rows[:top]
 
 
+#: A metric out of its band for at least this share of its measured time is not "in the ideal
+#: range", even when it was too little off to work on first (:func:`slightly_off`).
+SLIGHTLY_OFF_SHARE = 0.2
+
+
+def slightly_off(
+    config: Config,
+    dev_s: Mapping[str, Mapping[str, float]],
+    metrics: Mapping[str, Mapping[str, Any]],
+    *,
+    listed: Collection[str] = (),
+) -> list[dict[str, Any]]:
+    """Metrics a little off for a good part of the talk, not listed to work on first.
+
+    :func:`rank_priorities` leaves out what adds up to less than one cue's worth; such a metric
+    may still have been out of its band most of the time (a pace 5 % under the band for the
+    whole talk). It must not then be praised as "in the ideal range": it is listed here when
+    out of its band for at least :data:`SLIGHTLY_OFF_SHARE` of the time it was measured.
+
+    Args:
+        config: the rules.
+        dev_s: per metric, :func:`deviation_seconds`'s result.
+        metrics: the report's per-metric figures (``time_in_range``, ``out_of_range_s``).
+        listed: the metrics already listed as priorities.
+    """
+    rows: list[dict[str, Any]] = []
+    for rule in config.rules:
+        m = metrics.get(rule.metric) or {}
+        tir = m.get("time_in_range")
+        d = dev_s.get(rule.metric) or {}
+        if rule.metric in listed or not isinstance(tir, int | float) or not m.get("samples"):
+            continue
+        share = 1.0 - float(tir)
+        if share < SLIGHTLY_OFF_SHARE:
+            continue
+        below, above = float(d.get("below", 0.0)), float(d.get("above", 0.0))
+        side = "above" if above > below else "below"
+        rows.append(
+            {
+                "metric": rule.metric,
+                "label": metric_label(rule.metric),
+                "side": side,
+                "bound": rule.high if side == "above" else rule.low,
+                "unit": rule.unit,
+                "share_out": round(share, 3),
+                "advice": advice(rule, side),
+            }
+        )
+    rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
+    return rows
+
+
 # -- reading the folder ------------------------------------------------------------------------
 
 
@@ -426,6 +478,7 @@ def _rebuild(
     time_used = dict(summary["time"])
     cued = {str(c["metric"]) for c in cues if c.get("metric")}
     priorities = rank_priorities(cfg, dev_s, talk_s=talk_s, cued=cued)
+    a_little_off = slightly_off(cfg, dev_s, metrics, listed=[p["metric"] for p in priorities])
     counts = dict(summary["counts"])
     counts["cues_improved"] = sum(1 for r in helped if r["improved"])
     counts["cues_judged"] = len(helped)
@@ -443,6 +496,7 @@ def _rebuild(
         "metrics": metrics,
         "cues": cue_rows,
         "priorities": priorities,
+        "slightly_off": a_little_off,
         "counts": counts,
         "has_truth": truth is not None,
         "effect_window_s": EFFECT_WINDOW_S,

@@ -194,7 +194,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             '<p class="sub">First come the metrics that were out of their ideal range the '
             "longest and the farthest.</p>"
         )
-    else:
+    elif not report.get("slightly_off"):
         out.append(
             {
                 "none": "<p><b>Nothing was measured</b>: no metric has a sample. The input "
@@ -204,6 +204,23 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
                 "all": "<p>Every metric stayed in its ideal range. Well done.</p>",
             }[measured_share(report)]
         )
+    off = [o for o in report.get("slightly_off") or [] if isinstance(o, dict)]
+    if off:
+        out.append(
+            "<p>A little off, not enough to work on first:</p>"
+            if pri
+            else "<p>Nothing was far off, but:</p>"
+        )
+        out.append('<ul class="work">')
+        for o in off:
+            unit = f" {o['unit']}" if o.get("unit") else ""
+            out.append(
+                f"<li>your {_e(o['label'])} {was(str(o['label']))} {_e(o['side'])} "
+                f"{_e(_num(o['bound']))}{_e(unit)} "
+                f"{100.0 * float(o['share_out']):.0f}% of the time "
+                f"(<b>{_e(o['advice'])}</b>)</li>"
+            )
+        out.append("</ul>")
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, dict)]
     if stopped:
         from prezence.report.build import metric_label

@@ -102,7 +102,15 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         names = " and ".join(dict.fromkeys(metric_label(str(n.get("metric"))) for n in stopped))
         parts.append(f"I stopped reminding you about your {names}: work on it next time.")
     pri = list(report.get("priorities") or [])
-    if not pri:
+    off = [o for o in report.get("slightly_off") or [] if isinstance(o, Mapping)]
+    if not pri and off:  # too little to work on first, too much to call in range
+        o = off[0]
+        parts.append(
+            f"Nothing was far off, but your {o['label']} {was(o['label'])} a little "
+            f"{'under' if o['side'] == 'below' else 'over'} the ideal range "
+            f"{100.0 * float(o['share_out']):.0f}% of the time: {o['advice']}."
+        )
+    elif not pri:
         parts.append(
             {
                 "none": "I could not measure your delivery this time: check the microphone "
@@ -157,7 +165,7 @@ def format_text(report: Mapping[str, Any]) -> str:
                 f"value, {_num(p['bound'])} {p.get('unit') or ''}, for "
                 f"{m.get('out_of_range_s', 0.0):.0f} s in all)".replace(" ,", ",")
             )
-    else:
+    elif not report.get("slightly_off"):
         lines.append(
             {
                 "none": "  Nothing was measured: no metric has a sample (see the modules' logs "
@@ -166,14 +174,25 @@ def format_text(report: Mapping[str, Any]) -> str:
                 "all": "  Every metric stayed in its ideal range.",
             }[measured_share(report)]
         )
+    off = report.get("slightly_off") or []
+    if off:
+        lines.append(
+            "  A little off, not enough to work on first:" if pri else "  Nothing was far off, but:"
+        )
+        for o in off:
+            unit = f" {o['unit']}" if o.get("unit") else ""
+            lines.append(
+                f"    - your {o['label']} {was(o['label'])} {o['side']} {_num(o['bound'])}{unit} "
+                f"{100.0 * float(o['share_out']):.0f}% of the time ({o['advice']})"
+            )
     lines.append("")
     lines.append(
-        f"  {'metric':<12} {'in range':>8} {'mean':>7} {'p10':>7} {'p90':>7} {'longest out':>12}"
+        f"  {'metric':<12} {'in range':>12} {'mean':>7} {'p10':>7} {'p90':>7} {'longest out':>12}"
     )
     for name, m in report["metrics"].items():
         tir = _pct(m.get("time_in_range")) if m.get("samples") else m.get("data") or "no data"
         lines.append(
-            f"  {m.get('label', name):<12} {tir:>8} "
+            f"  {m.get('label', name):<12} {tir:>12} "
             f"{_num(m.get('mean')):>7} {_num(m.get('p10')):>7} {_num(m.get('p90')):>7} "
             f"{m.get('longest_out_of_range_s', 0.0):>10.0f} s"
         )

@@ -234,6 +234,55 @@ def test_praise_needs_something_measured() -> None:
     assert "Your delivery stayed in the ideal range" in phrase
 
 
+def test_a_pace_a_little_under_all_talk_is_not_praised_as_in_range(tmp_path: Path) -> None:
+    # A real reader at ~133 wpm for a 50 s clip: 5 % under the band nearly all the time adds
+    # up to less than one cue's worth, so it is no priority, but "everything stayed in the
+    # ideal range, well done" was false.
+    session = SessionDir(tmp_path / "t").create()
+    session.config.write_text(dumps_config(CONFIG))
+    session.write_meta({"talk_s": 50.0})
+    rows = {
+        "speech_speed": [f"{t} {'150.0' if t < 10 else '133.0'}" for t in range(1, 51)],
+        "speech_volume": [f"{t} 66.0" for t in range(1, 51)],
+        "cv_headGaze": [f"{t} 0.0" for t in range(1, 51)],
+    }
+    for metric, lines in rows.items():
+        session.stream(f"{metric}.txt").write_text("\n".join(lines) + "\n")
+    session.cues.write_text("")
+    report = build_report(session.root, ended=True)
+    assert report["priorities"] == []
+    [off] = report["slightly_off"]
+    assert off["metric"] == "speech_speed" and off["side"] == "below"
+    assert off["share_out"] == pytest.approx(40 / 49, abs=0.03)
+    phrase = summary_phrase(report)
+    assert "Well done" not in phrase and "stayed in the ideal range" not in phrase
+    assert "your pace was a little under the ideal range 8" in phrase
+    assert "pick up the pace" in phrase
+    text = format_text(report)
+    assert "stayed in its ideal range" not in text
+    assert "your pace was below 140 wpm" in text
+    html = write_report(session.root).read_text()
+    assert "Well done" not in html and "your pace was below 140 wpm" in html
+
+
+def test_a_short_glance_away_still_leaves_the_praise(tmp_path: Path) -> None:
+    # out of range 2 % of the time: neither a priority nor "a little off"
+    session = SessionDir(tmp_path / "t").create()
+    session.config.write_text(dumps_config(CONFIG))
+    session.write_meta({"talk_s": 50.0})
+    rows = {
+        "speech_speed": [f"{t} 150.0" for t in range(1, 51)],
+        "speech_volume": [f"{t} 66.0" for t in range(1, 51)],
+        "cv_headGaze": [f"{t} {'-20.0' if t == 30 else '0.0'}" for t in range(1, 51)],
+    }
+    for metric, lines in rows.items():
+        session.stream(f"{metric}.txt").write_text("\n".join(lines) + "\n")
+    session.cues.write_text("")
+    report = build_report(session.root, ended=True)
+    assert report["priorities"] == [] and report["slightly_off"] == []
+    assert "Your delivery stayed in the ideal range. Well done!" in summary_phrase(report)
+
+
 def test_missing_folder_raises_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no such session folder"):
         build_report(tmp_path / "nope")
