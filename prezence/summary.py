@@ -7,7 +7,7 @@ summary (and the report built on it) can be rebuilt after a crash from the files
 from __future__ import annotations
 
 import bisect
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
@@ -98,6 +98,7 @@ def build_summary(
     extra: Mapping[str, Any] | None = None,
     processor_counts: Mapping[str, Mapping[str, int]] | None = None,
     problems: Sequence[str] = (),
+    not_measured: Collection[str] = (),
 ) -> dict[str, Any]:
     """The ``summary.json`` of a talk.
 
@@ -112,6 +113,8 @@ def build_summary(
         extra: anything else to record at top level (scenario, seed, wall time…).
         processor_counts: per metric, samples the processor dropped (``late``, ``ahead``).
         problems: skipped stream lines as ``file:line: reason`` (kept up to 100).
+        not_measured: metrics no module was run for (no stream file at all, e.g. the camera's
+            in an audio-only rehearsal): they have no samples and no stale episode.
     """
     metrics: dict[str, Any] = {}
     stale_default = config.processor.stale_after_s
@@ -133,8 +136,13 @@ def build_summary(
                 p90=round(float(p[2]), 4),
             )
         gaps = int(np.count_nonzero(np.diff(ts) > stale_s))
-        # No sample at all is one stale episode as long as the talk: the module never reported.
-        m["stale_episodes"] = gaps + (1 if not ss or talk_s - ss[-1].t > stale_s else 0)
+        if not ss and rule.metric in not_measured:
+            m["stale_episodes"] = 0  # nothing was asked to measure it: nothing went quiet
+            m["measured"] = False
+        else:
+            # No sample at all is one stale episode as long as the talk: the module that
+            # opened the file never reported.
+            m["stale_episodes"] = gaps + (1 if not ss or talk_s - ss[-1].t > stale_s else 0)
         if truth is not None:
             m["truth_time_in_range"] = _truth_in_range_fraction(truth, rule.metric, talk_s)
         if stream_stats and rule.metric in stream_stats:
@@ -235,6 +243,7 @@ def summarize_session(
     samples: dict[str, list[Sample]] = {}
     stats: dict[str, dict[str, Any]] = {}
     found: list[StreamProblem] = []
+    absent: list[str] = []  # metrics without a stream file: no module was run for them
     for rule in config.rules:
         if readings is not None and rule.metric in readings:
             ss, st, skipped = readings[rule.metric]
@@ -243,6 +252,8 @@ def summarize_session(
             ss, st = read_stream(session.stream(rule.stream), rule.metric, problems=found)
         samples[rule.metric] = ss
         stats[rule.metric] = st.to_dict()
+        if not ss and not session.stream(rule.stream).exists():
+            absent.append(rule.metric)
     if live is not None:
         for metric, lst in live.stats().items():
             stats[metric] = lst.to_dict()
@@ -259,6 +270,7 @@ def summarize_session(
         extra=extra,
         processor_counts=processor.counts() if processor is not None else None,
         problems=problems,
+        not_measured=absent,
     )
     write_json(session.summary, summary)
     return summary

@@ -123,9 +123,30 @@ def test_a_module_that_never_writes_is_one_stale_episode_as_long_as_the_talk(
     from prezence.summary import summarize_session
 
     session = SessionDir(tmp_path).create()
-    summary = summarize_session(session, default_config(), talk_s=60.0)
+    config = default_config()
+    gaze_rule = next(r for r in config.rules if r.metric == "cv_headGaze")
+    session.stream(gaze_rule.stream).touch()  # the module opened its file, then wrote nothing
+    summary = summarize_session(session, config, talk_s=60.0)
     gaze = summary["metrics"]["cv_headGaze"]
     assert (gaze["samples"], gaze["stale_episodes"]) == (0, 1)
+
+
+def test_a_metric_no_module_was_run_for_is_not_measured_not_stale(tmp_path: Path) -> None:
+    # an audio-only rehearsal runs no camera module: its metrics have no file at all, and the
+    # summary said "stale episodes 2" for a talk in which nothing went quiet
+    from prezence.config.load import default_config
+    from prezence.session import SessionDir
+    from prezence.summary import summarize_session
+
+    session = SessionDir(tmp_path).create()
+    config = default_config()
+    for rule in config.rules:
+        if rule.metric.startswith("speech_"):
+            session.stream(rule.stream).write_text("".join(f"{t} 150.0\n" for t in range(60)))
+    summary = summarize_session(session, config, talk_s=60.0)
+    gaze = summary["metrics"]["cv_headGaze"]
+    assert (gaze["samples"], gaze["stale_episodes"], gaze["measured"]) == (0, 0, False)
+    assert summary["counts"]["stale_episodes"] == 0
 
 
 def test_every_record_is_standard_json(tmp_path: Path) -> None:
