@@ -22,6 +22,7 @@ from typing import Any
 
 from prezence.backends.base import Backend, Motion, MotionKind
 from prezence.errors import BackendUnavailable, LimitViolation
+from prezence.feedback.limits import CHAINS
 from prezence.feedback.trajectory import Trajectory
 
 log = logging.getLogger(__name__)
@@ -33,11 +34,7 @@ SIM_TIMESTEP = 0.01
 #: no coach gesture moves them, and on a fixed base they only hang, so simulating them is 60 %
 #: of each physics step (0.21 -> 0.08 ms) for nothing. A trajectory that drives one is refused
 #: with a ValueError naming it; ``SimBackend(frozen=())`` simulates every joint.
-LEGS = tuple(
-    f"{side}{joint}"
-    for side in "LR"
-    for joint in ("HipYawPitch", "HipRoll", "HipPitch", "KneePitch", "AnklePitch", "AnkleRoll")
-)
+LEGS: tuple[str, ...] = CHAINS["LLeg"] + CHAINS["RLeg"]
 
 
 class SimBackend(Backend):

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from prezence.errors import ConfigError, LimitViolation, UnknownName
-from prezence.feedback.limits import HANDS, HIP_YAW_PITCH, JointLimits, require_finite
+from prezence.feedback.limits import HANDS, HIP_YAW_PITCH, LEGS, JointLimits, require_finite
 from prezence.feedback.trajectory import (
     Trajectory,
     min_segment_duration,
@@ -54,6 +54,12 @@ DEFAULT_SPEED_FRACTION = 0.6
 MIN_MOVE = 1e-9
 #: Spacing of the poses :func:`check_path` checks along a planned path (s).
 PATH_CHECK_DT = 0.01
+#: The longest hold a keyframe may ask for (s); the built-in gestures hold at most 0.8 s. A cue
+#: keeps the robot from any other cue while it plays, and `hold = 1e9` asked the check for
+#: 745 GiB of samples.
+MAX_HOLD_S = 5.0
+#: The most times a sequence may repeat (a literal count, or a parameter's largest value).
+MAX_REPEAT = 10
 #: Mirror rule left → right arm: pitch and hand keep their value, roll and yaw change sign.
 _MIRROR_SIGN = {
     "ShoulderPitch": 1.0,
@@ -172,8 +178,10 @@ def _mirror(pose: dict[str, float]) -> dict[str, float]:
 
 
 def _parse_pose(
-    raw: Any, *, known: set[str], mirror: bool, path: str, key: str
+    raw: Any, *, known: set[str], mirror: bool, path: str, key: str, legs: bool = False
 ) -> dict[str, float]:
+    """A pose table in radians (hands: fraction); leg joints only where ``legs`` (the neutral
+    standing pose gives them, a gesture may not move them)."""
     if not isinstance(raw, Mapping):
         raise ConfigError("expected a table of joint = value", path=path, key=key)
     pose: dict[str, float] = {}
@@ -181,6 +189,13 @@ def _parse_pose(
         if joint not in known:
             raise ConfigError(
                 str(UnknownName("joint", joint, known)), path=path, key=f"{key}.{joint}"
+            )
+        if joint in LEGS and not legs:
+            raise ConfigError(
+                f"{joint} is a leg joint: gestures move the head, arms and hands only "
+                "(the NAO coaches standing, and a standing robot that moves a leg can fall)",
+                path=path,
+                key=f"{key}.{joint}",
             )
         pose[joint] = _to_rad(joint, value, path, f"{key}.{joint}")
     return _mirror(pose) if mirror else pose
@@ -190,8 +205,12 @@ def _parse_keyframe(
     raw: Mapping[str, Any], *, known: set[str], mirror: bool, path: str, key: str
 ) -> Keyframe:
     hold = raw.get("hold", 0.0)
-    if isinstance(hold, bool) or not isinstance(hold, int | float) or not hold >= 0:
-        raise ConfigError(f"hold must be seconds >= 0, got {hold!r}", path=path, key=f"{key}.hold")
+    if isinstance(hold, bool) or not isinstance(hold, int | float) or not 0 <= hold <= MAX_HOLD_S:
+        raise ConfigError(
+            f"hold must be seconds in [0, {MAX_HOLD_S:g}], got {hold!r}",
+            path=path,
+            key=f"{key}.hold",
+        )
     unknown = set(raw) - {"pose", "hold", "mirror"}
     if unknown:
         raise ConfigError(f"unknown keys {sorted(unknown)}", path=path, key=key)
@@ -214,6 +233,15 @@ def _parse_gesture(name: str, raw: Mapping[str, Any], *, known: set[str], path: 
                 path=path,
                 key=f"{base}.params.{pname}",
             ) from e
+        p = params[pname]
+        if not 1 <= p.low <= p.default <= p.high <= MAX_REPEAT:
+            # a parameter is a repeat count: it plays a sequence that many times
+            raise ConfigError(
+                f"a parameter needs 1 <= min <= default <= max <= {MAX_REPEAT}, "
+                f"got min {p.low}, default {p.default}, max {p.high}",
+                path=path,
+                key=f"{base}.params.{pname}",
+            )
     steps: list[Step] = []
     raw_steps = raw.get("keyframes")
     if not isinstance(raw_steps, list) or not raw_steps:
@@ -227,9 +255,15 @@ def _parse_gesture(name: str, raw: Mapping[str, Any], *, known: set[str], path: 
                     raise ConfigError(
                         f"repeat names unknown parameter {repeat!r}", path=path, key=f"{key}.repeat"
                     )
-            elif isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
+            elif (
+                isinstance(repeat, bool)
+                or not isinstance(repeat, int)
+                or not 1 <= repeat <= MAX_REPEAT
+            ):
                 raise ConfigError(
-                    "repeat must be an integer >= 1 or a parameter name", path=path, key=key
+                    f"repeat must be an integer in [1, {MAX_REPEAT}] or a parameter name",
+                    path=path,
+                    key=key,
                 )
             m = bool(entry.get("mirror", mirror))
             frames = tuple(
@@ -255,7 +289,7 @@ def parse_library(text: str, *, limits: JointLimits, path: str = GESTURES_FILE) 
         raise ConfigError(f"expected format = 1, found {doc.get('format')!r}", path=path)
     known = set(limits.names)
     neutral = _parse_pose(
-        doc.get("neutral", {}), known=known, mirror=True, path=path, key="neutral"
+        doc.get("neutral", {}), known=known, mirror=True, path=path, key="neutral", legs=True
     )
     neutral = limits.couple(neutral)
     missing = [n for n in limits.names if n not in neutral]

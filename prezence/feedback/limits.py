@@ -83,6 +83,9 @@ CHAINS: Mapping[str, tuple[str, ...]] = MappingProxyType(
 #: ``Body`` is Head + LArm + LLeg + RLeg + RArm (26 names), as NAOqi orders it.
 BODY_ORDER = ("Head", "LArm", "LLeg", "RLeg", "RArm")
 HANDS = frozenset({"LHand", "RHand"})
+#: The leg joints. The NAO coaches standing: no gesture may move one (a standing robot that
+#: bends a knee or a hip can fall), and the sim backend holds them rigid.
+LEGS = frozenset(CHAINS["LLeg"] + CHAINS["RLeg"])
 HIP_YAW_PITCH = ("LHipYawPitch", "RHipYawPitch")
 
 #: Head anti-collision (|HeadYaw| rad → HeadPitch min, max rad), symmetric in yaw. Aldebaran
@@ -109,16 +112,35 @@ class JointLimit:
     effort: float
 
 
-def fmt_value(name: str, value: float) -> str:
+def fmt_value(name: str, value: float, digits: int | None = None) -> str:
     """A joint value for people: degrees for angles, the fraction for hands.
+
+    ``digits`` decimals (default 1 for degrees, 2 for hands).
 
     Example:
         >>> fmt_value("HeadYaw", math.pi / 2), fmt_value("LHand", 0.5)
         ('90.0°', '0.50 (opening)')
     """
     if name in HANDS:
-        return f"{value:.2f} (opening)"
-    return f"{math.degrees(value):.1f}°"
+        return f"{value:.{2 if digits is None else digits}f} (opening)"
+    return f"{math.degrees(value):.{1 if digits is None else digits}f}°"
+
+
+def _fmt_apart(name: str, value: float, bounds: tuple[float, float]) -> tuple[str, str, str]:
+    """``value`` and its range with as many decimals as it takes for the value to read outside:
+    the NAO's documented -18° for LShoulderRoll is -17.99998° in the URDF, and "-18.0° is
+    outside [-18.0°, 76.0°]" tells the reader nothing."""
+    lo, hi = bounds
+    near = lo if abs(value - lo) <= abs(value - hi) else hi
+    base = 2 if name in HANDS else 1
+    digits = base
+    while digits < base + 6 and fmt_value(name, value, digits) == fmt_value(name, near, digits):
+        digits += 1
+    return (
+        fmt_value(name, value, digits),
+        fmt_value(name, lo, digits),
+        fmt_value(name, hi, digits),
+    )
 
 
 def require_finite(targets: Mapping[str, float], *, where: str = "") -> None:
@@ -313,10 +335,8 @@ class JointLimits:
             lo, hi = self.range(name, context)
             if not lo - tol <= value <= hi + tol:
                 why = " (head anti-collision range at this HeadYaw)" if name == "HeadPitch" else ""
-                problems.append(
-                    f"{name} = {fmt_value(name, value)} is outside "
-                    f"[{fmt_value(name, lo)}, {fmt_value(name, hi)}]{why}"
-                )
+                v_s, lo_s, hi_s = _fmt_apart(name, value, (lo, hi))
+                problems.append(f"{name} = {v_s} is outside [{lo_s}, {hi_s}]{why}")
         return problems
 
     def worst_violation(

@@ -222,6 +222,67 @@ def test_unknown_joint_in_the_data_is_a_config_error_with_its_key() -> None:
         )
 
 
+@pytest.mark.parametrize(
+    "keyframes",
+    [
+        "[[gestures.wave.keyframes]]\npose = { LKneePitch = 30.0 }\n",
+        "[[gestures.wave.keyframes]]\nrepeat = 2\n"
+        "sequence = [ { pose = { HeadYaw = 10, RHipPitch = -20 } } ]\n",
+    ],
+    ids=["knee", "hip-in-a-sequence"],
+)
+def test_a_gesture_that_moves_a_leg_is_refused_naming_the_joint(keyframes: str) -> None:
+    # Within the knee's limits, so the limit check would pass it; on a standing NAO it can fall.
+    with pytest.raises(ConfigError, match=r"(LKnee|RHip)Pitch is a leg joint"):
+        parse_library(_tiny_library(keyframes), limits=LIMITS)
+
+
+@pytest.mark.parametrize(
+    ("keyframes", "message"),
+    [
+        ("[[gestures.wave.keyframes]]\npose = { HeadYaw = 5 }\nhold = 1e9\n", "hold must be"),
+        ("[[gestures.wave.keyframes]]\npose = { HeadYaw = 5 }\nhold = -0.1\n", "hold must be"),
+        (
+            "[[gestures.wave.keyframes]]\nrepeat = 1000000\n"
+            "sequence = [ { pose = { HeadYaw = 10 } }, { pose = { HeadYaw = 0 } } ]\n",
+            "repeat must be",
+        ),
+        (
+            "params.n = { default = 1, min = 1, max = 1000000000 }\n"
+            '[[gestures.wave.keyframes]]\nrepeat = "n"\n'
+            "sequence = [ { pose = { HeadYaw = 10 } }, { pose = { HeadYaw = 0 } } ]\n",
+            "a parameter needs",
+        ),
+    ],
+    ids=["hold-1e9", "hold-negative", "repeat-1e6", "param-max-1e9"],
+)
+def test_a_gesture_too_long_to_plan_is_refused_not_allocated(keyframes: str, message: str) -> None:
+    # hold = 1e9 asked the check for 745 GiB of samples (numpy's _ArrayMemoryError)
+    with pytest.raises(ConfigError, match=message):
+        parse_library(_tiny_library(keyframes), limits=LIMITS)
+
+
+def test_a_value_just_past_a_limit_reads_past_it() -> None:
+    # The NAO documents LShoulderRoll's limit as -18 degrees; the URDF's is -17.99998.
+    # The message said "-18.0° is outside [-18.0°, 76.0°]".
+    lib = parse_library(
+        _tiny_library("[[gestures.wave.keyframes]]\npose = { LShoulderRoll = -18.0 }\n"),
+        limits=LIMITS,
+    )
+    with pytest.raises(LimitViolation) as e:
+        build_trajectory("wave", speed_fraction=0.6, limits=LIMITS, library=lib)
+    m = re.search(r"LShoulderRoll = (-?[\d.]+)° is outside \[(-?[\d.]+)°", str(e.value))
+    assert m is not None, str(e.value)
+    assert float(m.group(1)) < float(m.group(2)), str(e.value)
+
+
+def test_the_sim_backend_holds_rigid_the_joints_gestures_may_not_move() -> None:
+    from prezence.feedback.limits import LEGS
+
+    backend = pytest.importorskip("sim.backend", reason="the sim extra is not installed")
+    assert set(backend.LEGS) == LEGS and len(LEGS) == 12
+
+
 def test_start_pose_is_where_the_plan_begins() -> None:
     start = {"HeadYaw": 0.4}
     traj = build_trajectory("look_up", speed_fraction=0.6, limits=LIMITS, start_pose=start)
