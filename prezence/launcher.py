@@ -276,9 +276,12 @@ class ModuleProcess:
             if rc is not None
             else f"showed no sign of life for {self.spec.hang_after_s:g} s (hung); killed"
         )
+        crash: dict[str, Any] = {"t": round(now, 3), "why": why}
         if rc is None:
             self._kill()
-        self.crashes.append({"t": round(now, 3), "why": why})
+            # it stopped measuring when it went silent, not when the limit ran out
+            crash["silent_since"] = round(max(self.last_life, self.started_at), 3)
+        self.crashes.append(crash)
         self.restarts += 1
         if now - self.started_at >= self.healthy_after_s:
             self.streak = 0  # it had been running well: not a crash loop
@@ -458,7 +461,13 @@ class LiveSource(SourceBase):
             "kind": "live",
             **({"error": self.error} if self.error is not None else {}),
             "modules": {
-                p.spec.name: {"restarts": p.restarts, "crashes": p.crashes} for p in self.procs
+                p.spec.name: {
+                    "restarts": p.restarts,
+                    "crashes": p.crashes,
+                    # which metrics a crash took with it (the report says when they were lost)
+                    **({"metrics": list(p.spec.metrics)} if p.crashes and p.spec.metrics else {}),
+                }
+                for p in self.procs
             },
         }
 

@@ -22,19 +22,41 @@ if TYPE_CHECKING:
     from prezence.streams.tail import MultiTailer, StreamProblem, TailStats
 
 
+def hold_ends(ts: Sequence[float] | np.ndarray, cuts: Sequence[float] | np.ndarray) -> np.ndarray:
+    """For each sample time, the first of ``cuts`` at or after it (inf when none).
+
+    A cut is when the module writing the metric died (crashed, or went silent before it was
+    killed as hung): its last value does not hold past it.
+
+    Example:
+        >>> hold_ends([1.0, 4.0, 9.0], [5.0]).tolist()
+        [5.0, 5.0, inf]
+    """
+    c = np.append(np.sort(np.asarray(cuts, dtype=float)), np.inf)
+    return c[np.searchsorted(c, np.asarray(ts, dtype=float), side="left")]
+
+
 def _in_range_time(
-    rule: Rule, ts: np.ndarray, vs: np.ndarray, talk_s: float, stale_s: float
+    rule: Rule,
+    ts: np.ndarray,
+    vs: np.ndarray,
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float] = (),
 ) -> dict[str, float]:
     """Sample-and-hold the values over the talk: seconds in range, out of range, no data.
 
     ``ts`` (sorted) and ``vs`` are the samples' times and values. Each value holds from its
-    time until the next sample, the stale time or the talk's end, whichever comes first; a
-    stretch out of range is broken by a value in range or by a gap (a stale module).
+    time until the next sample, the stale time, the talk's end or the next of ``cuts`` (its
+    module died), whichever comes first; a stretch out of range is broken by a value in range
+    or by a gap (a stale module).
     """
     k = int(np.searchsorted(ts, talk_s, side="left"))  # samples before the talk's end
     t = ts[:k]
     nxt = np.append(ts[1:], talk_s)[:k]
     end = np.minimum(np.minimum(nxt, t + stale_s), talk_s)
+    if len(cuts):
+        end = np.minimum(end, hold_ends(t, cuts))
     dt = np.maximum(end - t, 0.0)
     v = vs[:k] + rule.offset
     out = np.zeros(k, dtype=bool)
@@ -86,6 +108,113 @@ def _truth_in_range_fraction(
     return round(1.0 - out / talk_s, 4) if talk_s > 0 else 1.0
 
 
+def _died_at(crash: Mapping[str, Any]) -> float:
+    """When a module stopped measuring: a hung one when it last showed life, else its exit."""
+    since = crash.get("silent_since")
+    return float(since if isinstance(since, int | float) else crash["t"])
+
+
+def module_outages(
+    modules: Mapping[str, Any] | None,
+    streams: Mapping[str, Sequence[Sample]],
+    talk_s: float,
+) -> dict[str, list[dict[str, Any]]]:
+    """Per metric, the stretches its module was dead: ``[{"module", "from", "to"}]``.
+
+    Each crash or hang in ``summary.json``'s ``modules`` (the launcher's record, with the
+    metrics each module writes) starts a stretch when the module stopped (a hung one: when it
+    last showed life); it ends at the metric's first sample after the module was restarted,
+    or at the talk's end. Overlapping stretches are merged. Modules that do not name their
+    metrics are left out (nothing says which metrics they took with them).
+
+    Example:
+        >>> mods = {"pace": {"metrics": ["speech_speed"], "crashes": [{"t": 5.0, "why": "x"}]}}
+        >>> ss = {"speech_speed": [Sample("speech_speed", t, 1.0) for t in (1.0, 4.0, 9.0)]}
+        >>> module_outages(mods, ss, 20.0)
+        {'speech_speed': [{'module': 'pace', 'from': 5.0, 'to': 9.0}]}
+    """
+    out: dict[str, list[dict[str, Any]]] = {}
+    for name, rec in (modules or {}).items():
+        if not isinstance(rec, Mapping):
+            continue
+        crashes = [
+            c
+            for c in rec.get("crashes") or []
+            if isinstance(c, Mapping) and isinstance(c.get("t"), int | float)
+        ]
+        for metric in rec.get("metrics") or []:
+            ts = sorted(s.t for s in streams.get(str(metric), ()))
+            spans: list[dict[str, Any]] = []
+            for c in sorted(crashes, key=_died_at):
+                i = bisect.bisect_right(ts, float(c["t"]))
+                # a sample written after its last seen sign of life still counts
+                start = min(max(_died_at(c), ts[i - 1] if i else 0.0), talk_s)
+                end = min(ts[i], talk_s) if i < len(ts) else talk_s
+                if spans and start <= spans[-1]["to"]:
+                    spans[-1]["to"] = max(spans[-1]["to"], end)
+                else:
+                    spans.append({"module": str(name), "from": start, "to": end})
+            if spans:
+                out.setdefault(str(metric), []).extend(
+                    {**sp, "from": round(sp["from"], 3), "to": round(sp["to"], 3)} for sp in spans
+                )
+    return out
+
+
+def _hung(crash: Mapping[str, Any]) -> bool:
+    return "silent_since" in crash or "(hung)" in str(crash.get("why") or "")
+
+
+def module_notes(
+    modules: Mapping[str, Any] | None, metrics: Mapping[str, Mapping[str, Any]]
+) -> list[dict[str, Any]]:
+    """What went wrong with each module that crashed or hung, for the reader.
+
+    Args:
+        modules: ``summary.json``'s ``modules`` (the launcher's record).
+        metrics: the per-metric figures, with the ``lost`` stretches of :func:`module_outages`.
+
+    Returns:
+        One dict per module that stopped at least once: ``module``, ``crashes`` (exits) and
+        ``first_crash_t``, ``hangs``, ``first_hang_t`` (when it went silent) and
+        ``first_kill_t``, ``restarts``, ``last_why`` and ``lost`` (``metric``, ``from``,
+        ``to``); [] when every module ran throughout.
+    """
+    notes: list[dict[str, Any]] = []
+    for name, rec in (modules or {}).items():
+        if not isinstance(rec, Mapping):
+            continue
+        crashes = [
+            c
+            for c in rec.get("crashes") or []
+            if isinstance(c, Mapping) and isinstance(c.get("t"), int | float)
+        ]
+        if not crashes:
+            continue
+        hangs = [c for c in crashes if _hung(c)]
+        exits = [c for c in crashes if not _hung(c)]
+        lost = [
+            {"metric": metric, "from": sp["from"], "to": sp["to"]}
+            for metric, m in metrics.items()
+            for sp in m.get("lost") or ()
+            if sp.get("module") == name
+        ]
+        notes.append(
+            {
+                "module": str(name),
+                "crashes": len(exits),
+                "first_crash_t": float(exits[0]["t"]) if exits else None,
+                "hangs": len(hangs),
+                "first_hang_t": _died_at(hangs[0]) if hangs else None,
+                "first_kill_t": float(hangs[0]["t"]) if hangs else None,
+                "restarts": int(rec.get("restarts") or 0),
+                "last_why": str(crashes[-1].get("why") or ""),
+                "lost": lost,
+            }
+        )
+    return notes
+
+
 def build_summary(
     config: Config,
     streams: Mapping[str, Sequence[Sample]],
@@ -99,6 +228,7 @@ def build_summary(
     processor_counts: Mapping[str, Mapping[str, int]] | None = None,
     problems: Sequence[str] = (),
     not_measured: Collection[str] = (),
+    modules: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The ``summary.json`` of a talk.
 
@@ -115,16 +245,23 @@ def build_summary(
         problems: skipped stream lines as ``file:line: reason`` (kept up to 100).
         not_measured: metrics no module was run for (no stream file at all, e.g. the camera's
             in an audio-only rehearsal): they have no samples and no stale episode.
+        modules: the launcher's record of the modules (``summary.json``'s ``modules``): a
+            metric whose module died holds its last value only until then, and its
+            ``lost`` stretches (:func:`module_outages`) are listed.
     """
     metrics: dict[str, Any] = {}
     stale_default = config.processor.stale_after_s
+    lost = module_outages(modules, streams, talk_s)
     for rule in config.rules:
         ss = sorted(streams.get(rule.metric, ()), key=attrgetter("t"))
         ts = np.array([s.t for s in ss], dtype=float)
         vals = np.array([s.value for s in ss], dtype=float)
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         m: dict[str, Any] = {"samples": len(ss), "unit": rule.unit}
-        m.update(_in_range_time(rule, ts, vals, talk_s, stale_s))
+        cuts = [sp["from"] for sp in lost.get(rule.metric, ())]
+        m.update(_in_range_time(rule, ts, vals, talk_s, stale_s, cuts))
+        if rule.metric in lost:
+            m["lost"] = lost[rule.metric]
         if len(vals):
             p = np.percentile(vals, [10, 50, 90])
             with np.errstate(over="ignore", invalid="ignore"):  # 1e308s: mean inf, then None
@@ -271,6 +408,7 @@ def summarize_session(
         processor_counts=processor.counts() if processor is not None else None,
         problems=problems,
         not_measured=absent,
+        modules=(extra or {}).get("modules"),
     )
     write_json(session.summary, summary)
     return summary

@@ -145,7 +145,9 @@ def test_hang_is_judged_on_the_talk_clock(tmp_path: Path) -> None:
             assert proc.check(1.5) is None  # 0.6 s since it wrote: alive
             event = proc.check(2.6)  # 1.1 s without a sign of life
             assert event is not None and "hung" in event
-            assert proc.crashes == [{"t": 2.6, "why": proc.crashes[0]["why"]}]
+            # it stopped measuring when it was last seen alive (the report's "hung at")
+            why = proc.crashes[0]["why"]
+            assert proc.crashes == [{"t": 2.6, "why": why, "silent_since": 1.5}]
             assert proc.proc is None and proc.next_start == 2.6 + 1.0  # restart after backoff
         finally:
             proc.stop(timeout_s=0.5)
