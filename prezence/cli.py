@@ -90,12 +90,34 @@ def format_timeline(summary: dict[str, Any]) -> str:
         f"malformed samples {c['malformed_samples']}, stale episodes {c['stale_episodes']}, "
         f"joint-limit violations {c['joint_limit_violations']}"
     )
+    lines += [f"note: {n}" for n in _trouble_notes(summary)]
     if summary.get("realtime_factor"):
         lines.append(
             f"simulated {summary['talk_s']:.0f} s in {summary['wall_s']:.2f} s wall "
             f"({summary.get('realtime_factor')}x real time)"
         )
     return "\n".join(lines)
+
+
+def _trouble_notes(summary: dict[str, Any]) -> list[str]:
+    """Modules that crashed or hung (and what they left unmeasured), and unreadable lines."""
+    from prezence.report.speech import module_sentences
+    from prezence.summary import module_notes
+
+    metrics = summary.get("metrics") or {}
+    out = module_sentences(
+        module_notes(summary.get("modules"), metrics), float(summary.get("talk_s") or 0.0)
+    )
+    problems = [str(p) for p in summary.get("stream_problems") or []]
+    for name, m in metrics.items():
+        n = int((m.get("stream") or {}).get("malformed") or 0)
+        if n:
+            first = next((p for p in problems if f"{name}.txt:" in p), None)
+            out.append(
+                f"{n} unreadable line{'s' if n != 1 else ''} of {name} skipped"
+                + (f" (e.g. {first})" if first else "")
+            )
+    return out
 
 
 def _progress_printer() -> Callable[[float, float], None] | None:

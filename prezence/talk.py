@@ -541,7 +541,9 @@ class Talk:
         from prezence.report.build import build_report
         from prezence.report.speech import summary_phrase
 
-        report = build_report(self.session.root, config=self.config, ended=True)
+        # summary.json is not written yet: the modules' crashes come from the source
+        modules = self.source.summary_extra().get("modules")
+        report = build_report(self.session.root, config=self.config, ended=True, modules=modules)
         report["stopped_repeating"] = notes  # summary.json is written after this
         phrase = summary_phrase(report)
         try:

@@ -33,7 +33,7 @@ from prezence.session import (
     read_jsonl,
     sample_time_limit,
 )
-from prezence.summary import build_summary
+from prezence.summary import build_summary, hold_ends, module_notes
 
 log = logging.getLogger(__name__)
 
@@ -83,13 +83,18 @@ def advice(rule: Rule, side: str) -> str:
 
 
 def deviation_seconds(
-    rule: Rule, samples: Sequence[Sample], talk_s: float, stale_s: float
+    rule: Rule,
+    samples: Sequence[Sample],
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float] = (),
 ) -> dict[str, float]:
     """Deviation integrated over time (%·s) on each side of the band, sample-and-hold.
 
-    Each sample's deviation holds until the next sample, the end of the talk, or ``stale_s``
-    after it, whichever comes first (the same holding as the summary's time in range), so a
-    module that writes twice as often does not count twice as much.
+    Each sample's deviation holds until the next sample, the end of the talk, ``stale_s``
+    after it, or the next of ``cuts`` (its module died), whichever comes first (the same
+    holding as the summary's time in range), so a module that writes twice as often does not
+    count twice as much, and a dead module's last value is not counted as measured.
 
     Returns:
         ``{"below": %·s, "above": %·s}``.
@@ -102,10 +107,13 @@ def deviation_seconds(
         {'below': 0.0, 'above': 100.0}
     """
     out = {"below": 0.0, "above": 0.0}
+    ends = hold_ends([s.t for s in samples], cuts) if cuts else None
     for i, s in enumerate(samples):
         if s.t >= talk_s:
             break
         nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
+        if ends is not None:
+            nxt = min(nxt, float(ends[i]))
         dt = max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
         side = rule.side(s.value)
         if side is not None and dt > 0:
@@ -256,6 +264,12 @@ def slightly_off(
                 "unit": rule.unit,
                 "share_out": round(share, 3),
                 "advice": advice(rule, side),
+                # its module died mid-talk: the share is of the time it was measured
+                **(
+                    {"measured_s": round(float(m["in_range_s"]) + float(m["out_of_range_s"]), 1)}
+                    if m.get("lost")
+                    else {}
+                ),
             }
         )
     rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
@@ -340,7 +354,11 @@ def _cue_dicts(summary: Mapping[str, Any]) -> list[dict[str, Any]]:
 
 
 def build_report(
-    session_dir: str | Path, *, config: Config | None = None, ended: bool | None = None
+    session_dir: str | Path,
+    *,
+    config: Config | None = None,
+    ended: bool | None = None,
+    modules: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Rebuild the report of one talk from its session folder.
 
@@ -350,6 +368,8 @@ def build_report(
             built-in configuration if the talk died before writing it).
         ended: the coach ran the talk to its end (None: it did if its ``summary.json`` says
             when the talk ended, as a finished talk's does).
+        modules: the launcher's record of the modules' crashes (None: ``summary.json``'s,
+            which a talk still running has not written yet).
 
     Returns:
         The report as a JSON-ready dict: ``time`` (used vs allocated), ``metrics`` (the
@@ -361,7 +381,7 @@ def build_report(
         ConfigError: the folder does not exist, its ``config.toml`` is invalid, or it is not a
             session folder (no ``session.json`` nor ``cues.jsonl``) and holds no stream file.
     """
-    return _rebuild(session_dir, config, ended)[0]
+    return _rebuild(session_dir, config, ended, modules)[0]
 
 
 def _coach_ended(session: SessionDir) -> bool:
@@ -375,8 +395,24 @@ def _coach_ended(session: SessionDir) -> bool:
     return summary.get("ended_at_s") is not None
 
 
+def _recorded_modules(session: SessionDir) -> dict[str, Any]:
+    """``summary.json``'s record of the modules (crashes, restarts), {} if there is none."""
+    if not session.summary.is_file():
+        return {}
+    try:
+        mods = read_json_object(session.summary).get("modules")
+    except PrezenceError:
+        return {}  # the summary's own problems are reported where it is read
+    if not isinstance(mods, dict):
+        return {}
+    return {str(k): v for k, v in mods.items() if isinstance(v, dict)}
+
+
 def _rebuild(
-    session_dir: str | Path, config: Config | None, ended: bool | None = None
+    session_dir: str | Path,
+    config: Config | None,
+    ended: bool | None = None,
+    modules: Mapping[str, Any] | None = None,
 ) -> tuple[dict[str, Any], dict[str, list[Sample]]]:
     session = SessionDir(Path(session_dir))
     if not session.root.is_dir():
@@ -392,13 +428,25 @@ def _rebuild(
         raise no_streams_error(session.root, cfg)
     streams: dict[str, list[Sample]] = {}
     stats: dict[str, dict[str, Any]] = {}
+    unreadable: list[dict[str, Any]] = []
     limit = sample_time_limit(session, meta)  # a stamp of 1e9 s is not a 30-year talk
     for rule in cfg.rules:
-        samples, st = read_stream(
-            paths.get(rule.metric, session.stream(rule.stream)), rule.metric, max_t=limit
-        )
+        path = paths.get(rule.metric, session.stream(rule.stream))
+        skipped: list[Any] = []
+        samples, st = read_stream(path, rule.metric, max_t=limit, problems=skipped)
         streams[rule.metric] = sorted(samples, key=lambda s: s.t)
         stats[rule.metric] = st.to_dict()
+        if st.malformed:
+            first = skipped[0] if skipped else None
+            unreadable.append(
+                {
+                    "file": _shown_path(Path(path), session.root),
+                    "lines": st.malformed,
+                    "example": None if first is None else f"line {first.line}: {first.reason}",
+                }
+            )
+    if modules is None:
+        modules = _recorded_modules(session)
     cues = read_jsonl(session.cues, require=CUE_KEYS)
     truth = read_jsonl(session.truth, require=TRUTH_KEYS) if session.truth.exists() else None
     stale_default = cfg.processor.stale_after_s
@@ -424,14 +472,16 @@ def _rebuild(
         truth=truth,
         stream_stats=stats,
         backend_stats=backend_stats,
+        modules=modules,
     )
 
     dev_s: dict[str, dict[str, float]] = {}
     metrics: dict[str, Any] = {}
     for rule in cfg.rules:
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
-        dev_s[rule.metric] = deviation_seconds(rule, streams[rule.metric], talk_s, stale_s)
         m = dict(summary["metrics"][rule.metric])
+        cuts = [float(sp["from"]) for sp in m.get("lost") or ()]
+        dev_s[rule.metric] = deviation_seconds(rule, streams[rule.metric], talk_s, stale_s, cuts)
         # "not measured": no module wrote this metric's file at all; "no data": the file is
         # there but holds no sample of the talk
         measured = rule.metric in paths
@@ -503,8 +553,18 @@ def _rebuild(
         "head": head_turns(session, talk_s=talk_s, limit=limit),
         "stopped_repeating": _stopped_repeating(session),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},
+        "unreadable": unreadable,
+        "modules": module_notes(modules, metrics),
     }
     return report, streams
+
+
+def _shown_path(path: Path, root: Path) -> str:
+    """``path`` relative to the session folder when it is inside it (``streams/x.txt``)."""
+    try:
+        return str(path.relative_to(root))
+    except ValueError:
+        return str(path)
 
 
 def _stopped_repeating(session: SessionDir) -> list[dict[str, Any]]:

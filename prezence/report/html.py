@@ -7,7 +7,17 @@ import html
 from collections.abc import Mapping
 from typing import Any
 
-from prezence.report.speech import measured_share, summary_phrase, time_sentence, was
+from prezence.report.speech import (
+    _talk_s,
+    beyond_sentence,
+    measured_share,
+    module_sentences,
+    of_time,
+    summary_phrase,
+    time_sentence,
+    unreadable_sentences,
+    was,
+)
 
 _CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0;
@@ -131,14 +141,14 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             f"{_mmss(report.get('planned_s'))} (the coach stopped early). The figures cover "
             "what was recorded.</div>"
         )
-    beyond = report.get("beyond_talk") or {}
-    if beyond:
-        n = sum(beyond.values())
-        out.append(
-            f'<div class="note">{n} sample{"s" if n != 1 else ""} stamped after the end of the '
-            f"talk ({_e(', '.join(sorted(beyond)))}) were left out: a module's clock went "
-            "wrong.</div>"
-        )
+    from prezence.report.build import metric_label
+
+    notes = module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
+    notes += unreadable_sentences(report.get("unreadable") or ())
+    beyond = beyond_sentence(report.get("beyond_talk") or {})
+    notes += [beyond] if beyond else []
+    for sentence in notes:
+        out.append(f'<div class="note">{_e(sentence[0].upper() + sentence[1:])}.</div>')
     if report.get("plots_missing"):
         install = (
             '<code>pip install "prezence[report]"</code>, then '
@@ -217,7 +227,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             out.append(
                 f"<li>your {_e(o['label'])} {was(str(o['label']))} {_e(o['side'])} "
                 f"{_e(_num(o['bound']))}{_e(unit)} "
-                f"{100.0 * float(o['share_out']):.0f}% of the time "
+                f"{100.0 * float(o['share_out']):.0f}% of the {_e(of_time(o))} "
                 f"(<b>{_e(o['advice'])}</b>)</li>"
             )
         out.append("</ul>")

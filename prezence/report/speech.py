@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 #: The spoken summary stays under this many words (the robot speaks at ~150 wpm: ~16 s).
@@ -82,6 +82,106 @@ def measured_share(report: Mapping[str, Any]) -> str:
     return "none" if n == 0 else "all" if n == len(metrics) else "some"
 
 
+def of_time(row: Mapping[str, Any], measured: str = "it was measured") -> str:
+    """``"time"``, or ``"6 s it was measured"`` for a metric whose module died mid-talk."""
+    s = row.get("measured_s")
+    return "time" if s is None else f"{float(s):.0f} s {measured}"
+
+
+def _talk_s(report: Mapping[str, Any]) -> float:
+    return float(report.get("talk_s") or (report.get("time") or {}).get("used_s") or 0.0)
+
+
+def _times(n: int) -> str:
+    return "once" if n == 1 else f"{n} times"
+
+
+def module_sentences(
+    notes: Sequence[Mapping[str, Any]],
+    talk_s: float,
+    label: Callable[[str], str] = str,
+) -> list[str]:
+    """One sentence per module that crashed or hung: when, whether it was restarted, and from
+    when to when its metrics were not measured.
+
+    Args:
+        notes: :func:`prezence.summary.module_notes`'s rows.
+        talk_s: the talk's length (a stretch lost until then is lost "to the end").
+        label: a reader's name for a metric.
+
+    Example:
+        >>> n = {"module": "fidget", "crashes": 6, "first_crash_t": 5.7, "hangs": 0,
+        ...      "restarts": 6, "lost": [{"metric": "fidget_rate", "from": 5.7, "to": 45.3}]}
+        >>> module_sentences([n], 45.3)
+        ['module fidget crashed 6 times (first at 0:06) and was restarted; fidget_rate was not measured from 0:06 to the end (0:45)']
+    """  # noqa: E501 - a doctest output line
+    out: list[str] = []
+    for n in notes:
+        what: list[str] = []
+        crashes, hangs = int(n.get("crashes") or 0), int(n.get("hangs") or 0)
+        if crashes:
+            what.append(f"crashed {_times(crashes)} (first at {_mmss(n.get('first_crash_t'))})")
+        if hangs == 1:
+            what.append(
+                f"hung at {_mmss(n.get('first_hang_t'))} (killed at {_mmss(n.get('first_kill_t'))})"
+            )
+        elif hangs:
+            what.append(
+                f"hung {hangs} times (first at {_mmss(n.get('first_hang_t'))}, killed at "
+                f"{_mmss(n.get('first_kill_t'))})"
+            )
+        restarts = int(n.get("restarts") or 0)
+        if restarts >= crashes + hangs:
+            again = "was restarted"
+        elif restarts:
+            again = f"was restarted {_times(restarts)}"
+        else:
+            again = f"was not restarted ({n.get('last_why')})"
+        text = f"module {n['module']} {' and '.join(what)} and {again}"
+        by_metric: dict[str, list[Mapping[str, Any]]] = {}
+        for sp in n.get("lost") or ():
+            by_metric.setdefault(str(sp["metric"]), []).append(sp)
+        for metric, spans in by_metric.items():
+            parts = []
+            for sp in spans:
+                to = float(sp["to"])
+                end = f"the end ({_mmss(to)})" if to >= talk_s - 0.5 else _mmss(to)
+                parts.append(f"from {_mmss(sp['from'])} to {end}")
+            name = label(metric)
+            text += f"; {name} {was(name)} not measured {' and '.join(parts)}"
+        out.append(text)
+    return out
+
+
+def unreadable_sentences(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """One sentence per stream file with lines skipped as unreadable.
+
+    Example:
+        >>> unreadable_sentences([{"file": "x.txt", "lines": 2, "example": "line 4: t < 0"}])
+        ['2 unreadable lines in x.txt were skipped (e.g. line 4: t < 0)']
+    """
+    out = []
+    for r in rows:
+        n = int(r.get("lines") or 0)
+        first = f" (e.g. {r['example']})" if r.get("example") else ""
+        out.append(
+            f"{n} unreadable line{'s' if n != 1 else ''} in {r['file']} "
+            f"{'were' if n != 1 else 'was'} skipped{first}"
+        )
+    return out
+
+
+def beyond_sentence(beyond: Mapping[str, int]) -> str | None:
+    """The samples left out as stamped after the talk's end (a module's clock gone wrong)."""
+    if not beyond:
+        return None
+    n = sum(beyond.values())
+    return (
+        f"{n} sample{'s' if n != 1 else ''} stamped after the end of the talk "
+        f"({', '.join(sorted(beyond))}) were left out: a module's clock went wrong"
+    )
+
+
 def summary_phrase(report: Mapping[str, Any]) -> str:
     """What the robot says after the talk (at most :data:`MAX_SPOKEN_WORDS` words).
 
@@ -108,7 +208,8 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         parts.append(
             f"Nothing was far off, but your {o['label']} {was(o['label'])} a little "
             f"{'under' if o['side'] == 'below' else 'over'} the ideal range "
-            f"{100.0 * float(o['share_out']):.0f}% of the time: {o['advice']}."
+            f"{100.0 * float(o['share_out']):.0f}% of the {of_time(o, 'I could measure it')}: "
+            f"{o['advice']}."
         )
     elif not pri:
         parts.append(
@@ -152,6 +253,14 @@ def format_text(report: Mapping[str, Any]) -> str:
             f"  note: the record stops at {_mmss(report['talk_s'])} of a planned "
             f"{_mmss(report.get('planned_s'))}; figures cover what was recorded"
         )
+    from prezence.report.build import metric_label
+
+    for sentence in (
+        module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
+        + unreadable_sentences(report.get("unreadable") or ())
+        + [b for b in [beyond_sentence(report.get("beyond_talk") or {})] if b]
+    ):
+        lines.append(f"  note: {sentence}")
     lines.append("  " + time_sentence(report))
     pri = report.get("priorities") or []
     if pri:
@@ -183,7 +292,7 @@ def format_text(report: Mapping[str, Any]) -> str:
             unit = f" {o['unit']}" if o.get("unit") else ""
             lines.append(
                 f"    - your {o['label']} {was(o['label'])} {o['side']} {_num(o['bound'])}{unit} "
-                f"{100.0 * float(o['share_out']):.0f}% of the time ({o['advice']})"
+                f"{100.0 * float(o['share_out']):.0f}% of the {of_time(o)} ({o['advice']})"
             )
     lines.append("")
     lines.append(

@@ -451,3 +451,75 @@ def test_time_sentence_words_agree_with_the_percentage(
 
     t = {"used_s": used, "allocated_s": allocated, "over_under_pct": pct}
     assert time_sentence({"time": t}) == said
+
+
+FIDGET = Rule("fidget_rate", Check.MAX, high=3.0, above="gestureLess", unit="1/min")
+
+
+def crashed_module_session(root: Path, crashes: list[dict[str, object]]) -> SessionDir:
+    """A 45 s live talk whose module wrote fidget_rate 6/min (twice the limit) for 6 s, then
+    died (``crashes``, as the launcher records them in summary.json)."""
+    session = SessionDir(root).create()
+    config = Config(rules=(FIDGET,), time=TimeSettings(allocated_s=60.0))
+    session.config.write_text(dumps_config(config))
+    session.write_meta({"kind": "live", "talk_s": 45.0})
+    session.stream("fidget_rate.txt").write_text("".join(f"{t} 6.0\n" for t in range(6)))
+    modules = {"fidget": {"restarts": len(crashes), "crashes": crashes, "metrics": ["fidget_rate"]}}
+    session.summary.write_text(json.dumps({"ended_at_s": 45.0, "modules": modules}))
+    return session
+
+
+def test_a_crashed_module_is_reported_and_its_last_value_not_held_as_measured(
+    tmp_path: Path,
+) -> None:
+    # session 13: the report never said the module crashed 6 times; its last value was held
+    # 6 s past the crash and made 'Work first on this: lower fidget_rate'
+    crashes = [{"t": t, "why": "exited with status 1"} for t in (5.7, 7.2, 9.7, 14.3, 22.8, 39.3)]
+    session = crashed_module_session(tmp_path / "s", crashes)
+    page = write_report(session.root).read_text()
+    text = (session.report / "summary.txt").read_text()
+    said = (
+        "module fidget crashed 6 times (first at 0:06) and was restarted; fidget_rate was "
+        "not measured from 0:06 to the end (0:45)"
+    )
+    assert f"note: {said}" in text
+    assert f"M{said[1:]}." in page
+    report = build_report(session.root)
+    assert report["metrics"]["fidget_rate"]["out_of_range_s"] == pytest.approx(5.7)
+    assert report["priorities"] == []  # 5.7 s measured: no priority on held, stale data
+    assert "Work first" not in summary_phrase(report)
+    assert "100% of the 6 s I could measure it" in summary_phrase(report)
+
+
+def test_a_hung_module_is_reported_from_when_it_went_silent(tmp_path: Path) -> None:
+    why = "showed no sign of life for 20 s (hung); killed"
+    session = crashed_module_session(tmp_path / "s", [{"t": 25.3, "why": why, "silent_since": 5.3}])
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert (
+        "module fidget hung at 0:05 (killed at 0:25) and was restarted; fidget_rate was not "
+        "measured from 0:05 to the end (0:45)" in text
+    )
+    assert build_report(session.root)["metrics"]["fidget_rate"]["out_of_range_s"] == 5.3
+
+
+def test_a_restarted_module_is_measured_again_when_it_writes_again(tmp_path: Path) -> None:
+    session = crashed_module_session(tmp_path / "s", [{"t": 5.7, "why": "exited with status 1"}])
+    with session.stream("fidget_rate.txt").open("a") as f:
+        f.write("".join(f"{t} 1.0\n" for t in range(12, 45)))
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert "fidget_rate was not measured from 0:06 to 0:12;" not in text  # no trailing ';'
+    assert text.count("not measured from 0:06 to 0:12") == 1
+
+
+def test_unreadable_stream_lines_are_counted_per_file_in_the_report(tmp_path: Path) -> None:
+    # session 13: 205 bad lines were skipped in silence; only 41 late stamps were mentioned
+    session = crashed_module_session(tmp_path / "s", [])
+    with session.stream("fidget_rate.txt").open("a") as f:
+        f.write("hello world\nnan nan\n12 inf\n-5 7\n1e300 2\n")
+    page = write_report(session.root).read_text()
+    text = (session.report / "summary.txt").read_text()
+    said = "4 unreadable lines in streams/fidget_rate.txt were skipped (e.g. line 7: t is not"
+    assert said in text and said in page
+    assert "1 sample stamped after the end of the talk (fidget_rate)" in text

@@ -70,3 +70,42 @@ def test_summary_json_reads_back_as_written_with_one_record_per_line(tmp_path: P
     for cue in cues:  # each cue whole on a line of its own
         assert sum(json.loads(ln.strip().rstrip(",")) == cue for ln in lines if "louder" in ln) == 1
     assert lines[0] == "{" and lines[-1] == "}" and len(lines) > len(data) + len(cues)
+
+
+def test_the_printed_summary_says_a_module_crashed_and_counts_unreadable_lines() -> None:
+    # session 13: 'cues 0 ..., stale episodes 1' and nothing about 6 crashes or 246 bad lines
+    from prezence.cli import format_timeline
+    from prezence.config.model import Check, Config, Rule, TimeSettings
+
+    rule = Rule("fidget_rate", Check.MAX, high=3.0, above="gestureLess")
+    config = Config(rules=(rule,), time=TimeSettings(allocated_s=60.0))
+    modules = {
+        "fidget": {
+            "restarts": 1,
+            "crashes": [{"t": 5.7, "why": "exited with status 1"}],
+            "metrics": ["fidget_rate"],
+        }
+    }
+    summary = build_summary(
+        config,
+        {"fidget_rate": [Sample("fidget_rate", float(t), 6.0) for t in range(6)]},
+        [],
+        talk_s=45.0,
+        stream_stats={"fidget_rate": {"malformed": 3}},
+        problems=["s/streams/fidget_rate.txt:7: t is not finite: 'nan'"],
+        modules=modules,
+        extra={"modules": modules},
+    )
+    assert summary["metrics"]["fidget_rate"]["out_of_range_s"] == 5.7  # not held to 11 s
+    assert summary["metrics"]["fidget_rate"]["lost"] == [
+        {"module": "fidget", "from": 5.7, "to": 45.0}
+    ]
+    out = format_timeline(summary)
+    assert (
+        "note: module fidget crashed once (first at 0:06) and was restarted; fidget_rate was "
+        "not measured from 0:06 to the end (0:45)" in out
+    )
+    assert (
+        "note: 3 unreadable lines of fidget_rate skipped "
+        "(e.g. s/streams/fidget_rate.txt:7: t is not finite: 'nan')" in out
+    )
