@@ -20,6 +20,7 @@ so a crash loses nothing that was written.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 import stat
@@ -28,6 +29,8 @@ from pathlib import Path
 from typing import IO, Any
 
 from prezence.errors import ConfigError, PrezenceError
+
+log = logging.getLogger(__name__)
 
 SESSION_FORMAT = 1
 #: The largest session.json / JSONL file read whole (a 3-hour talk's decisions.jsonl is ~10 MB).
@@ -272,16 +275,24 @@ TRUTH_KEYS: dict[str, Any] = {"metric": str, "start": (int, float), "end": (int,
 CUE_KEYS: dict[str, Any] = {"t": (int, float), "command": str}
 
 
-def read_jsonl(path: Path, *, require: dict[str, Any] | None = None) -> list[dict[str, Any]]:
+def read_jsonl(
+    path: Path,
+    *,
+    require: dict[str, Any] | None = None,
+    skipped: list[str] | None = None,
+) -> list[dict[str, Any]]:
     """Read a JSONL file of objects; a torn last line (crash mid-write) is ignored.
 
     Args:
         require: keys each object must have, with their type(s) (numbers must be finite):
             :data:`TRUTH_KEYS` for ``truth.jsonl``, :data:`CUE_KEYS` for ``cues.jsonl``.
+        skipped: if given, a bad line anywhere (and a torn last line) is not an error: it is
+            logged as a warning, appended here as ``file:line: why`` and skipped (the report
+            is built from the rest; the file is left as it is).
 
     Raises:
-        ConfigError: a line before the last is not a JSON object (``file:line: why``), or the
-            file is not a regular file of bounded size.
+        ConfigError: without ``skipped``, a line before the last is not a JSON object
+            (``file:line: why``); in any case, the file is not a regular file of bounded size.
     """
     out: list[dict[str, Any]] = []
     if not path.exists():
@@ -294,32 +305,44 @@ def read_jsonl(path: Path, *, require: dict[str, Any] | None = None) -> list[dic
     for i, line in enumerate(lines):
         if not line.strip():
             continue
+        torn = i == len(lines) - 1 and not text.endswith("\n")
         try:
-            obj = json.loads(line)
-        except (json.JSONDecodeError, RecursionError) as e:
-            if i == len(lines) - 1 and not text.endswith("\n"):
+            obj = _jsonl_object(line, require)
+        except ValueError as e:
+            if skipped is not None:
+                why = f"{e}{'; the last line is incomplete (no newline)' if torn else ''}"
+                err = ConfigError(f"{why}; line skipped", path=path, line=i + 1)
+                log.warning("%s", err)
+                skipped.append(str(err))
+                continue
+            if torn:
                 break  # torn last line
-            why = e.msg if isinstance(e, json.JSONDecodeError) else "nested too deeply"
-            raise ConfigError(f"not a JSON line ({why})", path=path, line=i + 1) from None
-        if not isinstance(obj, dict):
-            raise ConfigError(
-                f"expected a JSON object {{...}}, found {type(obj).__name__}",
-                path=path,
-                line=i + 1,
-            )
-        for key, kind in (require or {}).items():
-            v = obj.get(key)
-            ok = isinstance(v, kind) and not isinstance(v, bool)
-            if ok and isinstance(v, float):
-                ok = math.isfinite(v)
-            if not ok:
-                raise ConfigError(
-                    f"{key!r} missing or not a {'string' if kind is str else 'number'}",
-                    path=path,
-                    line=i + 1,
-                )
+            raise ConfigError(str(e), path=path, line=i + 1) from None
         out.append(obj)
     return out
+
+
+def _jsonl_object(line: str, require: dict[str, Any] | None) -> dict[str, Any]:
+    """One line of a JSONL file as an object with the ``require``d keys.
+
+    Raises:
+        ValueError: why it is not (the caller adds the file and line).
+    """
+    try:
+        obj = json.loads(line)
+    except (json.JSONDecodeError, RecursionError) as e:
+        why = e.msg if isinstance(e, json.JSONDecodeError) else "nested too deeply"
+        raise ValueError(f"not a JSON line ({why})") from None
+    if not isinstance(obj, dict):
+        raise ValueError(f"expected a JSON object {{...}}, found {type(obj).__name__}")
+    for key, kind in (require or {}).items():
+        v = obj.get(key)
+        ok = isinstance(v, kind) and not isinstance(v, bool)
+        if ok and isinstance(v, float):
+            ok = math.isfinite(v)
+        if not ok:
+            raise ValueError(f"{key!r} missing or not a {'string' if kind is str else 'number'}")
+    return obj
 
 
 #: No talk is longer than this (seconds): the cap when a folder has no record of its length.

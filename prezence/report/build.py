@@ -447,7 +447,10 @@ def _rebuild(
             )
     if modules is None:
         modules = _recorded_modules(session)
-    cues = read_jsonl(session.cues, require=CUE_KEYS)
+    # a bad cue line (a torn last line, a damaged one) is skipped and said, not fatal: the
+    # rest of the record still makes a report
+    bad_cues: list[str] = []
+    cues = read_jsonl(session.cues, require=CUE_KEYS, skipped=bad_cues)
     truth = read_jsonl(session.truth, require=TRUTH_KEYS) if session.truth.exists() else None
     stale_default = cfg.processor.stale_after_s
     if ended is None:
@@ -554,6 +557,7 @@ def _rebuild(
         "stopped_repeating": _stopped_repeating(session),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},
         "unreadable": unreadable,
+        "skipped_records": [_shown_record(p, session.root) for p in bad_cues],
         "modules": module_notes(modules, metrics),
     }
     return report, streams
@@ -565,6 +569,12 @@ def _shown_path(path: Path, root: Path) -> str:
         return str(path.relative_to(root))
     except ValueError:
         return str(path)
+
+
+def _shown_record(problem: str, root: Path) -> str:
+    """``file:line: why`` with the file relative to the session folder (``cues.jsonl:4: …``)."""
+    prefix = f"{root}{'/' if not str(root).endswith('/') else ''}"
+    return problem[len(prefix) :] if problem.startswith(prefix) else problem
 
 
 def _stopped_repeating(session: SessionDir) -> list[dict[str, Any]]:

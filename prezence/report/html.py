@@ -13,6 +13,7 @@ from prezence.report.speech import (
     measured_share,
     module_sentences,
     of_time,
+    skipped_sentences,
     summary_phrase,
     time_sentence,
     unreadable_sentences,
@@ -147,6 +148,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     notes += unreadable_sentences(report.get("unreadable") or ())
     beyond = beyond_sentence(report.get("beyond_talk") or {})
     notes += [beyond] if beyond else []
+    notes += skipped_sentences(report.get("skipped_records") or ())
     for sentence in notes:
         out.append(f'<div class="note">{_e(sentence[0].upper() + sentence[1:])}.</div>')
     if report.get("plots_missing"):

@@ -171,6 +171,16 @@ def unreadable_sentences(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     return out
 
 
+def skipped_sentences(problems: Sequence[str]) -> list[str]:
+    """The record lines the report skipped (``cues.jsonl:4: not a JSON line …``).
+
+    Example:
+        >>> skipped_sentences(["cues.jsonl:4: not a JSON line (Expecting value); line skipped"])
+        ['a damaged record line was left out, so a cue may be missing: cues.jsonl:4: not a JSON line (Expecting value); line skipped']
+    """  # noqa: E501 - a doctest output line
+    return [f"a damaged record line was left out, so a cue may be missing: {p}" for p in problems]
+
+
 def beyond_sentence(beyond: Mapping[str, int]) -> str | None:
     """The samples left out as stamped after the talk's end (a module's clock gone wrong)."""
     if not beyond:
@@ -259,6 +269,7 @@ def format_text(report: Mapping[str, Any]) -> str:
         module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
         + unreadable_sentences(report.get("unreadable") or ())
         + [b for b in [beyond_sentence(report.get("beyond_talk") or {})] if b]
+        + skipped_sentences(report.get("skipped_records") or ())
     ):
         lines.append(f"  note: {sentence}")
     lines.append("  " + time_sentence(report))

@@ -523,3 +523,30 @@ def test_unreadable_stream_lines_are_counted_per_file_in_the_report(tmp_path: Pa
     said = "4 unreadable lines in streams/fidget_rate.txt were skipped (e.g. line 7: t is not"
     assert said in text and said in page
     assert "1 sample stamped after the end of the talk (fidget_rate)" in text
+
+
+@pytest.mark.parametrize("damage", ["torn last line", "bad middle line"])
+def test_a_damaged_cue_line_is_skipped_named_and_said_in_the_report(
+    tmp_path: Path, damage: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    # session 13: a torn last line vanished in silence; a bad 4th line blocked the report
+    session = make_session(tmp_path / "t")
+    lines = session.cues.read_text().splitlines(keepends=True)
+    if damage == "torn last line":
+        lines[-1] = lines[-1][:-40]
+        line_no = 2
+    else:
+        lines.insert(1, '{"t": 60.0, "comm\n')
+        line_no = 2
+    recorded = "".join(lines)
+    session.cues.write_text(recorded)
+    page = write_report(session.root).read_text()
+    text = (session.report / "summary.txt").read_text()
+    where = f"cues.jsonl:{line_no}: not a JSON line"
+    assert any(where in r.getMessage() and "skipped" in r.getMessage() for r in caplog.records)
+    said = f"a damaged record line was left out, so a cue may be missing: {where}"
+    assert said in text
+    assert f"A{said[1:]}" in page
+    kept = ["slowDown"] if damage == "torn last line" else ["slowDown", "timeLeft"]
+    assert [c["command"] for c in build_report(session.root)["cues"]] == kept
+    assert session.cues.read_text() == recorded  # the record is never rewritten
