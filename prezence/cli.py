@@ -62,6 +62,10 @@ def format_timeline(summary: dict[str, Any]) -> str:
             f"{_mmss(c['t']):>7}  {c['command']:<12} {c.get('metric') or '-':<16} "
             f"{(f'{lat:.1f}s' if lat is not None else '-'):>6} {ok:>3}  {c.get('reason', '')}"
         )
+        if c.get("cut_short"):  # "ok" says whether the cue was right; this, whether it was given
+            given = c.get("measured_s")
+            of = f" after {given:.1f} s" if isinstance(given, int | float) else ""
+            lines.append(f"{'':>7}  ^ cut short{of}: {c['cut_short']}")
     if not summary["cues"]:
         lines.append("   (no cues)")
     lines.append("")
@@ -85,8 +89,9 @@ def format_timeline(summary: dict[str, Any]) -> str:
             f"({tm['over_under_pct']:+.1f}%)"
         )
     c = summary["counts"]
+    cut = f", cut short {c['cues_cut_short']}" if c.get("cues_cut_short") else ""
     lines.append(
-        f"cues {c['cues']} (dropped {c['cues_dropped']}, false alarms {c['false_alarms']}), "
+        f"cues {c['cues']} (dropped {c['cues_dropped']}{cut}, false alarms {c['false_alarms']}), "
         f"malformed samples {c['malformed_samples']}, stale episodes {c['stale_episodes']}, "
         f"joint-limit violations {c['joint_limit_violations']}"
     )
@@ -97,6 +102,14 @@ def format_timeline(summary: dict[str, Any]) -> str:
             f"({summary.get('realtime_factor')}x real time)"
         )
     return "\n".join(lines)
+
+
+def post_talk_line(post: dict[str, Any]) -> str:
+    """What the robot said after the talk, or that it did not say it (robot lost…)."""
+    if post.get("ok") is False:
+        why = post.get("drop_reason") or "cut short"
+        return f'robot did NOT say its summary ({why}): "{post["phrase"]}"'
+    return f'robot: "{post["phrase"]}"'
 
 
 def _trouble_notes(summary: dict[str, Any]) -> list[str]:
@@ -240,7 +253,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             print("scenario expectations met")
         post = result.summary.get("post_talk")
         if post:
-            print(f'robot: "{post["phrase"]}"')
+            print(post_talk_line(post))
         print(f"session folder: {result.session.root}  (summary.json, cues.jsonl, decisions.jsonl)")
         if not args.no_report:
             page = result.session.report / "report.html"
@@ -434,7 +447,7 @@ def _finish_session(
         )
     post = summary.get("post_talk")
     if post:
-        print(f'robot: "{post["phrase"]}"')
+        print(post_talk_line(post))
     print(f"session folder: {root}")
     if report is not None:
         print(f"report: {report}")

@@ -215,6 +215,28 @@ def module_notes(
     return notes
 
 
+def cut_short(cue: Mapping[str, Any]) -> str | None:
+    """Why a cue the robot started was not given in full (None: it was, or it was dropped).
+
+    A robot lost mid-cue ends its motions with ``ok=False`` and the error; a cue still going
+    when the talk ended is ``unfinished``.
+
+    Example:
+        >>> cut_short({"ok": False, "dropped": False, "gesture_error": "robot lost: reset"})
+        'robot lost: reset'
+        >>> cut_short({"ok": True, "dropped": False}) is None
+        True
+    """
+    if cue.get("dropped") or (cue.get("ok") is not False and not cue.get("unfinished")):
+        return None
+    for key in ("gesture_error", "speech_error"):
+        if cue.get(key):
+            return str(cue[key])
+    if cue.get("unfinished"):
+        return "the talk ended before it finished"
+    return "the robot did not finish it"
+
+
 def build_summary(
     config: Config,
     streams: Mapping[str, Sequence[Sample]],
@@ -321,6 +343,9 @@ def build_summary(
         row["onset"] = onset
         row["latency_s"] = round(t - float(onset), 3) if onset is not None else None
         row["relevant"] = relevant
+        cut = cut_short(c)
+        if cut is not None:
+            row["cut_short"] = cut
         cue_rows.append(row)
 
     allocated = config.time.allocated_s
@@ -328,6 +353,7 @@ def build_summary(
     if allocated:
         time_used["over_under_pct"] = round(100.0 * (talk_s - allocated) / allocated, 2)
     malformed = sum(int(s.get("malformed", 0)) for s in (stream_stats or {}).values())
+    n_cut = sum(1 for r in cue_rows if "cut_short" in r)
     out: dict[str, Any] = {
         "talk_s": round(talk_s, 3),
         "time": time_used,
@@ -344,6 +370,7 @@ def build_summary(
             ),
             "stale_episodes": sum(m["stale_episodes"] for m in metrics.values()),
             "joint_limit_violations": int((backend_stats or {}).get("joint_limit_violations", 0)),
+            **({"cues_cut_short": n_cut} if n_cut else {}),
         },
         "backend_stats": dict(backend_stats or {}),
         "stream_problems": list(problems)[:100],

@@ -395,16 +395,21 @@ def _coach_ended(session: SessionDir) -> bool:
     return summary.get("ended_at_s") is not None
 
 
-def _recorded_modules(session: SessionDir) -> dict[str, Any]:
-    """``summary.json``'s record of the modules (crashes, restarts), {} if there is none."""
+def _recorded(session: SessionDir, key: str) -> dict[str, Any]:
+    """``summary.json``'s ``key`` object (the modules' record, the post-talk summary), {} if
+    there is none."""
     if not session.summary.is_file():
         return {}
     try:
-        mods = read_json_object(session.summary).get("modules")
+        value = read_json_object(session.summary).get(key)
     except PrezenceError:
         return {}  # the summary's own problems are reported where it is read
-    if not isinstance(mods, dict):
-        return {}
+    return value if isinstance(value, dict) else {}
+
+
+def _recorded_modules(session: SessionDir) -> dict[str, Any]:
+    """``summary.json``'s record of the modules (crashes, restarts), {} if there is none."""
+    mods = _recorded(session, "modules")
     return {str(k): v for k, v in mods.items() if isinstance(v, dict)}
 
 
@@ -556,10 +561,17 @@ def _rebuild(
         "head": head_turns(session, talk_s=talk_s, limit=limit),
         "stopped_repeating": _stopped_repeating(session),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},
+    }
+    # what went wrong on the way, only when something did (a clean talk's report is as before)
+    troubles = {
         "unreadable": unreadable,
         "skipped_records": [_shown_record(p, session.root) for p in bad_cues],
         "modules": module_notes(modules, metrics),
     }
+    report.update({k: v for k, v in troubles.items() if v})
+    post = _recorded(session, "post_talk")
+    if post.get("ok") is False:  # the robot was lost: its summary was never heard
+        report["post_talk"] = post
     return report, streams
 
 

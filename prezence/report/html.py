@@ -10,6 +10,7 @@ from typing import Any
 from prezence.report.speech import (
     _talk_s,
     beyond_sentence,
+    cut_sentences,
     measured_share,
     module_sentences,
     of_time,
@@ -144,7 +145,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         )
     from prezence.report.build import metric_label
 
-    notes = module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
+    notes = cut_sentences(report)
+    notes += module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
     notes += unreadable_sentences(report.get("unreadable") or ())
     beyond = beyond_sentence(report.get("beyond_talk") or {})
     notes += [beyond] if beyond else []
@@ -247,9 +249,17 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
                 f"rehearsal.</li>"
             )
         out.append("</ul>")
-    out.append(
-        f'<p>What the robot says: <span class="said">“{_e(summary_phrase(report))}”</span></p>'
-    )
+    post = report.get("post_talk") or {}
+    if post.get("ok") is False:  # the robot was lost: these words were never heard
+        out.append(
+            f'<p>What the robot was to say, <b class="fa">not said</b> '
+            f"({_e(post.get('drop_reason') or 'cut short')}): "
+            f'<span class="said">“{_e(post.get("phrase") or summary_phrase(report))}”</span></p>'
+        )
+    else:
+        out.append(
+            f'<p>What the robot says: <span class="said">“{_e(summary_phrase(report))}”</span></p>'
+        )
 
     out.append("<h2>Overview</h2>")
     out.append(_img(images.get("summary"), "time in range and deviation per metric"))
@@ -323,11 +333,13 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             }[eff]
             if c.get("false_alarm"):
                 eff_html = '<span class="fa">false alarm: it was in range</span>'
+            cut = c.get("cut_short")
+            cut_html = f'<br><span class="fa">cut short: {_e(cut)}</span>' if cut else ""
 
             before, after = c.get("deviation_before"), c.get("deviation_after")
             out.append(
                 f'<tr><td>{_mmss(c["t"])}</td><td class="l">{_e(c["command"])}'
-                f'<br><span class="said">{_e(c.get("phrase") or "")}</span></td>'
+                f'<br><span class="said">{_e(c.get("phrase") or "")}</span>{cut_html}</td>'
                 # the coach's technical reason (weights, percentages) only on hover
                 f'<td class="l" title="{_e(c.get("reason") or "")}">{_e(c.get("why") or "")}'
                 "</td>"

@@ -171,6 +171,22 @@ def unreadable_sentences(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     return out
 
 
+def cut_sentences(report: Mapping[str, Any]) -> list[str]:
+    """Cues the robot did not give in full, and a post-talk summary it did not say."""
+    out = []
+    cut = [c for c in report.get("cues") or () if c.get("cut_short")]
+    if cut:
+        which = "; ".join(f"{_mmss(c['t'])} {c['command']}: {c['cut_short']}" for c in cut)
+        out.append(f"{len(cut)} cue{'s' if len(cut) != 1 else ''} cut short ({which})")
+    post = report.get("post_talk") or {}
+    if post.get("ok") is False:
+        out.append(
+            "the robot did not say its summary after the talk "
+            f"({post.get('drop_reason') or 'cut short'})"
+        )
+    return out
+
+
 def skipped_sentences(problems: Sequence[str]) -> list[str]:
     """The record lines the report skipped (``cues.jsonl:4: not a JSON line …``).
 
@@ -266,7 +282,8 @@ def format_text(report: Mapping[str, Any]) -> str:
     from prezence.report.build import metric_label
 
     for sentence in (
-        module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
+        cut_sentences(report)
+        + module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
         + unreadable_sentences(report.get("unreadable") or ())
         + [b for b in [beyond_sentence(report.get("beyond_talk") or {})] if b]
         + skipped_sentences(report.get("skipped_records") or ())
@@ -330,6 +347,8 @@ def format_text(report: Mapping[str, Any]) -> str:
         mark = {True: "you got better", False: "no change", None: ""}[eff]
         if c.get("false_alarm"):
             mark = "FALSE ALARM: it was in range"
+        if c.get("cut_short"):
+            mark = f"CUT SHORT: {c['cut_short']}" + (f"; {mark}" if mark else "")
         lat = c.get("latency_s")
         lat_s = f" {lat:.0f} s after onset" if lat is not None else ""
         lines.append(f"    {_mmss(c['t']):>5}  {c['command']:<12}{lat_s:<20} {mark}")

@@ -107,3 +107,54 @@ def test_robot_lost_mid_talk_drops_cues_and_comes_back(tmp_path: Path) -> None:
     assert [r["t"] for r in logged if r["cue"]] == [c["t"] for c in cues]
     stats = result.summary["backend_stats"]
     assert stats["disconnects"] >= 1 and stats["connects"] >= 2
+
+
+@pytest.mark.slow
+def test_a_cue_cut_off_by_a_lost_robot_and_an_unsaid_summary_are_shown_as_such(
+    tmp_path: Path,
+) -> None:
+    # session 13: the robot was lost 0.5 s into a 2.8 s cue; the timeline, the counts and the
+    # report showed the cue like any other and 'robot: "You used 40 seconds…"', never said
+    from prezence.cli import format_timeline, post_talk_line
+
+    short = (Path(__file__).parents[2] / "scenarios" / "short_talk.toml").read_text()
+    scenario = tmp_path / "racer.toml"  # short_talk cut to 8 s, its expectations left out
+    head = short.split("[expect]")[0].replace('duration_s = "0:40"', 'duration_s = "0:08"')
+    scenario.write_text(head)
+    base = load_config(None)
+    cfg = replace(base, processor=replace(base.processor, threshold=100.0))
+    proc, url = spawn("--port", "0")
+    lost: list[float] = []
+
+    def lose_the_robot_as_it_starts_a_cue(d: Decision) -> None:
+        if d.cue is not None and not lost:
+            stop_spawned(proc, kill=True)
+            lost.append(d.t)
+
+    try:
+        result = run_talk(
+            scenario,
+            out=tmp_path / "s",
+            backend="naoqi",
+            backend_kwargs={"url": url, "reconnect_max_s": 1.0},
+            config=cfg,
+            policy="weighted:persistence_s=0,escalate_after=0",
+            on_decision=lose_the_robot_as_it_starts_a_cue,
+            report=True,
+        )
+    finally:
+        stop_spawned(proc)
+    assert lost
+    [cue] = [c for c in result.cues if c["t"] == lost[0]]
+    assert cue["ok"] is False and not cue["dropped"]
+    timeline = format_timeline(result.summary)
+    assert "^ cut short after 0." in timeline and "robot lost" in timeline
+    assert "(dropped 0, cut short 1," in timeline
+    post = result.summary["post_talk"]
+    assert post_talk_line(post).startswith("robot did NOT say its summary (")
+    text = (tmp_path / "s" / "report" / "summary.txt").read_text()
+    assert "note: 1 cue cut short (" in text and "CUT SHORT: robot lost" in text
+    assert "note: the robot did not say its summary after the talk (" in text
+    page = (tmp_path / "s" / "report" / "report.html").read_text()
+    assert "cut short: robot lost" in page
+    assert "What the robot was to say, <b" in page and "What the robot says" not in page

@@ -550,3 +550,23 @@ def test_a_damaged_cue_line_is_skipped_named_and_said_in_the_report(
     kept = ["slowDown"] if damage == "torn last line" else ["slowDown", "timeLeft"]
     assert [c["command"] for c in build_report(session.root)["cues"]] == kept
     assert session.cues.read_text() == recorded  # the record is never rewritten
+
+
+def test_a_cue_cut_short_and_an_unsaid_summary_are_marked_in_the_report(tmp_path: Path) -> None:
+    # session 13 (NAOqi, robot lost 0.5 s into a 2.8 s cue): shown as given, and the summary
+    # the robot never said as 'What the robot says'
+    session = make_session(tmp_path / "t")
+    lines = session.cues.read_text().splitlines()
+    cut = json.loads(lines[0])
+    cut.update(ok=False, measured_s=0.5, gesture_error="robot lost: disconnected")
+    session.cues.write_text("\n".join([json.dumps(cut), *lines[1:]]) + "\n")
+    post = {"t": 110.0, "phrase": "You used…", "ok": False, "drop_reason": "robot is lost"}
+    session.summary.write_text(json.dumps({"ended_at_s": 110.0, "post_talk": post}))
+    page = write_report(session.root).read_text()
+    text = (session.report / "summary.txt").read_text()
+    assert "note: 1 cue cut short (0:40 slowDown: robot lost: disconnected)" in text
+    assert "note: the robot did not say its summary after the talk (robot is lost)" in text
+    assert "CUT SHORT: robot lost: disconnected; you got better" in text
+    assert '<span class="fa">cut short: robot lost: disconnected</span>' in page
+    assert "What the robot says" not in page
+    assert 'What the robot was to say, <b class="fa">not said</b> (robot is lost)' in page
