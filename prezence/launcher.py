@@ -31,6 +31,7 @@ import contextlib
 import logging
 import os
 import shlex
+import shutil
 import signal
 import subprocess
 import sys
@@ -42,6 +43,7 @@ from typing import IO, Any
 
 from prezence.backends.base import Backend
 from prezence.config.model import Config
+from prezence.errors import PrezenceError
 from prezence.metrics import DEFAULT_HANG_S, INPUT_MODULES
 from prezence.samples import MAX_AHEAD_S, Sample
 from prezence.session import SessionDir
@@ -124,6 +126,31 @@ class ModuleSpec:
         ms = tuple(m.strip() for m in metrics.split(",") if m.strip())
         return cls(name.strip(), argv, metrics=ms, hang_after_s=hang_after_s)
 
+    def command_problem(self) -> str | None:
+        """Why its command cannot be started (not on ``PATH``, no such file, not
+        executable), or None when it can be.
+
+        Example:
+            >>> print(ModuleSpec("x", ["no_cmd_zz"]).command_problem())
+            module x: command 'no_cmd_zz' not found on PATH; check its --module command line
+            >>> ModuleSpec("py", [sys.executable, "talk.py"]).command_problem() is None
+            True
+        """
+        cmd = self.argv[0] if self.argv else ""
+        if not cmd or "{session}" in cmd or "{t0}" in cmd:
+            return None  # made when it starts: looked at then
+        fix = "check its --module command line"
+        if os.sep not in cmd and (os.altsep is None or os.altsep not in cmd):
+            if shutil.which(cmd) is None:
+                return f"module {self.name}: command {cmd!r} not found on PATH; {fix}"
+            return None
+        path = Path(cmd)
+        if not path.is_file():
+            return f"module {self.name}: command {cmd!r}: no such file; {fix}"
+        if not os.access(path, os.X_OK):
+            return f"module {self.name}: command {cmd!r} is not executable; {fix}"
+        return None
+
 
 def _module(name: str, source: str, extra: Sequence[str], metrics: tuple[str, ...]) -> ModuleSpec:
     rec = INPUT_MODULES[name]
@@ -199,17 +226,28 @@ class ModuleProcess:
         ]
 
     def start(self, now: float) -> None:
+        """Start its process; a command that cannot be started (gone since :func:`up` looked,
+        or made from ``{session}``) is fatal, as a bad input is: restarting cannot help."""
         self.heartbeat.parent.mkdir(parents=True, exist_ok=True)
-        self.proc = subprocess.Popen(
-            self.argv(),
-            stdout=self.log_file,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            text=True,
-            env={**os.environ, HEARTBEAT_ENV: str(self.heartbeat), APPEND_ENV: "1"},
-            start_new_session=True,  # Ctrl-C in the terminal reaches the launcher only
-            preexec_fn=die_with_parent_hook(),  # and a killed coach leaves no module behind
-        )
+        argv = self.argv()
+        try:
+            self.proc = subprocess.Popen(
+                argv,
+                stdout=self.log_file,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                text=True,
+                env={**os.environ, HEARTBEAT_ENV: str(self.heartbeat), APPEND_ENV: "1"},
+                start_new_session=True,  # Ctrl-C in the terminal reaches the launcher only
+                preexec_fn=die_with_parent_hook(),  # and a killed coach leaves no module behind
+            )
+        except OSError as e:
+            self.fatal = f"cannot start command {argv[0]!r}: {e.strerror or e}"
+            self.finished = True
+            self.proc = None
+            self.crashes.append({"t": round(now, 3), "why": self.fatal})
+            log.error("module %s %s", self.spec.name, self.fatal)
+            return
         self.started_at = now
         self.last_life = now
         log.info("module %s started (pid %d)", self.spec.name, self.proc.pid)
@@ -506,7 +544,12 @@ def up(
 
     Raises:
         ValueError: two modules have the same name.
+        PrezenceError: a module's command cannot be started (not on ``PATH``, no such file,
+            not executable): said before the robot opens or the folder is written.
     """
+    problems = [p for m in modules if (p := m.command_problem())]
+    if problems:
+        raise PrezenceError("; ".join(problems))
     end_at = duration_s
     if end_at is None and config.time.allocated_s is not None:
         end_at = config.time.allocated_s + grace_s

@@ -224,3 +224,36 @@ def test_module_spec_parse() -> None:
         ModuleSpec.parse("pace=python 'pace.py")
     with pytest.raises(ValueError, match="plain name"):
         ModuleSpec.parse("../x=python pace.py")
+
+
+def test_a_module_command_not_on_path_is_an_error_and_leaves_no_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from prezence.cli import main
+
+    out = tmp_path / "m_nocmd"
+    argv = ["up", "--module", "x=nonexistent_cmd_zz --out {session}", "--duration", "8"]
+    assert main([*argv, "--out", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "error: module x: command 'nonexistent_cmd_zz' not found on PATH" in err
+    assert "Traceback" not in err
+    assert not out.exists()  # the retry, once the command is mended, is not refused
+    assert main([*argv, "--out", str(out), "-q"]) == 2
+    assert "already exists" not in capsys.readouterr().err
+
+
+def test_a_module_command_that_cannot_start_stops_the_talk_with_its_name(tmp_path: Path) -> None:
+    # made from {session}, so only known when it starts: fatal, as a bad input is, not a crash
+    spec = ModuleSpec("x", ["{session}/nothere", "--out", "{session}"])
+    result = up(
+        CONFIG,
+        session_dir=tmp_path / "s",
+        modules=[spec],
+        backend=FakeBackend(time_scale=0.01),
+        options=RunOptions.default(),
+        duration_s=8.0,
+    )
+    assert result.error is not None
+    assert result.error.startswith("module x: cannot start command ")
+    assert "nothere" in result.error and "No such file" in result.error
+    assert result.summary["modules"]["x"]["restarts"] == 0
