@@ -51,6 +51,8 @@ log = logging.getLogger(__name__)
 
 KeyPath = tuple[str | int, ...]
 TOP_KEYS = ("format", "rules_file", "room", "processor", "time", "rules")
+#: What a room file (``--room``) holds: its format and its ``[room]``, nothing else.
+ROOM_FILE_KEYS = ("format", "room")
 ROOM_KEYS = ("name", "values", "scales", "laptop_distance_m", "farthest_listener_m")
 RULE_KEYS = (
     "metric",
@@ -575,12 +577,36 @@ def loads_config(
 
 
 def loads_room(text: str, *, path: str | Path = "<string>") -> RoomProfile:
-    """The ``[room]`` of a TOML file (a room file, or a whole config); raises ConfigError."""
+    """The ``[room]`` of a room file, which holds ``format`` and ``[room]`` and nothing else;
+    raises ConfigError.
+
+    A table of a whole config (``[processor]``, ``[[rules]]``) is refused rather than ignored:
+    whoever wrote it there expects it to count.
+
+    Example:
+        >>> try:
+        ...     loads_room('format = 1\\n[room]\\n[processor]\\nthreshold = 5\\n', path="r.toml")
+        ... except ConfigError as e:
+        ...     print(e.line, e.key, e.reason[:25])
+        3 processor unknown table 'processor'
+    """
     spath = str(path)
     ctx = _Ctx(spath, text, {}, None)
     doc = _parse(text, spath)
     _check_format(doc, ctx)
-    _known_keys(ctx, doc, TOP_KEYS, ())
+    for k, v in doc.items():
+        if k in ROOM_FILE_KEYS:
+            continue
+        table = isinstance(v, dict) or (isinstance(v, list) and v and isinstance(v[0], dict))
+        if k in TOP_KEYS:
+            where = (f"[[{k}]]" if isinstance(v, list) else f"[{k}]") if table else k
+            msg = (
+                f"unknown {'table' if table else 'key'} '{k}' in a room file; it holds format "
+                f"and [room] only: give {where} in the --config file"
+            )
+        else:
+            msg = unknown_message("table" if table else "key", k, ROOM_FILE_KEYS)
+        raise ctx.error((k,), msg)
     if "room" not in doc:
         raise ctx.error(("room",), "missing [room]")
     return _room(doc["room"], ctx)

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from prezence.cli import build_parser, main, parse_seconds
+from prezence.config.load import default_path
 
 ROOM = 'format = 1\n[room]\nname = "hall"\n[room.values]\nFAST = 170\n'
 RULES = "speech_speed inRange 140 FAST speedUp slowDown\n"
@@ -152,3 +153,34 @@ def test_a_bad_value_is_an_error_line_not_a_traceback(
     assert e.value.code == 2
     err = capsys.readouterr().err
     assert says in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("extra", "line", "says"),
+    [
+        (
+            "[processor]\nthreshold = 5\n",
+            4,
+            "processor: unknown table 'processor' in a room file; it holds format and [room] "
+            "only: give [processor] in the --config file",
+        ),
+        (
+            '[[rules]]\nmetric = "x"\n',
+            4,
+            "rules: unknown table 'rules' in a room file; it holds format and [room] only: "
+            "give [[rules]] in the --config file",
+        ),
+        ("[romm.values]\nA = 5\n", 4, "romm: unknown table 'romm'; did you mean 'room'?"),
+    ],
+    ids=["processor", "rules", "typo"],
+)
+def test_a_room_file_with_another_table_is_refused_naming_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: str, line: int, says: str
+) -> None:
+    room = tmp_path / "room_extra.toml"
+    room.write_text(f'format = 1\n[room]\nname = "x"\n{extra}')
+    rules = default_path("rules.txt")
+    assert main(["check-config", str(rules), "--room", str(room)]) == 1
+    cap = capsys.readouterr()
+    assert f"{room}:{line}: {says}" in cap.err
+    assert ": ok" not in cap.out
