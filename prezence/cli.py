@@ -11,13 +11,14 @@ import contextlib
 import json
 import logging
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from prezence import __version__
 from prezence.argtypes import non_negative_int, speed_fraction
 from prezence.errors import PrezenceError
+from prezence.sessiondir import drop_if_left_empty
 from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION
 
 if TYPE_CHECKING:
@@ -302,7 +303,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         protect=(src,),
         default=src.parent / f"{src.name}-replay-{args.policy}",
     )
-    with _drop_if_left_empty(out):
+    with drop_if_left_empty(out):
         result = replay(
             src,
             out=out,
@@ -335,7 +336,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
     )
     from prezence.bars import progress_bar
 
-    with _drop_if_left_empty(out), progress_bar("analysing", seconds=True) as show:
+    with drop_if_left_empty(out), progress_bar("analysing", seconds=True) as show:
         result = rehearse(
             rec,
             out=out,
@@ -386,7 +387,7 @@ def cmd_up(args: argparse.Namespace) -> int:
     backend = make_backend(args.backend, **kw)
     out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
     view = None if args.quiet else _live_view(config, specs)
-    with _drop_if_left_empty(out):
+    with drop_if_left_empty(out):
         try:
             result = up(
                 config,
@@ -408,18 +409,6 @@ def cmd_up(args: argparse.Namespace) -> int:
         print(f"error: the talk stopped: {result.error}", file=sys.stderr)
         return 2
     return 0
-
-
-@contextlib.contextmanager
-def _drop_if_left_empty(folder: Path) -> Iterator[None]:
-    """Remove ``folder`` again when the command fails before writing anything into it (an
-    empty folder only: ``rmdir`` never deletes a file)."""
-    try:
-        yield
-    except BaseException:
-        with contextlib.suppress(OSError):
-            folder.rmdir()
-        raise
 
 
 def _live_view(config: Config, specs: Sequence[Any]) -> RichLiveView:

@@ -742,7 +742,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--jobs", type=positive_int, default=1, help="worker processes (default 1)")
     p.add_argument("--backend", default="fake", help="robot backend (default fake)")
-    p.add_argument("--out", default="evaluation", help="folder for the CSV and Markdown")
+    p.add_argument(
+        "--out",
+        help="folder for the CSV, Markdown and JSON; one that exists and is not empty is refused "
+        "(default: evaluation, or evaluation-2, -3 … when it holds earlier results)",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="when --out exists and is not empty, move it aside to OUT.old-<time> (nothing is "
+        "ever deleted) instead of refusing",
+    )
     p.add_argument("--keep-sessions", action="store_true", help="keep each talk's folder")
     p.add_argument(
         "--ray",
@@ -764,14 +774,26 @@ def _presenter_spec(text: str) -> str:
 
 
 def evaluate_main(argv: Sequence[str] | None = None) -> int:
-    """``prezence evaluate``: run the grid, write the tables, print the Markdown; returns 0."""
+    """``prezence evaluate``: run the grid, write the tables, print the Markdown; returns 0.
+
+    Earlier results are never overwritten: the output folder is claimed as a session folder is
+    (:func:`prezence.sessiondir.claim_session_dir`), before any talk runs.
+    """
     from prezence.processor import policy_names
+    from prezence.sessiondir import claim_session_dir, drop_if_left_empty
     from prezence.synthetic.scenario import list_scenarios
 
     args = build_parser().parse_args(argv)
     scenarios = args.scenarios or list_scenarios()
     policies = args.policies or policy_names()
-    out = Path(args.out)
+    out = claim_session_dir(args.out, "evaluation", force=args.force, default=Path("evaluation"))
+    with drop_if_left_empty(out):
+        return _evaluate_into(out, args, scenarios, policies)
+
+
+def _evaluate_into(
+    out: Path, args: argparse.Namespace, scenarios: Sequence[str], policies: Sequence[str]
+) -> int:
     t0 = time.perf_counter()
 
     from prezence.bars import progress_bar

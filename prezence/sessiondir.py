@@ -8,7 +8,9 @@ aside to ``DIR.old-YYYYMMDD-HHMMSS`` first, so that even then nothing recorded i
 
 from __future__ import annotations
 
+import contextlib
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from prezence.errors import ConfigError
@@ -99,3 +101,15 @@ def overlaps(a: Path, b: Path) -> bool:
     """Whether folder ``a`` is ``b``, inside ``b``, or holds ``b`` (links resolved)."""
     ra, rb = Path(a).resolve(), Path(b).resolve()
     return ra == rb or rb in ra.parents or ra in rb.parents
+
+
+@contextlib.contextmanager
+def drop_if_left_empty(folder: Path) -> Iterator[None]:
+    """Remove ``folder`` again when the command fails before writing anything into it (an
+    empty folder only: ``rmdir`` never deletes a file)."""
+    try:
+        yield
+    except BaseException:
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+        raise

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from prezence.errors import UnknownName
+from prezence.errors import ConfigError, UnknownName
 from prezence.evaluate import (
     aggregate,
     classify_cue,
@@ -243,3 +243,34 @@ def test_ray_runs_the_grid_on_a_local_instance() -> None:
     finally:
         ray.shutdown()
     assert [(r["scenario"], r["policy"], r["seed"]) for r in rows] == [("ideal", "none", 0)]
+
+
+def test_evaluate_never_overwrites_earlier_results(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    grid = ["--scenarios", "short_talk", "--seeds", "1", "--presenters", "free"]
+    out = tmp_path / "ev2"
+    assert evaluate_main([*grid, "--policies", "weighted", "--out", str(out)]) == 0
+    first = (out / "evaluation.csv").read_text()
+    with pytest.raises(ConfigError, match="already exists and is not empty.*add --force"):
+        evaluate_main([*grid, "--policies", "rhema", "--out", str(out)])
+    assert (out / "evaluation.csv").read_text() == first  # the earlier results are kept
+    # --force moves them aside, as run and rehearse do; nothing is deleted
+    assert evaluate_main([*grid, "--policies", "rhema", "--out", str(out), "--force"]) == 0
+    (aside,) = tmp_path.glob("ev2.old-*")
+    assert (aside / "evaluation.csv").read_text() == first
+    assert ",rhema," in (out / "evaluation.csv").read_text()
+    # without --out: evaluation/, then evaluation-2/ beside it
+    monkeypatch.chdir(tmp_path)
+    assert evaluate_main([*grid, "--policies", "none"]) == 0
+    assert evaluate_main([*grid, "--policies", "none"]) == 0
+    assert (tmp_path / "evaluation" / "evaluation.csv").is_file()
+    assert (tmp_path / "evaluation-2" / "evaluation.csv").is_file()
+    capsys.readouterr()
+
+
+def test_an_evaluation_that_fails_leaves_no_folder(tmp_path: Path) -> None:
+    out = tmp_path / "ev3"
+    with pytest.raises(UnknownName):
+        evaluate_main(["--scenarios", "nope", "--policies", "none", "--out", str(out)])
+    assert not out.exists()
