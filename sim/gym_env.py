@@ -72,8 +72,9 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     ``Discrete(1 + K)``: 0 is no cue; then, in the order of :attr:`actions`, every
     ``(command, metric)`` pair a rule of the configuration can give (its ``below`` then its
     ``above`` command, rules in config order), then the time-left and overtime commands
-    (``metric`` None). With the default configuration ``K = 10``: speedUp, slowDown, louder,
-    articulate, lookUp, gestureMore, gestureLess, timeLeft, overtime (see :attr:`actions`).
+    (``metric`` None). With the default configuration ``K = 9`` (``Discrete(10)``): speedUp,
+    slowDown, louder, articulate, lookUp, gestureMore, gestureLess, timeLeft, overtime (see
+    :attr:`actions`).
 
     ## Observation Space
 

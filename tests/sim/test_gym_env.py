@@ -31,6 +31,20 @@ def test_env_checker_passes() -> None:
     check_env(env, skip_render_check=True)
 
 
+def test_the_docstring_gives_the_default_action_space() -> None:
+    import re
+
+    env = CoachEnv()
+    doc = CoachEnv.__doc__ or ""
+    said = re.search(
+        r"default configuration ``K = (\d+)`` \(``Discrete\((\d+)\)``\): ([^(]+)\(", doc
+    )
+    assert said is not None
+    k, n, names = int(said[1]), int(said[2]), " ".join(said[3].split())
+    assert env.action_space == gym.spaces.Discrete(n) and n == k + 1
+    assert names.rstrip(", ").split(", ") == [c for c, _ in env.actions[1:]]
+
+
 def test_make_by_id_after_import() -> None:
     env = gym.make(ENV_ID, scenarios="ideal")
     obs, _ = env.reset(seed=0)
