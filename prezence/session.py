@@ -174,13 +174,39 @@ class SessionDir:
         """``session.json`` as a dict ({} when there is none).
 
         Raises:
-            ConfigError: it is not a readable JSON object (truncated, a list, too big); the
+            ConfigError: it is not a readable JSON object (truncated, a list, too big), or its
+                ``format`` is not one this Prezence reads (a newer version wrote it); the
                 message names the file.
         """
         if not self.meta.exists():
             return {}
         data = read_json_object(self.meta)
+        check_format(data, self.meta)
         return data
+
+
+def check_format(data: dict[str, Any], path: Path) -> None:
+    """Refuse a record whose ``format`` this Prezence does not read, as the config loader does
+    (a missing ``format``: read as this version's).
+
+    Example:
+        >>> try:
+        ...     check_format({"format": 2}, Path("s/session.json"))
+        ... except ConfigError as e:
+        ...     print(str(e)[:44])
+        s/session.json: format: 2 is newer than this
+    """
+    fmt = data.get("format", SESSION_FORMAT)
+    if fmt == SESSION_FORMAT and not isinstance(fmt, bool):
+        return
+    if isinstance(fmt, int) and not isinstance(fmt, bool) and fmt > SESSION_FORMAT:
+        why = (
+            f"{fmt} is newer than this Prezence reads (format {SESSION_FORMAT}): a newer "
+            "version wrote it; update Prezence to read it"
+        )
+    else:
+        why = f"{fmt!r} is not supported; this Prezence reads format {SESSION_FORMAT}"
+    raise ConfigError(why, path=path, key="format")
 
 
 def strict_json(obj: Any) -> Any:
@@ -372,12 +398,37 @@ def _last_decision_t(path: Path) -> float | None:
     return None
 
 
+def _last_stamp(path: Path) -> float | None:
+    """The time of the last stamped line of a stream file (reads its last 4 KB), if at most
+    :data:`MAX_TALK_S`: a stamp beyond it is a module's clock gone wrong, not the talk's end."""
+    from prezence.streams.codec import parse_line
+
+    try:
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            return None
+        with open(path, "rb") as f:
+            f.seek(max(0, st.st_size - 4096))
+            tail = f.read(4096)
+    except OSError:
+        return None
+    for line in reversed(tail.splitlines()[1:] if st.st_size > 4096 else tail.splitlines()):
+        try:
+            t, _ = parse_line(line.decode("utf-8"))
+        except (UnicodeDecodeError, PrezenceError):
+            continue
+        return t if t is not None and t <= MAX_TALK_S else None
+    return None
+
+
 def recorded_talk_s(session: SessionDir, meta: dict[str, Any]) -> float | None:
     """How long the talk lasted by the session's own record, not by its samples' stamps.
 
     ``session.json``'s ``talk_s``; after a coach crash (no ``talk_s``), the last write to the
-    folder's files minus the talk's start (``t0_epoch``) or the last decision's time; None when
-    the folder keeps no such record (stream files from elsewhere). At most :data:`MAX_TALK_S`.
+    folder's files minus the talk's start (``t0_epoch``), or, with no start time either, the
+    last decision's time or the last stream sample's, whichever is later (a guessed end never
+    cuts off recorded samples); None when the folder keeps no such record (stream files from
+    elsewhere). At most :data:`MAX_TALK_S`.
     """
     t = meta.get("talk_s")
     if isinstance(t, int | float) and not isinstance(t, bool) and math.isfinite(t) and t >= 0:
@@ -398,9 +449,15 @@ def recorded_talk_s(session: SessionDir, meta: dict[str, Any]) -> float | None:
                 mtimes.append(st.st_mtime)
         if mtimes:
             found.append(max(mtimes) - float(t0))
+    no_start = not found
     last = _last_decision_t(session.decisions)
     if last is not None:
         found.append(last)
+        if no_start and session.streams.is_dir():
+            # No start time: the last decision is only a lower bound (decisions.jsonl is
+            # written when something changes), so the talk lasted at least to its last sample.
+            stamps = (_last_stamp(p) for p in session.streams.glob("*.txt"))
+            found += [t for t in stamps if t is not None]
     if not found:
         return None
     return min(max(0.0, max(found)), MAX_TALK_S)

@@ -258,3 +258,33 @@ def test_a_false_alarm_is_shown_as_such_not_as_improved(tmp_path: Path) -> None:
     html = write_report(s.root).read_text()
     assert "false alarm" in html and "you got better</span></td></tr>" not in html
     assert "%·s" not in html
+
+
+def test_a_session_json_of_a_newer_format_is_refused_naming_the_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    s = live_session(tmp_path / "S")
+    s.meta.write_text(json.dumps({**json.loads(s.meta.read_text()), "format": 2}))
+    said = f"{s.meta}: format: 2 is newer than this Prezence reads (format 1)"
+    assert main(["replay", str(s.root), "--out", str(tmp_path / "R"), "-q"]) == 2
+    assert said in capsys.readouterr().err
+    assert not (tmp_path / "R").exists()
+    # the report goes on without it, and says so
+    assert main(["report", str(s.root), "-q"]) == 0
+    assert any(said in r.getMessage() for r in caplog.records if r.levelname == "WARNING")
+
+
+def test_a_guessed_end_never_cuts_off_recorded_samples(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # no session.json, no config.toml: the end is guessed; the coach's last decision line
+    # (written when something changes) is at 560 s, the samples go on to 595 s
+    s = SessionDir(tmp_path / "S")
+    s.streams.mkdir(parents=True)
+    s.stream("speech_speed.txt").write_text("".join(f"{t}.0 160\n" for t in range(596)))
+    s.decisions.write_text(json.dumps({"t": 560.0, "cue": None, "winner": None}) + "\n")
+    report = build_report(s.root)
+    assert report["time"]["used_s"] == pytest.approx(595.0)
+    result = replay(s.root, out=tmp_path / "R", options=RunOptions.default(report=False))
+    assert result.summary["talk_s"] == pytest.approx(595.0)
+    assert not [r for r in caplog.records if "after the talk's end" in r.getMessage()]
