@@ -10,7 +10,10 @@ loop is open.
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
+from collections.abc import Iterator
 from dataclasses import dataclass
 from operator import attrgetter
 from pathlib import Path
@@ -219,6 +222,31 @@ def merge_readings(readings: dict[str, Reading]) -> list[Sample]:
     return samples
 
 
+class _SaidAlready(logging.Filter):
+    """Drops the stream reader's warnings about the files in one folder."""
+
+    def __init__(self, folder: Path) -> None:
+        super().__init__()
+        self.prefix = f"{folder}{os.sep}"
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not record.getMessage().startswith(self.prefix)
+
+
+@contextlib.contextmanager
+def _said_already(folder: Path) -> Iterator[None]:
+    """While the new session's summary and report read its stream files (copies of the
+    source's, or a rehearsal's own), their bad lines are not warned about again: they were,
+    once, naming the source, when the coach's samples were read (:func:`read_streams`)."""
+    tail_log = logging.getLogger(read_stream.__module__)
+    said = _SaidAlready(folder)
+    tail_log.addFilter(said)
+    try:
+        yield
+    finally:
+        tail_log.removeFilter(said)
+
+
 def process_recorded(
     session: SessionDir,
     config: Config,
@@ -262,5 +290,6 @@ def process_recorded(
         readings=readings,
     )
     bk = make_backend(backend, **(backend_kwargs or {}))
-    run = run_talk(source, config=config, session=session, backend=bk, options=options)
+    with _said_already(session.streams):
+        run = run_talk(source, config=config, session=session, backend=bk, options=options)
     return ReplayResult(run.session, run.cues, run.summary, run.report)

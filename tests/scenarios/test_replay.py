@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import logging
+import shutil
 from pathlib import Path
 
 import pytest
@@ -213,3 +215,19 @@ def test_a_recording_gives_each_decision_point_exactly_its_new_samples(burst: in
         assert all(prev < s.t <= now for s in batch)
         prev = now
     assert src.poll(100.0) == ()
+
+
+def test_a_bad_stream_line_is_warned_about_once_naming_the_source(
+    demo_session: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    src = tmp_path / "binstream"
+    shutil.copytree(demo_session, src)
+    with (src / "streams" / "speech_speed.txt").open("ab") as f:
+        f.write(b"12\xff\xfe 160\n\x80\x81\n")
+    out = tmp_path / "rp_x"
+    with caplog.at_level(logging.WARNING):
+        assert main(["replay", str(src), "--out", str(out)]) == 0
+    assert (out / "report" / "report.html").is_file()  # the report read the copies too
+    said = [r.getMessage() for r in caplog.records if "not UTF-8" in r.getMessage()]
+    assert len(said) == 2, said
+    assert all(m.startswith(f"{src / 'streams' / 'speech_speed.txt'}:") for m in said), said
