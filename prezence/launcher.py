@@ -436,7 +436,9 @@ class LiveSource(SourceBase):
 
     def start(self, session: SessionDir, config: Config) -> None:
         streams = {r.metric: session.stream(r.stream) for r in config.rules}
-        self._tailer = MultiTailer(streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
+        self._tailer = MultiTailer(
+            streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True, ranges=config.value_ranges()
+        )
         self.t0_epoch = time.time()
         self._logs = [
             (session.root / f"{m.name}.log").open("a", encoding="utf-8") for m in self.modules

@@ -33,7 +33,10 @@ def load_folder(folder: Path) -> tuple[Config, list[Sample]]:
     base = default_config()
     cfg = Config(rules=rules, processor=base.processor, time=base.time, room=base.room)
     paths = {r.metric: folder / "streams" / f"{r.metric}.txt" for r in rules}
-    return cfg.with_allocated(None), load_samples(paths)
+    # The peers' reader takes every finite value; so does this one, so that both harnesses
+    # feed their policies the same samples (the shared workload stays inside the physical
+    # ranges, where `prezence replay` takes the same samples too).
+    return cfg.with_allocated(None), load_samples(paths, ranges=None)
 
 
 def replay_fixed_busy(

@@ -269,7 +269,7 @@ def rehearse(
     for name, msg in failures.items():
         log.warning("module %s failed: %s", name, msg)
     paths = find_streams(session.root, config)
-    readings = read_streams(paths, max_t=MAX_TALK_S)
+    readings = read_streams(paths, max_t=MAX_TALK_S, ranges=config.value_ranges())
     samples = merge_readings(readings)
     # The talk lasted as long as the recording, not up to its last measured value: a talk that
     # ends in silence (or a module that stopped measuring) still used that time.

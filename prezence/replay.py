@@ -13,7 +13,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from operator import attrgetter
 from pathlib import Path
@@ -137,7 +137,7 @@ def replay(
     if not rec.meta.exists() and src.name == "streams" and SessionDir(src.parent).meta.exists():
         rec = SessionDir(src.parent)
     limit = sample_time_limit(rec, rec.read_meta())
-    readings = read_streams(paths, max_t=limit)
+    readings = read_streams(paths, max_t=limit, ranges=config.value_ranges())
     samples = merge_readings(readings)
     talk_s = float(meta.get("talk_s") or min(limit, samples[-1].t if samples else 0.0))
 
@@ -186,15 +186,28 @@ def replay(
 Reading = tuple[list[Sample], TailStats, list[StreamProblem]]
 
 
-def read_streams(paths: dict[str, Path], *, max_t: float | None = None) -> dict[str, Reading]:
+def read_streams(
+    paths: dict[str, Path],
+    *,
+    max_t: float | None = None,
+    ranges: Mapping[str, tuple[float, float]] | None,
+) -> dict[str, Reading]:
     """Read each stream file once (metric → file); warns about malformed lines.
 
     Samples stamped after ``max_t`` (the talk's end plus a margin) are skipped and counted.
+    Values outside ``ranges[metric]`` (:meth:`Config.value_ranges`, the metrics' physical
+    ranges) are skipped as malformed lines; None, or a metric not in it: every finite value.
     """
     out: dict[str, Reading] = {}
     for metric, path in paths.items():
         problems: list[StreamProblem] = []
-        ss, tail_stats = read_stream(path, metric, problems=problems, max_t=max_t)
+        ss, tail_stats = read_stream(
+            path,
+            metric,
+            problems=problems,
+            max_t=max_t,
+            value_range=(ranges or {}).get(metric),
+        )
         if tail_stats.malformed:
             log.warning("%s: %d malformed lines skipped", path, tail_stats.malformed)
         if tail_stats.beyond_talk:
@@ -208,9 +221,15 @@ def read_streams(paths: dict[str, Path], *, max_t: float | None = None) -> dict[
     return out
 
 
-def load_samples(paths: dict[str, Path], *, max_t: float | None = None) -> list[Sample]:
-    """Every sample of the given stream files, in time order (file order kept for ties)."""
-    return merge_readings(read_streams(paths, max_t=max_t))
+def load_samples(
+    paths: dict[str, Path],
+    *,
+    max_t: float | None = None,
+    ranges: Mapping[str, tuple[float, float]] | None,
+) -> list[Sample]:
+    """Every sample of the given stream files, in time order (file order kept for ties);
+    ``max_t`` and ``ranges`` as in :func:`read_streams`."""
+    return merge_readings(read_streams(paths, max_t=max_t, ranges=ranges))
 
 
 def merge_readings(readings: dict[str, Reading]) -> list[Sample]:

@@ -413,7 +413,12 @@ def summarize_session(
             ss, st, skipped = readings[rule.metric]
             found += skipped
         else:
-            ss, st = read_stream(session.stream(rule.stream), rule.metric, problems=found)
+            ss, st = read_stream(
+                session.stream(rule.stream),
+                rule.metric,
+                problems=found,
+                value_range=rule.value_range,
+            )
         samples[rule.metric] = ss
         stats[rule.metric] = st.to_dict()
         if not ss and not session.stream(rule.stream).exists():

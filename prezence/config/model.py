@@ -20,6 +20,7 @@ from typing import Any
 
 # re-exported: rules and presenters name it from here
 from prezence.feedback.direction import Direction as Direction
+from prezence.metrics import METRICS
 
 FORMAT = 1  # version of the TOML config and scenario formats
 
@@ -73,6 +74,21 @@ class Rule:
     def __post_init__(self) -> None:
         if not self.stream:
             object.__setattr__(self, "stream", f"{self.metric}.txt")
+
+    @property
+    def value_range(self) -> tuple[float, float] | None:
+        """The values the metric's stream may hold: its record's physical range
+        (:data:`prezence.metrics.METRICS`), else None (any finite value). A sample outside it
+        is a module gone wrong: the stream readers skip and report it.
+
+        Example:
+            >>> Rule("speech_accuracy", Check.MIN, low=0.5).value_range
+            (0.0, 1.0)
+            >>> Rule("fidget_rate", Check.MAX, high=3).value_range is None
+            True
+        """
+        rec = METRICS.get(self.metric)
+        return rec.physical_range if rec is not None else None
 
     def judge(self, value: float) -> tuple[float, str | None]:
         """``(deviation(value), side(value))`` in one pass (the processor's per-sample path)."""
@@ -245,6 +261,10 @@ class Config:
     @property
     def metrics(self) -> tuple[str, ...]:
         return tuple(r.metric for r in self.rules)
+
+    def value_ranges(self) -> dict[str, tuple[float, float]]:
+        """Metric → the values its stream may hold (:attr:`Rule.value_range`), where known."""
+        return {r.metric: vr for r in self.rules if (vr := r.value_range) is not None}
 
     def with_allocated(self, allocated_s: float | None) -> Config:
         """A copy with another allocated time."""

@@ -438,7 +438,9 @@ def _rebuild(
     for rule in cfg.rules:
         path = paths.get(rule.metric, session.stream(rule.stream))
         skipped: list[Any] = []
-        samples, st = read_stream(path, rule.metric, max_t=limit, problems=skipped)
+        samples, st = read_stream(
+            path, rule.metric, max_t=limit, problems=skipped, value_range=rule.value_range
+        )
         streams[rule.metric] = sorted(samples, key=lambda s: s.t)
         stats[rule.metric] = st.to_dict()
         if st.malformed:

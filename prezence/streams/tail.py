@@ -7,10 +7,12 @@ reached last time) and returns the samples of the *complete* lines among them. W
 - **partial last line**: bytes after the last newline are kept until the newline arrives.
 - **blank lines**: skipped silently (they still count for line numbers).
 - **bad lines** (garbage, more than two fields, NaN/inf, negative ``t``, invalid UTF-8, a line
-  longer than :data:`MAX_LINE_BYTES`): skipped and counted as ``malformed``; each is logged once
-  as a warning with ``file:line: reason`` (the first :data:`MAX_LOGGED_PROBLEMS` per stream, then
-  one notice) and the last ``max_problems`` are kept as :class:`StreamProblem` for the summary.
-  Nothing in a file's content makes ``poll`` raise.
+  longer than :data:`MAX_LINE_BYTES`, a value outside the metric's physical range when the
+  tailer is given one: 5000 wpm is a module gone wrong, not a fast talker): skipped and counted
+  as ``malformed``; each is logged once as a warning with ``file:line: reason`` (the first
+  :data:`MAX_LOGGED_PROBLEMS` per stream, then one notice) and the last ``max_problems`` are
+  kept as :class:`StreamProblem` for the summary. Nothing in a file's content makes ``poll``
+  raise.
 - **missing file**: no error; ``missing`` counts each time the file is found absent (at the start
   or after it was deleted), and reading starts when it appears.
 - **truncated file** (size below the offset read so far, or the last bytes before that offset
@@ -168,6 +170,10 @@ class StreamTailer:
         max_ahead_s: skip (as malformed) lines stamped more than this after ``poll``'s ``now``;
             None keeps them.
         record_stamps: append the time given to each bare-value line to :func:`stamps_path`.
+        max_t: samples stamped after this are skipped and counted as ``beyond_talk``.
+        value_range: ``(lo, hi)``: a value outside it is a bad line (skipped, counted as
+            malformed, logged with ``file:line``); None accepts every finite value. Callers
+            give the rule's :attr:`~prezence.config.model.Rule.value_range`.
     """
 
     def __init__(
@@ -179,6 +185,7 @@ class StreamTailer:
         max_ahead_s: float | None = None,
         record_stamps: bool = False,
         max_t: float | None = None,
+        value_range: tuple[float, float] | None = None,
     ) -> None:
         if not metric:
             raise ValueError("metric must be a non-empty name")
@@ -189,6 +196,11 @@ class StreamTailer:
         self.max_ahead_s = max_ahead_s
         #: samples stamped after this (the talk's end plus a margin) are skipped and counted
         self.max_t = max_t
+        if value_range is not None and not value_range[0] <= value_range[1]:
+            raise ValueError(f"value_range must be (lo, hi) with lo <= hi, got {value_range!r}")
+        #: values outside this are skipped as bad lines; None: any finite value
+        self.value_range = value_range
+        self._vlo, self._vhi = value_range if value_range is not None else (-math.inf, math.inf)
         self._beyond = 0
         self._stamps_out = stamps_path(self.path) if record_stamps else None
         self._stamps_in: dict[int, float] = {}  # read_stream: line -> recorded stamp
@@ -434,6 +446,8 @@ class StreamTailer:
         lo = 0.0 if self._last_t is None else max(0.0, self._last_t)
         if not (np.isfinite(values).all() and ts[0] >= lo and np.all(ts[1:] >= ts[:-1])):
             return None
+        if self.value_range is not None and not (vs.min() >= self._vlo and vs.max() <= self._vhi):
+            return None  # a value outside the physical range: the line-by-line way names it
         max_t = self.max_t
         if self.max_ahead_s is not None and now is not None and ts[-1] > now + self.max_ahead_s:
             return None  # ahead of the talk clock: the line-by-line way names the lines
@@ -479,6 +493,7 @@ class StreamTailer:
         max_t = self.max_t
         last_t = self._last_t
         recorded = self._stamps_in
+        vlo, vhi = self._vlo, self._vhi
         stamped: list[str] = []
         t: float | None
         if plain and not self._skipping and isinstance(lines, list):
@@ -500,6 +515,8 @@ class StreamTailer:
                     break
                 # x - x == 0.0 is false for inf and nan
                 if not (lo <= tf <= hi and tf >= 0.0 and value - value == 0.0):
+                    break
+                if not vlo <= value <= vhi:
                     break
                 lo = tf
                 append(Sample(metric, tf, value))
@@ -543,6 +560,12 @@ class StreamTailer:
                 except StreamLineError as e:
                     self._problem(self._line_no, e.reason)
                     continue
+            if not vlo <= value <= vhi:
+                self._problem(
+                    self._line_no,
+                    f"value {value:g} is outside {metric}'s physical range {vlo:g}..{vhi:g}",
+                )
+                continue
             if t is None:  # bare value: stamped by the reader
                 if self._line_no in recorded:
                     t = recorded[self._line_no]
@@ -635,6 +658,7 @@ def read_stream(
     now: float | None = None,
     problems: list[StreamProblem] | None = None,
     max_t: float | None = None,
+    value_range: tuple[float, float] | None = None,
 ) -> tuple[list[Sample], TailStats]:
     """Read a whole stream file at once (report, replay, rebuild after a crash).
 
@@ -650,6 +674,8 @@ def read_stream(
             start).
         problems: if given, the skipped lines (up to 100) are appended to it.
         max_t: samples stamped after this are skipped and counted as ``beyond_talk``.
+        value_range: values outside ``(lo, hi)`` are skipped as malformed lines (see
+            :class:`StreamTailer`); None accepts every finite value.
 
     A path that is not a regular file (a FIFO, a device) gives no samples (``missing == 1``)
     and is never opened; at most :data:`MAX_STREAM_BYTES` are read.
@@ -657,7 +683,7 @@ def read_stream(
     Returns:
         The samples in file order, and the counters.
     """
-    tailer = StreamTailer(path, metric, max_t=max_t)
+    tailer = StreamTailer(path, metric, max_t=max_t, value_range=value_range)
     tailer._stamps_in = _read_stamps(stamps_path(path))
     at = None if now is None else _check_now(now)
     samples = tailer._poll(at)
@@ -846,6 +872,8 @@ class MultiTailer:
         max_ahead_s: lines stamped more than this after ``poll``'s ``now`` are skipped as
             malformed (see :class:`StreamTailer`); None keeps them.
         record_stamps: record the times given to bare-value lines (see :func:`stamps_path`).
+        ranges: metric -> ``(lo, hi)``: values outside are skipped as bad lines (see
+            :class:`StreamTailer`); a metric not in it accepts every finite value.
 
     Example::
 
@@ -864,6 +892,7 @@ class MultiTailer:
         max_problems: int = 100,
         max_ahead_s: float | None = None,
         record_stamps: bool = False,
+        ranges: Mapping[str, tuple[float, float]] | None = None,
     ) -> None:
         if watch not in ("auto", "inotify", "poll"):
             raise ValueError(f"watch must be 'auto', 'inotify' or 'poll', got {watch!r}")
@@ -878,6 +907,7 @@ class MultiTailer:
                 max_problems=max_problems,
                 max_ahead_s=max_ahead_s,
                 record_stamps=record_stamps,
+                value_range=(ranges or {}).get(m),
             )
             for m, p in streams.items()
         }

@@ -68,7 +68,12 @@ class SyntheticSource(SourceBase):
         self._writers = {m: StreamWriter(p) for m, p in self._streams.items()}
         for w in self._writers.values():
             w.open()
-        self._tailer = MultiTailer(self._streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True)
+        self._tailer = MultiTailer(
+            self._streams,
+            max_ahead_s=MAX_AHEAD_S,
+            record_stamps=True,
+            ranges=config.value_ranges(),
+        )
 
     def poll(self, now: float) -> Sequence[Sample]:
         samples = self.presenter.advance(now)

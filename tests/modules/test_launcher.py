@@ -70,6 +70,27 @@ def test_up_runs_modules_and_coaches_live(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+def test_up_skips_values_outside_the_physical_range_and_says_where(tmp_path: Path) -> None:
+    # The walkthrough's bad_speed.py: 5000 wpm was cued as "2678 % above 180 wpm" and the
+    # summary's stream problems were empty.
+    result = up(
+        CONFIG,
+        session_dir=tmp_path / "s",
+        modules=[pace("--wpm", "5000")],
+        backend=FakeBackend(time_scale=0.01),
+        duration_s=2.0,
+        options=RunOptions.default(report=False),
+    )
+    assert read_jsonl(tmp_path / "s" / "cues.jsonl") == []
+    speed = result.summary["metrics"]["speech_speed"]
+    assert speed["samples"] == 0 and speed["stream"]["malformed"] >= 10
+    stream = tmp_path / "s" / "streams" / "speech_speed.txt"
+    assert result.summary["stream_problems"][0] == (
+        f"{stream}:1: value 5000 is outside speech_speed's physical range 0..400"
+    )
+
+
+@pytest.mark.slow
 def test_two_healthy_modules_writing_different_streams_are_never_restarted(
     tmp_path: Path,
 ) -> None:

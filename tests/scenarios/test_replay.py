@@ -80,6 +80,38 @@ def test_replay_cli_on_plain_stream_files(
     assert "slowDown" in out
 
 
+def test_replay_and_report_skip_values_outside_the_physical_range(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A module gone wrong writes 5000 wpm and a clarity of 7.5 (0..1): before, the coach cued
+    # "5000 is 2678% above 180 wpm", 7.5 counted as in range and the summary said nothing.
+    src = tmp_path / "rec"
+    src.mkdir()
+    (src / "speech_speed.txt").write_text(
+        "".join(f"{t} {5000 if t % 10 < 5 else 160}\n" for t in range(0, 61))
+    )
+    (src / "speech_accuracy.txt").write_text("".join(f"{t} 7.5\n" for t in range(0, 61)))
+    out = tmp_path / "out"
+    assert main(["replay", str(src), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "slowDown" not in printed
+    summary = json.loads((out / "summary.json").read_text())
+    problems = summary["stream_problems"]
+    assert (
+        f"{src}/speech_speed.txt:1: value 5000 is outside speech_speed's physical range 0..400"
+        in problems
+    )
+    assert (
+        f"{src}/speech_accuracy.txt:1: value 7.5 is outside speech_accuracy's physical range 0..1"
+        in problems
+    )
+    assert summary["metrics"]["speech_speed"]["stream"]["malformed"] == 31  # 0-4, 10-14, … 60
+    assert summary["metrics"]["speech_accuracy"]["samples"] == 0
+    # the table's mean is the plausible values' (160), not 2663
+    row = next(line for line in printed.splitlines() if line.startswith("speech_speed "))
+    assert "160.00" in row.split()
+
+
 def test_replay_under_other_bands_drops_the_ground_truth(
     demo_session: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

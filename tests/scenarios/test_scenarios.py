@@ -140,9 +140,11 @@ def test_a_metric_no_module_was_run_for_is_not_measured_not_stale(tmp_path: Path
 
     session = SessionDir(tmp_path).create()
     config = default_config()
+    plausible = {"speech_speed": 150.0, "speech_volume": 65.0, "speech_accuracy": 0.8}
     for rule in config.rules:
         if rule.metric.startswith("speech_"):
-            session.stream(rule.stream).write_text("".join(f"{t} 150.0\n" for t in range(60)))
+            v = plausible[rule.metric]  # 150 is no clarity (0..1): such lines are skipped
+            session.stream(rule.stream).write_text("".join(f"{t} {v}\n" for t in range(60)))
     summary = summarize_session(session, config, talk_s=60.0)
     gaze = summary["metrics"]["cv_headGaze"]
     assert (gaze["samples"], gaze["stale_episodes"], gaze["measured"]) == (0, 0, False)

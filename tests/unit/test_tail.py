@@ -496,3 +496,63 @@ def test_a_large_read_while_following_gives_what_small_reads_give(stream: Path) 
     want = [Sample(M, k * 0.25, float(f"{k % 13}.5")) for k in range(20_000)]
     assert got == want
     assert big.stats().malformed == 0
+
+
+# -- physical ranges -------------------------------------------------------------------------
+
+
+def test_values_outside_the_physical_range_are_bad_lines_with_file_and_line(
+    stream: Path,
+) -> None:
+    # bad_speed.py of the walkthrough: 5000 and -50 wpm were fed to the processor ("5000 is
+    # 2678 % above 180 wpm") and the summary's stream problems said nothing.
+    stream.write_bytes(b"1 160\n2 5000\n3 -50\n4 400\n5 0\n")
+    tailer = StreamTailer(stream, M, value_range=(0.0, 400.0))
+    assert values(tailer.poll(10.0)) == [160.0, 400.0, 0.0]  # the bounds themselves are fine
+    assert tailer.stats().malformed == 2
+    assert [str(p) for p in tailer.problems()] == [
+        f"{stream}:2: value 5000 is outside speech_speed's physical range 0..400",
+        f"{stream}:3: value -50 is outside speech_speed's physical range 0..400",
+    ]
+    # bare values (the seed's format) too, and line numbers stay right across polls
+    append(stream, b"7.5e3\n170\n")
+    assert values(tailer.poll(11.0)) == [170.0]
+    assert str(tailer.problems()[-1]).startswith(f"{stream}:6: value 7500 is outside")
+    # without a range every finite value is taken, as before
+    assert values(StreamTailer(stream, M).poll(11.0)) == [160, 5000, -50, 400, 0, 7500, 170]
+
+
+def test_a_large_file_with_one_value_out_of_range_is_read_as_line_by_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import prezence.streams.tail as tail
+
+    lines = [f"{k * 0.5!r} {150.0 + k % 7}\n".encode() for k in range(10_000)]
+    path = tmp_path / "speech_speed.txt"
+    path.write_bytes(b"".join(lines[:5000]) + b"2499.75 1e8\n" + b"".join(lines[5000:]))
+    fast_problems: list[StreamProblem] = []
+    fast = read_stream(path, M, problems=fast_problems, value_range=(0.0, 400.0))
+    monkeypatch.setattr(tail, "BULK_MIN_BYTES", 1 << 40)
+    slow_problems: list[StreamProblem] = []
+    slow = read_stream(path, M, problems=slow_problems, value_range=(0.0, 400.0))
+    assert fast == slow and fast_problems == slow_problems
+    assert len(fast[0]) == 10_000 and fast[1].malformed == 1
+    assert [str(p) for p in fast_problems] == [
+        f"{path}:5001: value 1e+08 is outside speech_speed's physical range 0..400"
+    ]
+
+
+def test_multi_tailer_applies_each_metrics_range_only_to_it(tmp_path: Path) -> None:
+    speed, rate = tmp_path / "speech_speed.txt", tmp_path / "gesture_rate.txt"
+    speed.write_text("1 5000\n2 160\n")
+    rate.write_text("1 -1.5\n")  # a metric without a range: negative values are its business
+    with MultiTailer(
+        {M: speed, "gesture_rate": rate}, watch="poll", ranges={M: (0.0, 400.0)}
+    ) as tails:
+        assert [(s.metric, s.value) for s in tails.poll(5.0)] == [
+            ("gesture_rate", -1.5),
+            (M, 160.0),
+        ]
+        assert [str(p) for p in tails.problems()] == [
+            f"{speed}:1: value 5000 is outside speech_speed's physical range 0..400"
+        ]
