@@ -13,7 +13,9 @@ Grammar (``#`` starts a comment, blank lines are ignored)::
 - Keys: ``below=``, ``above=`` (commands), ``scale=`` (deviation scale, the metric's unit),
   ``gain=``, ``offset=`` (added to every value), ``at=listener`` (offset = the inverse-square
   estimate at the room's farthest listener), ``stream=`` (file name), ``stale=`` (seconds),
-  ``unit=``. A value with spaces or ``#`` is written in double quotes: ``unit="dB SPL"``.
+  ``unit=``, ``range=LO..HI`` (the values a metric of your own can physically take; the stream
+  readers skip the others). A value with spaces or ``#`` is written in double quotes:
+  ``unit="dB SPL"``.
 
 The checks shared with the TOML front end (commands exist and point the right way, a bound at or
 below zero needs ``scale``…) live in :func:`check_rule`; each front end turns a
@@ -34,6 +36,7 @@ from typing import Literal
 
 from prezence.config.model import Check, Direction, RoomProfile, Rule
 from prezence.errors import ConfigError, unknown_message
+from prezence.metrics import METRICS
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +73,7 @@ LINE_KEYS: dict[str, str] = {
     "stream": "stream",
     "stale": "stale_after_s",
     "unit": "unit",
+    "range": "physical_range",
 }
 _NUMBER_KEYS = {"scale", "gain", "offset", "stale"}
 
@@ -189,6 +193,7 @@ def check_rule(
                     f"the deviation scale in the metric's unit, e.g. {_kv(syntax, 'scale', '10')} "
                     f"(a value one scale outside the band deviates by 100 %)",
                 )
+    _check_physical_range(rule, syntax)
     _printable("unit", rule.unit)
     _printable("stream", rule.stream)
     parts = re.split(r"[/\\]", rule.stream)
@@ -196,6 +201,41 @@ def check_rule(
         raise RuleProblem(
             "stream", f"stream {rule.stream!r} must be a file name inside the streams folder"
         )
+
+
+def _check_physical_range(rule: Rule, syntax: Syntax) -> None:
+    if rule.physical_range is None:
+        return
+    lo, hi = rule.physical_range
+    rec = METRICS.get(rule.metric)
+    if rec is not None and rec.physical_range is not None:
+        rlo, rhi = rec.physical_range
+        raise RuleProblem(
+            "physical_range",
+            f"{rule.metric} has its physical range {rlo:g}..{rhi:g} {rec.unit} from its record "
+            "(prezence/metrics.py); a range of its own is for metrics without one",
+        )
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        shown = f"{lo:g}..{hi:g}" if syntax == "line" else f"[{lo:g}, {hi:g}]"
+        raise RuleProblem(
+            "physical_range", f"range needs two finite numbers LO < HI, found {shown}"
+        )
+
+
+def parse_range(text: str) -> tuple[float, float] | None:
+    """``LO..HI`` as two numbers (any order; :func:`check_rule` wants LO < HI); None if not.
+
+    Example:
+        >>> parse_range("-90..90.5")
+        (-90.0, 90.5)
+        >>> parse_range("0-60") is None
+        True
+    """
+    lo, sep, hi = text.partition("..")
+    a, b = _number(lo), _number(hi)
+    if not sep or a is None or b is None:
+        return None
+    return a, b
 
 
 def _check_commands(rule: Rule, commands: CommandTable, syntax: Syntax, positional: bool) -> None:
@@ -410,6 +450,14 @@ def parse_rule_line(
         if x is None:
             raise where(cols[LINE_KEYS[key]], f"{key}= takes a number, found '{kv[key]}'")
         nums[key] = x
+    physical_range: tuple[float, float] | None = None
+    if "range" in kv:
+        physical_range = parse_range(kv["range"])
+        if physical_range is None:
+            raise where(
+                cols["physical_range"],
+                f"range= takes LO..HI, two numbers, e.g. range=0..60; found '{kv['range']}'",
+            )
     offset = nums.get("offset", 0.0)
     if "at" in kv:
         col = cols["offset"]
@@ -439,6 +487,7 @@ def parse_rule_line(
         stream=kv.get("stream", ""),
         stale_after_s=nums.get("stale"),
         unit=kv.get("unit", ""),
+        physical_range=physical_range,
         source=f"{path}:{lineno}",
     )
     try:
@@ -551,4 +600,7 @@ def format_rule(rule: Rule) -> str:
         parts.append(f"stream={_text(rule.stream)}")
     if rule.unit:
         parts.append(f"unit={_text(rule.unit)}")
+    if rule.physical_range is not None:
+        lo, hi = rule.physical_range
+        parts.append(f"range={_num(lo)}..{_num(hi)}")
     return " ".join(parts)

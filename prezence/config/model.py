@@ -53,6 +53,10 @@ class Rule:
         stale_after_s: the metric is excluded from decisions once its newest sample is older
             than this; None uses the processor setting.
         unit: for display only.
+        physical_range: ``(lo, hi)``, the values the metric can physically take, declared by
+            the rule (``range=LO..HI``) for a metric without a record in
+            :data:`prezence.metrics.METRICS` (a record's range is not the rule's to change);
+            None: the record's, if any (see :attr:`value_range`).
         source: ``file:line`` where the rule was defined; not part of equality.
     """
 
@@ -69,24 +73,32 @@ class Rule:
     stream: str = ""
     stale_after_s: float | None = None
     unit: str = ""
+    physical_range: tuple[float, float] | None = None
     source: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
         if not self.stream:
             object.__setattr__(self, "stream", f"{self.metric}.txt")
+        if self.physical_range is not None:
+            lo, hi = self.physical_range
+            object.__setattr__(self, "physical_range", (float(lo), float(hi)))
 
     @property
     def value_range(self) -> tuple[float, float] | None:
-        """The values the metric's stream may hold: its record's physical range
-        (:data:`prezence.metrics.METRICS`), else None (any finite value). A sample outside it
-        is a module gone wrong: the stream readers skip and report it.
+        """The values the metric's stream may hold: the rule's own ``physical_range``, else its
+        record's (:data:`prezence.metrics.METRICS`), else None (any finite value). A sample
+        outside it is a module gone wrong: the stream readers skip and report it.
 
         Example:
             >>> Rule("speech_accuracy", Check.MIN, low=0.5).value_range
             (0.0, 1.0)
+            >>> Rule("fidget_rate", Check.MAX, high=3, physical_range=(0, 60)).value_range
+            (0.0, 60.0)
             >>> Rule("fidget_rate", Check.MAX, high=3).value_range is None
             True
         """
+        if self.physical_range is not None:
+            return self.physical_range
         rec = METRICS.get(self.metric)
         return rec.physical_range if rec is not None else None
 
@@ -136,7 +148,9 @@ class Rule:
             v = getattr(self, f.name)
             if f.name == "stream" and v == f"{self.metric}.txt":
                 continue
-            if v is not None and v != f.default:
+            if f.name == "physical_range" and v is not None:
+                d["range"] = list(v)  # the key of both front ends
+            elif v is not None and v != f.default:
                 d[f.name] = v
         return d
 

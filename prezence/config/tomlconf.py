@@ -10,7 +10,8 @@ Layout (every key is optional unless noted; a missing key takes the dataclass de
     [time]        the fields of TimeSettings; allocated_s = false disables time warnings
     [[rules]]     … or rules as tables: metric, check, low, high (numbers or named values as
                   strings), strict, below, above, scale, gain, offset, at = "listener", stream,
-                  stale_after_s, unit
+                  stale_after_s, unit, range = [LO, HI] (a metric of your own: the values it
+                  can physically take)
 
 Syntax errors carry tomllib's line and column. Semantic errors carry the key path
 (``rules[2].above``, rules counted from 0) and, where a simple scan of the text finds it, the line.
@@ -69,6 +70,7 @@ RULE_KEYS = (
     "stream",
     "stale_after_s",
     "unit",
+    "range",
 )
 
 
@@ -435,6 +437,13 @@ def _rule(raw: object, kp: KeyPath, room: RoomProfile, ctx: _Ctx) -> Rule:
         texts: dict[str, str] = {}
         for key in ("stream", "unit"):
             texts[key] = _str(table.get(key, ""))
+        key = "range"
+        physical_range: tuple[float, float] | None = None
+        if "range" in table:
+            pair = table["range"]
+            if not (isinstance(pair, list) and len(pair) == 2):
+                raise _Bad(f"range takes [LO, HI], two numbers; found {_describe(pair)}")
+            physical_range = (_num(pair[0]), _num(pair[1]))
         key = "at"
         offset = nums["offset"] if nums["offset"] is not None else 0.0
         if "at" in table:
@@ -466,12 +475,14 @@ def _rule(raw: object, kp: KeyPath, room: RoomProfile, ctx: _Ctx) -> Rule:
         stream=texts["stream"],
         stale_after_s=nums["stale_after_s"],
         unit=texts["unit"],
+        physical_range=physical_range,
         source=f"{ctx.path}:{line}" if line is not None else f"{ctx.path}: {keypath_str(kp)}",
     )
     try:
         check_rule(rule, commands=ctx.commands, syntax="toml")
     except RuleProblem as p:
-        raise ctx.error((*kp, p.field), p.message) from None
+        key = {"physical_range": "range"}.get(p.field, p.field)  # the TOML key's name
+        raise ctx.error((*kp, key), p.message) from None
     return rule
 
 

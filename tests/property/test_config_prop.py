@@ -60,6 +60,9 @@ def rules(draw: st.DrawFn, metric: str | None = None) -> Rule:
         stream=draw(streams),
         stale_after_s=draw(st.none() | positive),
         unit=draw(units),
+        physical_range=draw(st.none() | st.tuples(finite, finite).filter(lambda p: p[0] < p[1]))
+        if metric is None
+        else None,  # a metric with a record has its range there
     )
 
 

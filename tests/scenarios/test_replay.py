@@ -112,6 +112,31 @@ def test_replay_and_report_skip_values_outside_the_physical_range(
     assert "160.00" in row.split()
 
 
+def test_a_metric_of_your_own_gets_a_physical_range_from_its_rule(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # fidget.py --mode range of the walkthrough: -1e30 and 99999999 made the table's mean
+    # -3.2e29 and the robot cued on 1e+08; a rule may now say what the metric can be.
+    src = tmp_path / "rec"
+    src.mkdir()
+    rows = [f"{t} {6.0 if t % 20 < 12 else 1.0}\n" for t in range(0, 60)]
+    rows[10:10] = ["10.1 -1e30\n", "10.2 99999999\n"]
+    (src / "fidget_rate.txt").write_text("".join(rows))
+    rules = tmp_path / "rules.txt"
+    rules.write_text("fidget_rate max 3 gestureLess unit=1/min range=0..60\n")
+    out = tmp_path / "out"
+    assert main(["replay", str(src), "--config", str(rules), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "1e+08" not in printed and "e+29" not in printed
+    row = next(line for line in printed.splitlines() if line.startswith("fidget_rate "))
+    assert float(row.split()[3]) == pytest.approx((36 * 6.0 + 24 * 1.0) / 60, abs=0.01)
+    problems = json.loads((out / "summary.json").read_text())["stream_problems"]
+    assert problems == [
+        f"{src}/fidget_rate.txt:11: value -1e+30 is outside fidget_rate's physical range 0..60",
+        f"{src}/fidget_rate.txt:12: value 1e+08 is outside fidget_rate's physical range 0..60",
+    ]
+
+
 def test_replay_under_other_bands_drops_the_ground_truth(
     demo_session: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -209,6 +209,34 @@ def test_keys_set_rule_fields() -> None:
     assert (r.stream, r.unit) == ("mic.txt", "dB SPL")
 
 
+def test_range_declares_the_physical_range_of_a_metric_of_your_own() -> None:
+    (r,) = parse("fidget_rate max 3 gestureLess unit=1/min range=0..60")
+    assert r.physical_range == (0.0, 60.0) and r.value_range == (0.0, 60.0)
+    (g,) = parse("gesture_rate inRange 2 12 scale=2 range=-1.5..60")
+    assert g.physical_range == (-1.5, 60.0)
+
+
+@pytest.mark.parametrize(
+    ("line", "col", "needle"),
+    [
+        (
+            "fidget_rate max 3 range=60..0",
+            25,
+            "range needs two finite numbers LO < HI, found 60..0",
+        ),
+        ("fidget_rate max 3 range=0-60", 25, "range= takes LO..HI, two numbers, e.g. range=0..60"),
+        (
+            "speech_speed inRange 140 180 range=0..500",
+            36,
+            "speech_speed has its physical range 0..400 wpm from its record",
+        ),
+    ],
+)
+def test_a_bad_range_says_where_and_why(line: str, col: int, needle: str) -> None:
+    e = parse_error(line)
+    assert needle in str(e) and e.col == col
+
+
 def test_unknown_key_suggests_the_right_one() -> None:
     e = parse_error("speech_volume min 60 louder scael=6")
     assert "unknown key 'scael'; did you mean 'scale'?" in str(e)
@@ -239,8 +267,9 @@ def test_errors_are_collected_when_asked() -> None:
         Rule("cv_headGaze", Check.MIN, low=-15, scale=10, below="lookUp", unit="deg"),
         Rule("speech_volume", Check.MIN, low=60.5, offset=-6.02, gain=0.5, stream="a b#.txt"),
         Rule("x", Check.MAX, high=1e20, strict=True, stale_after_s=2.5, unit="dB SPL"),
+        Rule("fidget_rate", Check.MAX, high=3, physical_range=(-0.5, 60)),
     ],
-    ids=["in-range", "negative-bound", "offset-and-quoted-stream", "strict-max"],
+    ids=["in-range", "negative-bound", "offset-and-quoted-stream", "strict-max", "range"],
 )
 def test_format_rule_round_trips(rule: Rule) -> None:
     assert parse(format_rule(rule)) == (rule,)

@@ -230,6 +230,18 @@ def test_dumps_round_trips_awkward_values() -> None:
     assert load(dumps_config(cfg)) == cfg
 
 
+def test_range_is_a_rule_key_and_round_trips() -> None:
+    body = '[[rules]]\nmetric = "fidget_rate"\ncheck = "max"\nhigh = 3\nrange = [0, 60]\n'
+    cfg = load("format = 1\n" + body)
+    assert cfg.rules[0].physical_range == (0.0, 60.0)
+    assert cfg.rules == parse_lines("fidget_rate max 3 range=0..60")
+    assert load(dumps_config(cfg)) == cfg
+    e = load_error("format = 1\n" + body.replace("[0, 60]", "[60, 0]"))
+    assert "rules[0].range: range needs two finite numbers LO < HI, found [60, 0]" in str(e)
+    e = load_error("format = 1\n" + body.replace("[0, 60]", '"0..60"'))
+    assert "rules[0].range: range takes [LO, HI], two numbers" in str(e)
+
+
 def test_loads_room_reads_the_room_table() -> None:
     room = loads_room('format = 1\n[room]\nname = "hall"\nvalues = { ANGLE = -5 }\n', path="r.toml")
     assert room == RoomProfile(name="hall", values={"ANGLE": -5.0})
