@@ -184,6 +184,8 @@ def check_rule(
     if not math.isfinite(rule.offset):
         raise RuleProblem("offset", f"offset must be a finite number, found {rule.offset}")
     _check_commands(rule, commands, syntax, positional)
+    _check_physical_range(rule, syntax)
+    _check_bounds_in_range(rule)
     if rule.scale is None:
         for name, v in (("low", rule.low), ("high", rule.high)):
             if v is not None and v <= 0:
@@ -193,7 +195,6 @@ def check_rule(
                     f"the deviation scale in the metric's unit, e.g. {_kv(syntax, 'scale', '10')} "
                     f"(a value one scale outside the band deviates by 100 %)",
                 )
-    _check_physical_range(rule, syntax)
     _printable("unit", rule.unit)
     _printable("stream", rule.stream)
     parts = re.split(r"[/\\]", rule.stream)
@@ -220,6 +221,37 @@ def _check_physical_range(rule: Rule, syntax: Syntax) -> None:
         raise RuleProblem(
             "physical_range", f"range needs two finite numbers LO < HI, found {shown}"
         )
+
+
+def _check_bounds_in_range(rule: Rule) -> None:
+    """A bound outside the values the metric can take either can never be met (the rule
+    would cue for the whole talk) or is always met (its command is never given)."""
+    vr = rule.value_range
+    if vr is None:
+        return
+    lo, hi = vr[0] + rule.offset, vr[1] + rule.offset
+    rec = METRICS.get(rule.metric)
+    unit = rec.unit if rec is not None else rule.unit
+    shown = f"{lo:g}..{hi:g}" + (f" {unit}" if unit and ".." not in unit else "")
+    where = f"{rule.metric} is {shown} (physical range"
+    where += f", with offset {rule.offset:g})" if rule.offset else ")"
+    chk = rule.check.value
+    for name, v, side in (("low", rule.low, "below"), ("high", rule.high, "above")):
+        if v is None:
+            continue
+        # the lower bound above every value, or the upper one below every value
+        never_met = v > hi if name == "low" else v < lo
+        if never_met:
+            bound = f"{chk} {v:g}" if rule.check is not Check.IN_RANGE else f"{name} {v:g}"
+            raise RuleProblem(name, f"{where}; {bound} can never be met")
+        if v < lo or v > hi:
+            cmd = getattr(rule, side)
+            what = f"'{cmd}' is never given" if cmd else f"the {side} side never cues"
+            bound = f"{chk} {v:g}" if rule.check is not Check.IN_RANGE else f"{name} {v:g}"
+            beyond = "below" if v < lo else "above"
+            raise RuleProblem(
+                name, f"{where}; {bound} is {beyond} every value it can take, so {what}"
+            )
 
 
 def parse_range(text: str) -> tuple[float, float] | None:
@@ -382,8 +414,11 @@ def parse_rule_line(
         raise where(end_col, f"{check.value} takes {n} value(s): {usage}")
     bounds = BOUNDS[check]
     named_scale: float | None = None
+    named: dict[str, str] = {}  # bound -> the room's name it came from
     for name, t in zip(bounds, toks[2 : 2 + n], strict=True):
         cols[name] = t.col
+        if t.text in room.values:
+            named[name] = t.text
         if named_scale is None and t.text in room.scales:
             named_scale = float(room.scales[t.text])
     rest = toks[2 + n :]
@@ -493,7 +528,10 @@ def parse_rule_line(
     try:
         check_rule(rule, commands=commands, syntax="line", positional=bool(positional))
     except RuleProblem as p:
-        raise where(cols.get(p.field, 1), p.message) from None
+        message = p.message
+        if p.field in named:  # the number is the room's: say so
+            message += f" ({named[p.field]} = {getattr(rule, p.field):g} in room '{room.name}')"
+        raise where(cols.get(p.field, 1), message) from None
     return rule
 
 

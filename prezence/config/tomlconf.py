@@ -418,10 +418,12 @@ def _rule(raw: object, kp: KeyPath, room: RoomProfile, ctx: _Ctx) -> Rule:
         check = parse_check(_str(table["check"]))
         bounds: dict[str, float | None] = {"low": None, "high": None}
         named_scale: float | None = None
+        named: dict[str, str] = {}  # bound -> the room's name it came from
         for key in ("low", "high"):
             v = table.get(key)
             if isinstance(v, str):
                 bounds[key] = resolve_name(v, room)
+                named[key] = v
                 if named_scale is None and v in room.scales:
                     named_scale = float(room.scales[v])
             elif v is not None:
@@ -482,7 +484,10 @@ def _rule(raw: object, kp: KeyPath, room: RoomProfile, ctx: _Ctx) -> Rule:
         check_rule(rule, commands=ctx.commands, syntax="toml")
     except RuleProblem as p:
         key = {"physical_range": "range"}.get(p.field, p.field)  # the TOML key's name
-        raise ctx.error((*kp, key), p.message) from None
+        message = p.message
+        if p.field in named:  # the number is the room's: say so
+            message += f" ({named[p.field]} = {getattr(rule, p.field):g} in room '{room.name}')"
+        raise ctx.error((*kp, key), message) from None
     return rule
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from hypothesis import given
@@ -20,6 +21,7 @@ from prezence.config.model import (
 )
 from prezence.config.tomlconf import DAY_S, SETTING_BOUNDS, dumps_config, loads_config
 from prezence.errors import ConfigError
+from prezence.metrics import METRICS
 
 COMMANDS = command_table()
 RAISING = sorted(n for n, d in COMMANDS.items() if d is not Direction.LOWER)
@@ -27,7 +29,10 @@ LOWERING = sorted(n for n, d in COMMANDS.items() if d is not Direction.RAISE)
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
 positive = st.floats(min_value=1e-9, max_value=1e12, allow_nan=False)
-metrics = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,15}", fullmatch=True)
+# not a shipped metric's name: theirs have a physical range the random bounds would leave
+metrics = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,15}", fullmatch=True).filter(
+    lambda m: m not in METRICS
+)
 texts = st.text(
     st.characters(codec="utf-8", exclude_characters='"', exclude_categories=("Cc", "Cs", "Z")),
     max_size=12,
@@ -46,6 +51,7 @@ def rules(draw: st.DrawFn, metric: str | None = None) -> Rule:
     high = (b if check is Check.IN_RANGE else a) if check is not Check.MIN else None
     bounds = [x for x in (low, high) if x is not None]
     scale = draw(positive) if min(bounds) <= 0 else draw(st.none() | positive)
+    offset = draw(st.just(0.0) | finite)
     return Rule(
         metric=metric if metric is not None else draw(metrics),
         check=check,
@@ -56,14 +62,23 @@ def rules(draw: st.DrawFn, metric: str | None = None) -> Rule:
         above=draw(st.none() | st.sampled_from(LOWERING)) if high is not None else None,
         scale=scale,
         gain=draw(st.just(1.0) | positive),
-        offset=draw(st.just(0.0) | finite),
+        offset=offset,
         stream=draw(streams),
         stale_after_s=draw(st.none() | positive),
         unit=draw(units),
-        physical_range=draw(st.none() | st.tuples(finite, finite).filter(lambda p: p[0] < p[1]))
-        if metric is None
-        else None,  # a metric with a record has its range there
+        # a metric with a record has its range there; around the bounds, so that they fit
+        physical_range=draw(enclosing(bounds)) if metric is None and offset == 0.0 else None,
     )
+
+
+@st.composite
+def enclosing(draw: st.DrawFn, bounds: list[float]) -> tuple[float, float] | None:
+    """None, or a physical range around the bounds (a bound outside it is an error)."""
+    if draw(st.booleans()):
+        return None
+    margin = st.floats(min_value=0.0, max_value=1e6)
+    lo, hi = min(bounds) - draw(margin), max(bounds) + draw(margin)
+    return (lo, hi) if math.isfinite(lo) and math.isfinite(hi) and lo < hi else None
 
 
 @given(rules())

@@ -50,6 +50,34 @@ def test_check_config_with_a_room(
     assert f"{rules}:1:" in capsys.readouterr().err
 
 
+def test_a_threshold_outside_the_physical_range_is_refused_by_every_command(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # check-config said "ok" (exit 0) and run went on with a rule that could never be met
+    rules = tmp_path / "p2.txt"
+    rules.write_text("speech_accuracy min 1.5 articulate\n")
+    want = f"{rules}:1:21: speech_accuracy is 0..1 (physical range); min 1.5 can never be met"
+    assert main(["check-config", str(rules)]) == 1
+    assert capsys.readouterr().err.strip() == want
+    recording = tmp_path / "rec"
+    recording.mkdir()
+    (recording / "speech_speed.txt").write_text("1 150\n")
+    for argv in (
+        ["run", "short_talk", "--out", str(tmp_path / "a")],
+        ["replay", str(recording), "--out", str(tmp_path / "b")],
+        ["up", "--module", "x:speech_speed=true", "--out", str(tmp_path / "c")],
+        ["rehearse", str(tmp_path / "talk.wav"), "--out", str(tmp_path / "d")],
+    ):
+        assert main([*argv, "-q", "--config", str(rules)]) == 2, argv
+        assert capsys.readouterr().err.strip() == f"error: {want}", argv
+    assert not any((tmp_path / d).exists() for d in "abcd")
+    # a room whose named value is out of range is refused with the rule that uses it
+    room = tmp_path / "room.toml"
+    room.write_text("format = 1\n[room.values]\nANGLE = -200.0\n")
+    assert main(["run", "short_talk", "-q", "--room", str(room), "--out", str(tmp_path / "e")]) == 2
+    assert "min -200 is below every value it can take" in capsys.readouterr().err
+
+
 def test_check_config_says_a_room_file_goes_to_room(
     rules_and_room: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
 ) -> None:

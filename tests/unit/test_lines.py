@@ -237,6 +237,63 @@ def test_a_bad_range_says_where_and_why(line: str, col: int, needle: str) -> Non
     assert needle in str(e) and e.col == col
 
 
+@pytest.mark.parametrize(
+    ("line", "col", "message"),
+    [
+        (
+            "speech_speed inRange 140 9000 speedUp slowDown",
+            26,
+            "speech_speed is 0..400 wpm (physical range); high 9000 is above every value it "
+            "can take, so 'slowDown' is never given",
+        ),
+        (
+            "speech_accuracy min 1.5 articulate",
+            21,
+            "speech_accuracy is 0..1 (physical range); min 1.5 can never be met",
+        ),
+        (
+            "cv_headGaze min -200 lookUp scale=10",
+            17,
+            "cv_headGaze is -90..90 degrees (physical range); min -200 is below every value it "
+            "can take, so 'lookUp' is never given",
+        ),
+        (
+            "speech_volume min 200 louder scale=6",
+            19,
+            "speech_volume is 0..130 dB SPL (physical range); min 200 can never be met",
+        ),
+        (
+            "speech_volume min 128 louder offset=-6",
+            19,
+            "speech_volume is -6..124 dB SPL (physical range, with offset -6); min 128 can never "
+            "be met",
+        ),
+        (
+            "fidget_rate max 90 gestureLess range=0..60 unit=1/min",
+            17,
+            "fidget_rate is 0..60 1/min (physical range); max 90 is above every value it can "
+            "take, so 'gestureLess' is never given",
+        ),
+    ],
+)
+def test_a_bound_outside_the_physical_range_is_an_error(line: str, col: int, message: str) -> None:
+    # check-config said "ok" to each of these (the walkthrough's p1-p4)
+    e = parse_error(line)
+    assert str(e) == f"rules.txt:1:{col}: {message}"
+
+
+def test_a_bound_on_the_edge_of_the_physical_range_is_fine() -> None:
+    rules = parse("speech_accuracy min 1 articulate\ncv_gestures inRange 0 60 scale=2")
+    assert [(r.low, r.high) for r in rules] == [(1.0, None), (0.0, 60.0)]
+
+
+def test_a_named_value_outside_the_physical_range_names_the_room() -> None:
+    room = RoomProfile(name="hall", values={"ANGLE": -200.0})
+    e = parse_error("cv_headGaze min ANGLE lookUp scale=10", room)
+    assert e.col == 17
+    assert str(e).endswith("so 'lookUp' is never given (ANGLE = -200 in room 'hall')")
+
+
 def test_unknown_key_suggests_the_right_one() -> None:
     e = parse_error("speech_volume min 60 louder scael=6")
     assert "unknown key 'scael'; did you mean 'scale'?" in str(e)

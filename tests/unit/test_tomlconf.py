@@ -242,6 +242,18 @@ def test_range_is_a_rule_key_and_round_trips() -> None:
     assert "rules[0].range: range takes [LO, HI], two numbers" in str(e)
 
 
+def test_a_bound_outside_the_physical_range_is_an_error_in_toml_too() -> None:
+    e = load_error(
+        'format = 1\n[room.values]\nANGLE = -200.0\n[[rules]]\nmetric = "cv_headGaze"\n'
+        'check = "min"\nlow = "ANGLE"\nscale = 10\nbelow = "lookUp"\n'
+    )
+    assert str(e) == (
+        "config.toml:7: rules[0].low: cv_headGaze is -90..90 degrees (physical range); min -200 "
+        "is below every value it can take, so 'lookUp' is never given (ANGLE = -200 in room "
+        "'default')"
+    )
+
+
 def test_loads_room_reads_the_room_table() -> None:
     room = loads_room('format = 1\n[room]\nname = "hall"\nvalues = { ANGLE = -5 }\n', path="r.toml")
     assert room == RoomProfile(name="hall", values={"ANGLE": -5.0})
