@@ -5,6 +5,10 @@
 message (``... (at line 3, column 7)``, or ``(at end of document)``). Both are read here, so
 config files, rules, scenarios, the gesture library and the command table report positions
 alike on every supported Python.
+
+``tomllib`` keeps no positions for values: :func:`locate` finds the line of a key path by a
+scan of the text (best effort), so that semantic errors of configs and scenarios can say
+``file:line: key.path: …`` too.
 """
 
 from __future__ import annotations
@@ -15,6 +19,9 @@ from pathlib import Path
 from typing import Any
 
 from prezence.errors import ConfigError
+
+#: A key path: table names, keys and array indexes (``("rules", 2, "above")``).
+KeyPath = tuple[str | int, ...]
 
 _POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\Z")
 _END = re.compile(r"\s*\(at end of document\)\Z")
@@ -50,3 +57,68 @@ def loads_toml(text: str, *, path: str | Path) -> dict[str, Any]:
         raise ConfigError(f"TOML: {msg}", path=path, line=line, col=col) from e
     except RecursionError as e:
         raise ConfigError("TOML: nested too deeply", path=path, line=1) from e
+
+
+def keypath_str(kp: KeyPath) -> str:
+    """``("rules", 2, "above")`` → ``rules[2].above``."""
+    out = ""
+    for part in kp:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else part)
+    return out
+
+
+_HEADER = re.compile(r"\s*(\[\[?)([^\[\]]+)\]\]?\s*(?:#.*)?\Z")
+_KEYPART = r"""(?:[A-Za-z0-9_-]+|"[^"]*"|'[^']*')"""
+_KEYLINE = re.compile(rf"\s*({_KEYPART}(?:\s*\.\s*{_KEYPART})*)\s*=")
+
+
+def _split_key(s: str) -> tuple[str, ...]:
+    # Best effort: a quoted key containing '.' is split too.
+    return tuple(p.strip().strip("\"'") for p in s.split("."))
+
+
+def locate(text: str, kp: KeyPath) -> int | None:
+    """Best-effort line of a key path in TOML text (tomllib keeps no positions).
+
+    Returns the line that defines the key, else the line of its nearest enclosing table or key,
+    else None.
+    """
+    counts: dict[tuple[str, ...], int] = {}
+    ctx: KeyPath = ()
+    best, best_n = None, 0
+    for lineno, line in enumerate(text.split("\n"), start=1):
+        m = _HEADER.match(line)
+        if m:
+            name = _split_key(m.group(2))
+            if m.group(1) == "[[":
+                counts[name] = counts.get(name, -1) + 1
+                ctx = (*name, counts[name])
+            else:
+                ctx = name
+            full = ctx
+        else:
+            k = _KEYLINE.match(line)
+            if not k:
+                continue
+            full = (*ctx, *_split_key(k.group(1)))
+        n = 0
+        while n < min(len(full), len(kp)) and full[n] == kp[n]:
+            n += 1
+        if n == len(kp):
+            return lineno
+        if n > best_n:
+            best, best_n = lineno, n
+    return best
+
+
+_PART = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
+
+
+def parse_keypath(key: str) -> KeyPath:
+    """``rules[2].above`` → ``("rules", 2, "above")``, the inverse of :func:`keypath_str`.
+
+    Example:
+        >>> parse_keypath("episodes[1].at")
+        ('episodes', 1, 'at')
+    """
+    return tuple(int(i) if i else name for name, i in _PART.findall(key))

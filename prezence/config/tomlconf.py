@@ -47,10 +47,10 @@ from prezence.config.model import (
     TimeSettings,
 )
 from prezence.errors import ConfigError, unknown_message
+from prezence.tomlio import KeyPath, keypath_str, locate
 
 log = logging.getLogger(__name__)
 
-KeyPath = tuple[str | int, ...]
 TOP_KEYS = ("format", "rules_file", "room", "processor", "time", "rules")
 #: What a room file (``--room``) holds: its format and its ``[room]``, nothing else.
 ROOM_FILE_KEYS = ("format", "room")
@@ -76,58 +76,6 @@ RULE_KEYS = (
 
 class _Bad(ValueError):
     """A value is wrong; the caller knows where."""
-
-
-def keypath_str(kp: KeyPath) -> str:
-    """``("rules", 2, "above")`` → ``rules[2].above``."""
-    out = ""
-    for part in kp:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else part)
-    return out
-
-
-_HEADER = re.compile(r"\s*(\[\[?)([^\[\]]+)\]\]?\s*(?:#.*)?\Z")
-_KEYPART = r"""(?:[A-Za-z0-9_-]+|"[^"]*"|'[^']*')"""
-_KEYLINE = re.compile(rf"\s*({_KEYPART}(?:\s*\.\s*{_KEYPART})*)\s*=")
-
-
-def _split_key(s: str) -> tuple[str, ...]:
-    # Best effort: a quoted key containing '.' is split too.
-    return tuple(p.strip().strip("\"'") for p in s.split("."))
-
-
-def locate(text: str, kp: KeyPath) -> int | None:
-    """Best-effort line of a key path in TOML text (tomllib keeps no positions).
-
-    Returns the line that defines the key, else the line of its nearest enclosing table or key,
-    else None.
-    """
-    counts: dict[tuple[str, ...], int] = {}
-    ctx: KeyPath = ()
-    best, best_n = None, 0
-    for lineno, line in enumerate(text.split("\n"), start=1):
-        m = _HEADER.match(line)
-        if m:
-            name = _split_key(m.group(2))
-            if m.group(1) == "[[":
-                counts[name] = counts.get(name, -1) + 1
-                ctx = (*name, counts[name])
-            else:
-                ctx = name
-            full = ctx
-        else:
-            k = _KEYLINE.match(line)
-            if not k:
-                continue
-            full = (*ctx, *_split_key(k.group(1)))
-        n = 0
-        while n < min(len(full), len(kp)) and full[n] == kp[n]:
-            n += 1
-        if n == len(kp):
-            return lineno
-        if n > best_n:
-            best, best_n = lineno, n
-    return best
 
 
 @dataclass

@@ -51,8 +51,11 @@ short::
     first = "lookUp"
     then = "articulate"
 
-Semantic errors name the file and the key path, e.g.
-``fast_talker.toml: episodes[1].at: expected a time such as "3:00" or 180, got '3:7x'``.
+Semantic errors name the file, the line (found by a scan of the text, as for configs) and the
+key path, e.g. ``fast_talker.toml:31: episodes[1].at: expected a time such as "3:00" or 180,
+got '3:7x'``. A baseline or an episode's value outside the metric's physical range
+(:data:`prezence.metrics.METRICS`: 0–400 wpm…) is an error too: the presenter would be
+clamped to the range without a word, and the talk would not be the one written.
 """
 
 from __future__ import annotations
@@ -69,9 +72,9 @@ from typing import Any
 from prezence.config.model import FORMAT
 from prezence.errors import ConfigError, UnknownName, did_you_mean
 from prezence.feedback.commands import load_commands
-from prezence.metrics import SYNTHETIC_METRICS
+from prezence.metrics import METRICS, SYNTHETIC_METRICS
 from prezence.session import MAX_TALK_S
-from prezence.tomlio import loads_toml
+from prezence.tomlio import loads_toml, locate, parse_keypath
 
 log = logging.getLogger(__name__)
 
@@ -427,13 +430,20 @@ class Scenario:
         return d
 
     @classmethod
-    def from_dict(cls, doc: Mapping[str, Any], *, path: str | Path = "<dict>") -> Scenario:
+    def from_dict(
+        cls, doc: Mapping[str, Any], *, path: str | Path = "<dict>", text: str = ""
+    ) -> Scenario:
         """Build and validate a scenario from its TOML form.
 
+        Args:
+            doc: the parsed TOML.
+            path: the file, named in errors.
+            text: the file's text, where errors find their line (none when empty).
+
         Raises:
-            ConfigError: naming ``path`` and the key path of the first problem.
+            ConfigError: naming ``path``, the line and the key path of the first problem.
         """
-        return _Parser(str(path)).scenario(doc)
+        return _Parser(str(path), text).scenario(doc)
 
 
 # --------------------------------------------------------------------------------------------
@@ -464,14 +474,30 @@ _MAX_RATE_HZ = 100.0
 class _Parser:
     """Reads one scenario document; every error names the file and the key path."""
 
-    def __init__(self, path: str) -> None:
+    def __init__(self, path: str, text: str = "") -> None:
         self.path = path
+        self.text = text
         self.metric_names: tuple[str, ...] = ()
 
     # -- helpers --------------------------------------------------------------------------
 
     def error(self, key: str, message: str) -> ConfigError:
-        return ConfigError(message, path=self.path, key=key or None)
+        line = locate(self.text, parse_keypath(key)) if self.text and key else None
+        return ConfigError(message, path=self.path, line=line, key=key or None)
+
+    def physical(self, value: float, metric: str, key: str) -> float:
+        """``value`` if ``metric`` can take it; else an error naming the range."""
+        rec = METRICS[metric]
+        assert rec.physical_range is not None  # SYNTHETIC_METRICS have one
+        lo, hi = rec.physical_range
+        if not lo <= value <= hi:
+            unit = f" {rec.unit}" if ".." not in rec.unit else ""
+            raise self.error(
+                key,
+                f"{metric} is {lo:g}..{hi:g}{unit} (physical range); {value:g} is outside it "
+                "(the presenter would be held at the edge)",
+            )
+        return value
 
     def table(self, value: object, key: str, allowed: Sequence[str]) -> Mapping[str, Any]:
         if not isinstance(value, Mapping):
@@ -660,7 +686,9 @@ class _Parser:
             out.append(
                 MetricScript(
                     metric=name,
-                    baseline=self.number(d["baseline"], f"{key}.baseline"),
+                    baseline=self.physical(
+                        self.number(d["baseline"], f"{key}.baseline"), name, f"{key}.baseline"
+                    ),
                     noise=self.number(d.get("noise", 0.0), f"{key}.noise", low=0.0),
                     rate_hz=self.number(
                         d.get("rate_hz", 1.0),
@@ -693,7 +721,7 @@ class _Parser:
             raise self.error(
                 f"{key}.at", f"is not before the end of the talk ({format_time(duration)})"
             )
-        value_ = self.number(d["value"], f"{key}.value")
+        value_ = self.physical(self.number(d["value"], f"{key}.value"), metric, f"{key}.value")
         until: float | None = None
         if kind is EpisodeKind.STEP:
             for k in ("until", "duration_s"):
@@ -837,7 +865,7 @@ def read_scenario(path: str | Path) -> Scenario:
     except FileNotFoundError:
         raise ConfigError("no such scenario file", path=path) from None
     doc = loads_toml(text, path=path)
-    return Scenario.from_dict(doc, path=path)
+    return Scenario.from_dict(doc, path=path, text=text)
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:

@@ -269,6 +269,8 @@ BAD_VALUES = [
     ("episodes.0.until", "4:00", "episodes[0].until"),
     ("episodes.0.at", "11:00", "episodes[0].at"),
     ("episodes.0.value", "fast", "episodes[0].value"),
+    ("metrics.speech_speed.baseline", 2500.0, "metrics.speech_speed.baseline"),
+    ("episodes.0.value", 401.0, "episodes[0].value"),
     ("reactions.default.probability", 2.0, "reactions.default.probability"),
     ("reactions.default.size", [0.9, 0.1], "reactions.default.size"),
     ("reactions.default.delay_s", [1, 2, 3], "reactions.default.delay_s"),
@@ -306,6 +308,36 @@ def test_toml_syntax_error_reports_line_and_column(tmp_path: Path) -> None:
         read_scenario(path)
     assert (info.value.line, info.value.col) == (3, 14)
     assert str(info.value).startswith(f"{path}:3:14: ")
+
+
+def test_a_value_outside_the_physical_range_is_refused_with_file_line_and_key(
+    tmp_path: Path,
+) -> None:
+    # baseline = 2500 ran, and the presenter was clamped to 400 wpm without a word
+    path = tmp_path / "sc_bad.toml"
+    path.write_text(
+        'format = 1\ndescription = "x"\nduration_s = 60\n\n[metrics.speech_speed]\n'
+        "baseline = 2500.0\nnoise = 5.0\n\n[metrics.speech_accuracy]\nbaseline = 0.9\n\n"
+        '[[episodes]]\nmetric = "speech_accuracy"\nkind = "step"\nat = 10\nvalue = 1.5\n'
+    )
+    with pytest.raises(ConfigError) as info:
+        read_scenario(path)
+    assert str(info.value) == (
+        f"{path}:6: metrics.speech_speed.baseline: speech_speed is 0..400 wpm (physical range); "
+        "2500 is outside it (the presenter would be held at the edge)"
+    )
+    path.write_text(path.read_text().replace("2500.0", "400.0"))  # the edge itself is fine
+    with pytest.raises(ConfigError) as info:
+        read_scenario(path)
+    assert str(info.value) == (
+        f"{path}:16: episodes[0].value: speech_accuracy is 0..1 (physical range); 1.5 is "
+        "outside it (the presenter would be held at the edge)"
+    )
+    # the type errors of before now carry their line too
+    path.write_text(path.read_text().replace("1.5", "1.0").replace("5.0", '"five"'))
+    with pytest.raises(ConfigError) as info:
+        read_scenario(path)
+    assert str(info.value) == f"{path}:7: metrics.speech_speed.noise: expected a number, got 'five'"
 
 
 # -- expectations -----------------------------------------------------------------------------
