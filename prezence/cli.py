@@ -654,7 +654,11 @@ def build_parser() -> argparse.ArgumentParser:
         "-v", "--verbose", action="count", default=0, help="more logging (repeatable)"
     )
     parser.add_argument(
-        "-q", "--quiet", action="store_true", help="warnings only, no progress or live view"
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="errors only: no warnings, progress or live view (skipped lines and "
+        "robot faults are still counted in summary.json and the report)",
     )
     parser.add_argument(
         "--list",
@@ -679,7 +683,8 @@ def build_parser() -> argparse.ArgumentParser:
         dest="sub_quiet",
         action="store_true",
         default=argparse.SUPPRESS,
-        help="warnings only, no progress or live view",
+        help="errors only: no warnings, progress or live view (skipped lines and "
+        "robot faults are still counted in summary.json and the report)",
     )
     sub = parser.add_subparsers(dest="command")
 
