@@ -378,18 +378,25 @@ MAX_TALK_S = 6 * 3600.0
 TALK_MARGIN_S = 30.0
 
 
-def _last_decision_t(path: Path) -> float | None:
-    """The ``t`` of the last complete line of ``decisions.jsonl`` (reads its last 64 KB)."""
+def _tail_lines(path: Path, size: int) -> list[bytes]:
+    """The complete lines among the last ``size`` bytes of a regular file ([] for anything
+    else): a line cut by the start of the read is left out."""
     try:
         st = os.stat(path)
         if not stat.S_ISREG(st.st_mode):
-            return None
+            return []
         with open(path, "rb") as f:
-            f.seek(max(0, st.st_size - 65536))
-            tail = f.read(65536)
+            f.seek(max(0, st.st_size - size))
+            tail = f.read(size)
     except OSError:
-        return None
-    for line in reversed(tail.splitlines()):
+        return []
+    lines = tail.splitlines()
+    return lines[1:] if st.st_size > size else lines
+
+
+def _last_decision_t(path: Path) -> float | None:
+    """The ``t`` of the last complete line of ``decisions.jsonl`` (reads its last 64 KB)."""
+    for line in reversed(_tail_lines(path, 65536)):
         try:
             t = json.loads(line).get("t")
             return float(t) if t is not None and math.isfinite(float(t)) else None
@@ -403,16 +410,7 @@ def _last_stamp(path: Path) -> float | None:
     :data:`MAX_TALK_S`: a stamp beyond it is a module's clock gone wrong, not the talk's end."""
     from prezence.streams.codec import parse_line
 
-    try:
-        st = os.stat(path)
-        if not stat.S_ISREG(st.st_mode):
-            return None
-        with open(path, "rb") as f:
-            f.seek(max(0, st.st_size - 4096))
-            tail = f.read(4096)
-    except OSError:
-        return None
-    for line in reversed(tail.splitlines()[1:] if st.st_size > 4096 else tail.splitlines()):
+    for line in reversed(_tail_lines(path, 4096)):
         try:
             t, _ = parse_line(line.decode("utf-8"))
         except (UnicodeDecodeError, PrezenceError):

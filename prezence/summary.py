@@ -114,6 +114,16 @@ def _died_at(crash: Mapping[str, Any]) -> float:
     return float(since if isinstance(since, int | float) else crash["t"])
 
 
+def _crashes(rec: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """A module record's crashes (``summary.json``'s ``modules.NAME.crashes``), each with a
+    time; anything else in the list is left out."""
+    return [
+        c
+        for c in rec.get("crashes") or []
+        if isinstance(c, Mapping) and isinstance(c.get("t"), int | float)
+    ]
+
+
 def module_outages(
     modules: Mapping[str, Any] | None,
     streams: Mapping[str, Sequence[Sample]],
@@ -137,11 +147,7 @@ def module_outages(
     for name, rec in (modules or {}).items():
         if not isinstance(rec, Mapping):
             continue
-        crashes = [
-            c
-            for c in rec.get("crashes") or []
-            if isinstance(c, Mapping) and isinstance(c.get("t"), int | float)
-        ]
+        crashes = _crashes(rec)
         for metric in rec.get("metrics") or []:
             ts = sorted(s.t for s in streams.get(str(metric), ()))
             spans: list[dict[str, Any]] = []
@@ -184,11 +190,7 @@ def module_notes(
     for name, rec in (modules or {}).items():
         if not isinstance(rec, Mapping):
             continue
-        crashes = [
-            c
-            for c in rec.get("crashes") or []
-            if isinstance(c, Mapping) and isinstance(c.get("t"), int | float)
-        ]
+        crashes = _crashes(rec)
         if not crashes:
             continue
         hangs = [c for c in crashes if _hung(c)]

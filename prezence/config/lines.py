@@ -239,15 +239,14 @@ def _check_bounds_in_range(rule: Rule) -> None:
     for name, v, side in (("low", rule.low, "below"), ("high", rule.high, "above")):
         if v is None:
             continue
+        bound = f"{chk} {v:g}" if rule.check is not Check.IN_RANGE else f"{name} {v:g}"
         # the lower bound above every value, or the upper one below every value
         never_met = v > hi if name == "low" else v < lo
         if never_met:
-            bound = f"{chk} {v:g}" if rule.check is not Check.IN_RANGE else f"{name} {v:g}"
             raise RuleProblem(name, f"{where}; {bound} can never be met")
         if v < lo or v > hi:
             cmd = getattr(rule, side)
             what = f"'{cmd}' is never given" if cmd else f"the {side} side never cues"
-            bound = f"{chk} {v:g}" if rule.check is not Check.IN_RANGE else f"{name} {v:g}"
             beyond = "below" if v < lo else "above"
             raise RuleProblem(
                 name, f"{where}; {bound} is {beyond} every value it can take, so {what}"

@@ -204,11 +204,7 @@ def rank_priorities(
         side = "above" if d.get("above", 0.0) > d.get("below", 0.0) else "below"
         rows.append(
             {
-                "metric": rule.metric,
-                "label": metric_label(rule.metric),
-                "side": side,
-                "bound": rule.high if side == "above" else rule.low,
-                "unit": rule.unit,
+                **_off_side(rule, side),
                 "score": round(score, 1),
                 "score_per_min": round(60.0 * score / talk_s, 1) if talk_s > 0 else None,
                 "advice": advice(rule, side),
@@ -216,6 +212,18 @@ def rank_priorities(
         )
     rows.sort(key=lambda r: (-r["score"], r["metric"]))
     return rows[:top]
+
+
+def _off_side(rule: Rule, side: str) -> dict[str, Any]:
+    """Which metric is off on ``side`` and the bound it crossed, for a reader: the start of
+    a priority's row and of a "slightly off" one (each adds its figures, then the advice)."""
+    return {
+        "metric": rule.metric,
+        "label": metric_label(rule.metric),
+        "side": side,
+        "bound": rule.high if side == "above" else rule.low,
+        "unit": rule.unit,
+    }
 
 
 #: A metric out of its band for at least this share of its measured time is not "in the ideal
@@ -257,11 +265,7 @@ def slightly_off(
         side = "above" if above > below else "below"
         rows.append(
             {
-                "metric": rule.metric,
-                "label": metric_label(rule.metric),
-                "side": side,
-                "bound": rule.high if side == "above" else rule.low,
-                "unit": rule.unit,
+                **_off_side(rule, side),
                 "share_out": round(share, 3),
                 "advice": advice(rule, side),
                 # its module died mid-talk: the share is of the time it was measured
@@ -384,32 +388,27 @@ def build_report(
     return _rebuild(session_dir, config, ended, modules)[0]
 
 
-def _coach_ended(session: SessionDir) -> bool:
-    """Whether the folder's ``summary.json`` was written by a coach that ran to the end."""
-    if not session.summary.is_file():
-        return False
-    try:
-        summary = read_json_object(session.summary)
-    except ConfigError:
-        return False
-    return summary.get("ended_at_s") is not None
-
-
-def _recorded(session: SessionDir, key: str) -> dict[str, Any]:
-    """``summary.json``'s ``key`` object (the modules' record, the post-talk summary), {} if
-    there is none."""
+def _read_summary(session: SessionDir) -> dict[str, Any]:
+    """The folder's ``summary.json`` as written by the coach, read once ({} when there is none
+    or it cannot be read: its own problems are reported where it is read for itself)."""
     if not session.summary.is_file():
         return {}
     try:
-        value = read_json_object(session.summary).get(key)
+        return read_json_object(session.summary)
     except PrezenceError:
-        return {}  # the summary's own problems are reported where it is read
+        return {}
+
+
+def _recorded(summary: Mapping[str, Any], key: str) -> dict[str, Any]:
+    """``summary.json``'s ``key`` object (the modules' record, the post-talk summary), {} if
+    there is none."""
+    value = summary.get(key)
     return value if isinstance(value, dict) else {}
 
 
-def _recorded_modules(session: SessionDir) -> dict[str, Any]:
+def _recorded_modules(summary: Mapping[str, Any]) -> dict[str, Any]:
     """``summary.json``'s record of the modules (crashes, restarts), {} if there is none."""
-    mods = _recorded(session, "modules")
+    mods = _recorded(summary, "modules")
     return {str(k): v for k, v in mods.items() if isinstance(v, dict)}
 
 
@@ -452,16 +451,17 @@ def _rebuild(
                     "example": None if first is None else f"line {first.line}: {first.reason}",
                 }
             )
+    recorded = _read_summary(session)  # the coach's summary.json, if it wrote one
     if modules is None:
-        modules = _recorded_modules(session)
+        modules = _recorded_modules(recorded)
     # a bad cue line (a torn last line, a damaged one) is skipped and said, not fatal: the
     # rest of the record still makes a report
     bad_cues: list[str] = []
     cues = read_jsonl(session.cues, require=CUE_KEYS, skipped=bad_cues)
     truth = read_jsonl(session.truth, require=TRUTH_KEYS) if session.truth.exists() else None
     stale_default = cfg.processor.stale_after_s
-    if ended is None:
-        ended = _coach_ended(session)
+    if ended is None:  # a coach that ran to the end wrote when it ended
+        ended = recorded.get("ended_at_s") is not None
     talk_s, complete = _talk_length(meta, streams, cues, stale_default, ended)
     talk_s = min(talk_s, limit)
     if not complete:
@@ -561,7 +561,7 @@ def _rebuild(
         "has_truth": truth is not None,
         "effect_window_s": EFFECT_WINDOW_S,
         "head": head_turns(session, talk_s=talk_s, limit=limit),
-        "stopped_repeating": _stopped_repeating(session),
+        "stopped_repeating": _stopped_repeating(recorded),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},
     }
     # what went wrong on the way, only when something did (a clean talk's report is as before)
@@ -571,7 +571,7 @@ def _rebuild(
         "modules": module_notes(modules, metrics),
     }
     report.update({k: v for k, v in troubles.items() if v})
-    post = _recorded(session, "post_talk")
+    post = _recorded(recorded, "post_talk")
     if post.get("ok") is False:  # the robot was lost: its summary was never heard
         report["post_talk"] = post
     return report, streams
@@ -591,14 +591,9 @@ def _shown_record(problem: str, root: Path) -> str:
     return problem[len(prefix) :] if problem.startswith(prefix) else problem
 
 
-def _stopped_repeating(session: SessionDir) -> list[dict[str, Any]]:
+def _stopped_repeating(summary: Mapping[str, Any]) -> list[dict[str, Any]]:
     """What the coach stopped repeating during the talk (``summary.json``), [] if unknown."""
-    if not session.summary.exists():
-        return []
-    try:
-        notes = read_json_object(session.summary).get("stopped_repeating")
-    except PrezenceError:
-        return []  # the summary's own problems are reported where it is read
+    notes = summary.get("stopped_repeating")
     return [n for n in notes if isinstance(n, dict)] if isinstance(notes, list) else []
 
 

@@ -8,16 +8,11 @@ from collections.abc import Mapping
 from typing import Any
 
 from prezence.report.speech import (
-    _talk_s,
-    beyond_sentence,
-    cut_sentences,
     measured_share,
-    module_sentences,
     of_time,
-    skipped_sentences,
     summary_phrase,
     time_sentence,
-    unreadable_sentences,
+    trouble_sentences,
     was,
 )
 
@@ -143,15 +138,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             f"{_mmss(report.get('planned_s'))} (the coach stopped early). The figures cover "
             "what was recorded.</div>"
         )
-    from prezence.report.build import metric_label
-
-    notes = cut_sentences(report)
-    notes += module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
-    notes += unreadable_sentences(report.get("unreadable") or ())
-    beyond = beyond_sentence(report.get("beyond_talk") or {})
-    notes += [beyond] if beyond else []
-    notes += skipped_sentences(report.get("skipped_records") or ())
-    for sentence in notes:
+    for sentence in trouble_sentences(report):
         out.append(f'<div class="note">{_e(sentence[0].upper() + sentence[1:])}.</div>')
     if report.get("plots_missing"):
         install = (

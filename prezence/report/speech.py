@@ -208,6 +208,22 @@ def beyond_sentence(beyond: Mapping[str, int]) -> str | None:
     )
 
 
+def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
+    """What went wrong on the way, for the text and the HTML report alike: cues cut short and
+    an unsaid summary, modules that crashed or hung, unreadable stream lines, samples stamped
+    after the talk, damaged record lines ([] for a talk where nothing did)."""
+    from prezence.report.build import metric_label
+
+    beyond = beyond_sentence(report.get("beyond_talk") or {})
+    return (
+        cut_sentences(report)
+        + module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
+        + unreadable_sentences(report.get("unreadable") or ())
+        + ([beyond] if beyond else [])
+        + skipped_sentences(report.get("skipped_records") or ())
+    )
+
+
 def summary_phrase(report: Mapping[str, Any]) -> str:
     """What the robot says after the talk (at most :data:`MAX_SPOKEN_WORDS` words).
 
@@ -279,16 +295,7 @@ def format_text(report: Mapping[str, Any]) -> str:
             f"  note: the record stops at {_mmss(report['talk_s'])} of a planned "
             f"{_mmss(report.get('planned_s'))}; figures cover what was recorded"
         )
-    from prezence.report.build import metric_label
-
-    for sentence in (
-        cut_sentences(report)
-        + module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
-        + unreadable_sentences(report.get("unreadable") or ())
-        + [b for b in [beyond_sentence(report.get("beyond_talk") or {})] if b]
-        + skipped_sentences(report.get("skipped_records") or ())
-    ):
-        lines.append(f"  note: {sentence}")
+    lines += [f"  note: {sentence}" for sentence in trouble_sentences(report)]
     lines.append("  " + time_sentence(report))
     pri = report.get("priorities") or []
     if pri:

@@ -276,13 +276,6 @@ def test_a_value_just_past_a_limit_reads_past_it() -> None:
     assert float(m.group(1)) < float(m.group(2)), str(e.value)
 
 
-def test_the_sim_backend_holds_rigid_the_joints_gestures_may_not_move() -> None:
-    from prezence.feedback.limits import LEGS
-
-    backend = pytest.importorskip("sim.backend", reason="the sim extra is not installed")
-    assert set(backend.LEGS) == LEGS and len(LEGS) == 12
-
-
 def test_start_pose_is_where_the_plan_begins() -> None:
     start = {"HeadYaw": 0.4}
     traj = build_trajectory("look_up", speed_fraction=0.6, limits=LIMITS, start_pose=start)

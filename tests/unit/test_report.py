@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import json
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -234,21 +235,29 @@ def test_praise_needs_something_measured() -> None:
     assert "Your delivery stayed in the ideal range" in phrase
 
 
+def _fifty_second_talk(tmp_path: Path, **values: Callable[[int], float]) -> SessionDir:
+    """A finished 50 s talk with no cue: one sample a second (t = 1..50) per metric given."""
+    session = SessionDir(tmp_path / "t").create()
+    session.config.write_text(dumps_config(CONFIG))
+    session.write_meta({"talk_s": 50.0})
+    for metric, value in values.items():
+        session.stream(f"{metric}.txt").write_text(
+            "".join(f"{t} {value(t):.1f}\n" for t in range(1, 51))
+        )
+    session.cues.write_text("")
+    return session
+
+
 def test_a_pace_a_little_under_all_talk_is_not_praised_as_in_range(tmp_path: Path) -> None:
     # A real reader at ~133 wpm for a 50 s clip: 5 % under the band nearly all the time adds
     # up to less than one cue's worth, so it is no priority, but "everything stayed in the
     # ideal range, well done" was false.
-    session = SessionDir(tmp_path / "t").create()
-    session.config.write_text(dumps_config(CONFIG))
-    session.write_meta({"talk_s": 50.0})
-    rows = {
-        "speech_speed": [f"{t} {'150.0' if t < 10 else '133.0'}" for t in range(1, 51)],
-        "speech_volume": [f"{t} 66.0" for t in range(1, 51)],
-        "cv_headGaze": [f"{t} 0.0" for t in range(1, 51)],
-    }
-    for metric, lines in rows.items():
-        session.stream(f"{metric}.txt").write_text("\n".join(lines) + "\n")
-    session.cues.write_text("")
+    session = _fifty_second_talk(
+        tmp_path,
+        speech_speed=lambda t: 150.0 if t < 10 else 133.0,
+        speech_volume=lambda t: 66.0,
+        cv_headGaze=lambda t: 0.0,
+    )
     report = build_report(session.root, ended=True)
     assert report["priorities"] == []
     [off] = report["slightly_off"]
@@ -267,17 +276,12 @@ def test_a_pace_a_little_under_all_talk_is_not_praised_as_in_range(tmp_path: Pat
 
 def test_a_short_glance_away_still_leaves_the_praise(tmp_path: Path) -> None:
     # out of range 2 % of the time: neither a priority nor "a little off"
-    session = SessionDir(tmp_path / "t").create()
-    session.config.write_text(dumps_config(CONFIG))
-    session.write_meta({"talk_s": 50.0})
-    rows = {
-        "speech_speed": [f"{t} 150.0" for t in range(1, 51)],
-        "speech_volume": [f"{t} 66.0" for t in range(1, 51)],
-        "cv_headGaze": [f"{t} {'-20.0' if t == 30 else '0.0'}" for t in range(1, 51)],
-    }
-    for metric, lines in rows.items():
-        session.stream(f"{metric}.txt").write_text("\n".join(lines) + "\n")
-    session.cues.write_text("")
+    session = _fifty_second_talk(
+        tmp_path,
+        speech_speed=lambda t: 150.0,
+        speech_volume=lambda t: 66.0,
+        cv_headGaze=lambda t: -20.0 if t == 30 else 0.0,
+    )
     report = build_report(session.root, ended=True)
     assert report["priorities"] == [] and report["slightly_off"] == []
     assert "Your delivery stayed in the ideal range. Well done!" in summary_phrase(report)
