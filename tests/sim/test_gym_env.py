@@ -117,13 +117,27 @@ def test_rule_baseline_and_tuned_policy_beat_silence_on_the_demo_talk() -> None:
     assert run_episode(env, RuleBaseline(), 0)["cues"] >= 4
 
 
-def test_import_sim_registers_the_env_with_a_step_limit() -> None:
+@pytest.mark.parametrize(
+    "imports", ["import sim, gymnasium", "import gymnasium, sim", "import sim.backend, gymnasium"]
+)
+def test_import_sim_registers_the_env_with_a_step_limit(imports: str) -> None:
     code = (
-        "import sim, gymnasium; s = gymnasium.spec('prezence/Coach-v0');"
+        f"{imports}; s = gymnasium.spec('prezence/Coach-v0');"
         "print(s.entry_point, s.max_episode_steps)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["sim.gym_env:CoachEnv", "2400"]
+
+
+def test_the_sim_backend_does_not_import_gymnasium() -> None:
+    """``prezence demo --backend sim`` imports the package ``sim`` for its backend: Gymnasium
+    (a tenth of the whole run) is imported only by those who use it."""
+    code = (
+        "import sys; from prezence.backends.registry import make_backend;"
+        "b = make_backend('sim'); b.open(); b.close(); print('gymnasium' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split()[-1] == "False"
 
 
 def test_a_talk_cut_short_is_truncated_not_terminated() -> None:
