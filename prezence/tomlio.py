@@ -59,6 +59,19 @@ def loads_toml(text: str, *, path: str | Path) -> dict[str, Any]:
         raise ConfigError("TOML: nested too deeply", path=path, line=1) from e
 
 
+def read_text(path: str | Path) -> str:
+    """A TOML or rules file's text (UTF-8, optional BOM); unreadable → :class:`ConfigError`."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as e:
+        raise ConfigError(f"cannot read: {e.strerror or e}", path=path) from e
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise ConfigError(f"not UTF-8 text (byte {e.start})", path=path, line=line) from e
+
+
 def keypath_str(kp: KeyPath) -> str:
     """``("rules", 2, "above")`` → ``rules[2].above``."""
     out = ""

@@ -18,6 +18,7 @@ from prezence.config.model import Config, RoomProfile, Rule
 from prezence.config.tomlconf import loads_config, loads_room
 from prezence.errors import ConfigError
 from prezence.samples import KNOWN_METRICS
+from prezence.tomlio import read_text
 
 log = logging.getLogger(__name__)
 
@@ -28,19 +29,6 @@ DEFAULT_RULES = "rules.txt"
 def default_path(name: str = DEFAULT_CONFIG) -> Path:
     """Path of a file in the built-in ``defaults/`` folder (``default.toml``, ``rules.txt``)."""
     return Path(str(resources.files("prezence.config").joinpath("defaults", name)))
-
-
-def read_text(path: str | Path) -> str:
-    """A config file's text (UTF-8, optional BOM); unreadable → :class:`ConfigError`."""
-    try:
-        data = Path(path).read_bytes()
-    except OSError as e:
-        raise ConfigError(f"cannot read: {e.strerror or e}", path=path) from e
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        line = data.count(b"\n", 0, e.start) + 1
-        raise ConfigError(f"not UTF-8 text (byte {e.start})", path=path, line=line) from e
 
 
 @functools.cache

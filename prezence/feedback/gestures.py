@@ -20,22 +20,29 @@ TOML form (see the file's header for all keys)::
     [[gestures.slow_down.keyframes]]
     repeat = 2           # or the name of a parameter, e.g. "minutes"
     sequence = [ { pose = { LShoulderPitch = 60 } }, { pose = { LShoulderPitch = 35 } } ]
+
+A library of one's own (:func:`load_library_file`; ``prezence gestures check FILE``, ``--gestures
+FILE`` on the talk commands) has the same form without ``[neutral]``: its gestures replace the
+built-in ones of the same name, the others stay (docs/gestures.md). Every error names the file,
+the line (best effort) and the key path; a key a table does not hold is refused by name.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
 import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
+from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
-from prezence.errors import ConfigError, LimitViolation, UnknownName
+from prezence.errors import ConfigError, LimitViolation, UnknownName, did_you_mean, unknown_message
 from prezence.feedback.limits import HANDS, HIP_YAW_PITCH, LEGS, JointLimits, require_finite
 from prezence.feedback.trajectory import (
     Trajectory,
@@ -43,7 +50,7 @@ from prezence.feedback.trajectory import (
     profile_time,
     segment_duration,
 )
-from prezence.tomlio import loads_toml
+from prezence.tomlio import loads_toml, locate, parse_keypath, read_text
 
 log = logging.getLogger(__name__)
 
@@ -75,12 +82,14 @@ _MIRROR_SIGN = {
 class Keyframe:
     """A (partial) pose to reach, in radians (hands: fraction), then hold for ``hold`` seconds.
 
-    ``where`` is its place in the data file, e.g. ``keyframes[1].sequence[0]``.
+    ``where`` is its place in the data file, e.g. ``keyframes[1].sequence[0]``; ``line`` its
+    line there (best effort; None: not known).
     """
 
     pose: Mapping[str, float]
     hold: float
     where: str
+    line: int | None = None
 
 
 @dataclass(frozen=True)
@@ -103,12 +112,30 @@ class Param:
 
 @dataclass(frozen=True)
 class Gesture:
-    """One gesture of the library."""
+    """One gesture of the library.
+
+    ``path`` and ``line`` say where it is written (None: built in code, not read from a file):
+    a keyframe out of the limits is reported at its ``file:line``.
+    """
 
     name: str
     description: str
     steps: tuple[Step, ...]
     params: Mapping[str, Param] = field(default_factory=dict)
+    path: str | None = None
+    line: int | None = None
+
+    def at(self, line: int | None = None) -> str:
+        """``file:line: `` of the gesture (or of its keyframe at ``line``), or ``""``.
+
+        Example:
+            >>> Gesture("wave", "", (), path="my.toml", line=3).at(5)
+            'my.toml:5: '
+        """
+        if self.path is None:
+            return ""
+        n = line if line is not None else self.line
+        return f"{self.path}:{n}: " if n is not None else f"{self.path}: "
 
     def resolve_params(self, params: Mapping[str, Any] | None) -> dict[str, int]:
         """Parameter values with defaults filled in and clamped to their ranges.
@@ -142,10 +169,18 @@ class Gesture:
 
 @dataclass(frozen=True)
 class GestureLibrary:
-    """The neutral pose (radians) and every gesture by name."""
+    """The neutral pose (radians) and every gesture by name.
+
+    A library of one's own (:func:`load_library_file`) is the built-in library with the
+    gestures its file defines put in by name: ``source`` is that file, ``text`` what was read
+    from it, ``own`` the names it defines. The built-in library has ``source`` None.
+    """
 
     neutral: Mapping[str, float]
     gestures: Mapping[str, Gesture]
+    source: str | None = None
+    text: str = ""
+    own: tuple[str, ...] = ()
 
     def __getitem__(self, name: str) -> Gesture:
         try:
@@ -157,15 +192,71 @@ class GestureLibrary:
     def names(self) -> tuple[str, ...]:
         return tuple(self.gestures)
 
+    def record(self) -> dict[str, Any]:
+        """What a session records of a library of one's own: the file (absolute), the SHA-256
+        of the text that was read, and the gestures it defines (the others were built in)."""
+        return {
+            "file": str(Path(self.source).resolve()) if self.source else None,
+            "sha256": hashlib.sha256(self.text.encode("utf-8")).hexdigest(),
+            "defines": list(self.own),
+        }
+
 
 # ---------------------------------------------------------------------------------------------
 # Parsing
-def _to_rad(joint: str, value: Any, path: str, key: str) -> float:
+#: The keys each table of a library file may hold (anything else is refused, by name).
+_TOP_KEYS = ("format", "neutral", "gestures")
+_GESTURE_KEYS = ("description", "mirror", "params", "keyframes")
+_KEYFRAME_KEYS = ("pose", "hold", "mirror")
+_SEQUENCE_KEYS = ("sequence", "repeat", "mirror")
+_PARAM_KEYS = ("default", "min", "max")
+
+
+def _kind(value: Any) -> str:
+    return {dict: "a table", list: "an array", str: "a string", bool: "a boolean"}.get(
+        type(value), type(value).__name__
+    )
+
+
+class _Doc:
+    """One library file being read: each error names the file, the line (found by a scan of
+    the text, :func:`~prezence.tomlio.locate`: tomllib keeps no positions) and the key path."""
+
+    def __init__(self, path: str, text: str) -> None:
+        self.path = path
+        self.text = text
+
+    def line(self, key: str) -> int | None:
+        return locate(self.text, parse_keypath(key)) if self.text and key else None
+
+    def error(self, message: str, key: str = "") -> ConfigError:
+        return ConfigError(message, path=self.path, line=self.line(key), key=key or None)
+
+    def table(self, raw: Any, key: str, what: str = "a table") -> Mapping[str, Any]:
+        if not isinstance(raw, Mapping):
+            raise self.error(f"expected {what}, got {_kind(raw)}", key)
+        return raw
+
+    def only(self, raw: Mapping[str, Any], allowed: Sequence[str], key: str) -> None:
+        for k in raw:
+            if k not in allowed:
+                raise self.error(
+                    unknown_message("key", str(k), allowed), f"{key}.{k}" if key else str(k)
+                )
+
+    def flag(self, raw: Mapping[str, Any], name: str, default: bool, key: str) -> bool:
+        v = raw.get(name, default)
+        if not isinstance(v, bool):
+            raise self.error(f"expected true or false, got {v!r}", f"{key}.{name}")
+        return v
+
+
+def _to_rad(joint: str, value: Any, doc: _Doc, key: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ConfigError(f"expected a number, got {value!r}", path=path, key=key)
+        raise doc.error(f"expected a number, got {value!r}", key)
     v = float(value)
     if not math.isfinite(v):
-        raise ValueError(f"{path}: {key}: {joint} target is {v!r}; joint targets must be finite")
+        raise doc.error(f"{joint} target is {v!r}; joint targets must be finite", key)
     return v if joint in HANDS else math.radians(v)
 
 
@@ -178,129 +269,198 @@ def _mirror(pose: dict[str, float]) -> dict[str, float]:
 
 
 def _parse_pose(
-    raw: Any, *, known: set[str], mirror: bool, path: str, key: str, legs: bool = False
+    raw: Any, *, known: set[str], mirror: bool, doc: _Doc, key: str, legs: bool = False
 ) -> dict[str, float]:
     """A pose table in radians (hands: fraction); leg joints only where ``legs`` (the neutral
     standing pose gives them, a gesture may not move them)."""
-    if not isinstance(raw, Mapping):
-        raise ConfigError("expected a table of joint = value", path=path, key=key)
+    table = doc.table(raw, key, "a table of joint = value")
     pose: dict[str, float] = {}
-    for joint, value in raw.items():
+    for joint, value in table.items():
         if joint not in known:
-            raise ConfigError(
-                str(UnknownName("joint", joint, known)), path=path, key=f"{key}.{joint}"
-            )
+            raise doc.error(str(UnknownName("joint", joint, known)), f"{key}.{joint}")
         if joint in LEGS and not legs:
-            raise ConfigError(
+            raise doc.error(
                 f"{joint} is a leg joint: gestures move the head, arms and hands only "
                 "(the NAO coaches standing, and a standing robot that moves a leg can fall)",
-                path=path,
-                key=f"{key}.{joint}",
+                f"{key}.{joint}",
             )
-        pose[joint] = _to_rad(joint, value, path, f"{key}.{joint}")
+        pose[joint] = _to_rad(joint, value, doc, f"{key}.{joint}")
     return _mirror(pose) if mirror else pose
 
 
 def _parse_keyframe(
-    raw: Mapping[str, Any], *, known: set[str], mirror: bool, path: str, key: str
+    raw: Any, *, known: set[str], mirror: bool, doc: _Doc, key: str, where: str
 ) -> Keyframe:
-    hold = raw.get("hold", 0.0)
+    entry = doc.table(raw, key)
+    doc.only(entry, _KEYFRAME_KEYS, key)
+    hold = entry.get("hold", 0.0)
     if isinstance(hold, bool) or not isinstance(hold, int | float) or not 0 <= hold <= MAX_HOLD_S:
-        raise ConfigError(
-            f"hold must be seconds in [0, {MAX_HOLD_S:g}], got {hold!r}",
-            path=path,
-            key=f"{key}.hold",
+        raise doc.error(f"hold must be seconds in [0, {MAX_HOLD_S:g}], got {hold!r}", f"{key}.hold")
+    m = doc.flag(entry, "mirror", mirror, key)
+    pose = _parse_pose(entry.get("pose", {}), known=known, mirror=m, doc=doc, key=f"{key}.pose")
+    return Keyframe(MappingProxyType(pose), float(hold), where, doc.line(key))
+
+
+def _parse_param(name: str, raw: Any, doc: _Doc, key: str) -> Param:
+    spec = doc.table(raw, key, "a table { default, min, max }")
+    doc.only(spec, _PARAM_KEYS, key)
+    values: dict[str, int] = {}
+    for k in _PARAM_KEYS:
+        v = spec.get(k)
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise doc.error("a parameter needs integer default, min and max", key)
+        values[k] = v
+    p = Param(name, values["default"], values["min"], values["max"])
+    if not 1 <= p.low <= p.default <= p.high <= MAX_REPEAT:
+        # a parameter is a repeat count: it plays a sequence that many times
+        raise doc.error(
+            f"a parameter needs 1 <= min <= default <= max <= {MAX_REPEAT}, "
+            f"got min {p.low}, default {p.default}, max {p.high}",
+            key,
         )
-    unknown = set(raw) - {"pose", "hold", "mirror"}
-    if unknown:
-        raise ConfigError(f"unknown keys {sorted(unknown)}", path=path, key=key)
-    m = bool(raw.get("mirror", mirror))
-    pose = _parse_pose(raw.get("pose", {}), known=known, mirror=m, path=path, key=f"{key}.pose")
-    where = "keyframes" + key.split(".keyframes", 1)[1]
-    return Keyframe(MappingProxyType(pose), float(hold), where)
+    return p
 
 
-def _parse_gesture(name: str, raw: Mapping[str, Any], *, known: set[str], path: str) -> Gesture:
+def _parse_gesture(name: str, raw: Any, *, known: set[str], doc: _Doc) -> Gesture:
     base = f"gestures.{name}"
-    mirror = bool(raw.get("mirror", False))
-    params: dict[str, Param] = {}
-    for pname, spec in dict(raw.get("params", {})).items():
-        try:
-            params[pname] = Param(pname, int(spec["default"]), int(spec["min"]), int(spec["max"]))
-        except (KeyError, TypeError, ValueError) as e:
-            raise ConfigError(
-                "a parameter needs integer default, min and max",
-                path=path,
-                key=f"{base}.params.{pname}",
-            ) from e
-        p = params[pname]
-        if not 1 <= p.low <= p.default <= p.high <= MAX_REPEAT:
-            # a parameter is a repeat count: it plays a sequence that many times
-            raise ConfigError(
-                f"a parameter needs 1 <= min <= default <= max <= {MAX_REPEAT}, "
-                f"got min {p.low}, default {p.default}, max {p.high}",
-                path=path,
-                key=f"{base}.params.{pname}",
-            )
+    table = doc.table(raw, base)
+    doc.only(table, _GESTURE_KEYS, base)
+    mirror = doc.flag(table, "mirror", False, base)
+    description = table.get("description", "")
+    if not isinstance(description, str):
+        raise doc.error(f"expected a string, got {_kind(description)}", f"{base}.description")
+    raw_params = doc.table(table.get("params", {}), f"{base}.params")
+    params = {
+        str(p): _parse_param(str(p), spec, doc, f"{base}.params.{p}")
+        for p, spec in raw_params.items()
+    }
     steps: list[Step] = []
-    raw_steps = raw.get("keyframes")
+    raw_steps = table.get("keyframes")
     if not isinstance(raw_steps, list) or not raw_steps:
-        raise ConfigError("a gesture needs a non-empty keyframes list", path=path, key=base)
+        raise doc.error("a gesture needs a non-empty keyframes list", base)
     for i, entry in enumerate(raw_steps):
         key = f"{base}.keyframes[{i}]"
-        if "sequence" in entry:
+        where = f"keyframes[{i}]"
+        if isinstance(entry, Mapping) and "sequence" in entry:
+            doc.only(entry, _SEQUENCE_KEYS, key)
             repeat = entry.get("repeat", 1)
             if isinstance(repeat, str):
                 if repeat not in params:
-                    raise ConfigError(
-                        f"repeat names unknown parameter {repeat!r}", path=path, key=f"{key}.repeat"
-                    )
+                    raise doc.error(f"repeat names unknown parameter {repeat!r}", f"{key}.repeat")
             elif (
                 isinstance(repeat, bool)
                 or not isinstance(repeat, int)
                 or not 1 <= repeat <= MAX_REPEAT
             ):
-                raise ConfigError(
+                raise doc.error(
                     f"repeat must be an integer in [1, {MAX_REPEAT}] or a parameter name",
-                    path=path,
-                    key=key,
+                    f"{key}.repeat",
                 )
-            m = bool(entry.get("mirror", mirror))
+            m = doc.flag(entry, "mirror", mirror, key)
+            seq = entry["sequence"]
+            if not isinstance(seq, list) or not seq:
+                raise doc.error(
+                    "a sequence is a non-empty array of keyframes { pose = {…}, hold = s }",
+                    f"{key}.sequence",
+                )
             frames = tuple(
-                _parse_keyframe(sub, known=known, mirror=m, path=path, key=f"{key}.sequence[{j}]")
-                for j, sub in enumerate(entry["sequence"])
+                _parse_keyframe(
+                    sub,
+                    known=known,
+                    mirror=m,
+                    doc=doc,
+                    key=f"{key}.sequence[{j}]",
+                    where=f"{where}.sequence[{j}]",
+                )
+                for j, sub in enumerate(seq)
             )
             steps.append(Step(frames, repeat))
         else:
-            steps.append(
-                Step((_parse_keyframe(entry, known=known, mirror=mirror, path=path, key=key),))
-            )
-    return Gesture(name, str(raw.get("description", "")), tuple(steps), MappingProxyType(params))
+            kf = _parse_keyframe(entry, known=known, mirror=mirror, doc=doc, key=key, where=where)
+            steps.append(Step((kf,)))
+    return Gesture(
+        name,
+        description,
+        tuple(steps),
+        MappingProxyType(params),
+        path=doc.path,
+        line=doc.line(base),
+    )
+
+
+def _read(
+    text: str, *, limits: JointLimits, path: str, own: bool
+) -> tuple[_Doc, Mapping[str, Any], dict[str, Gesture]]:
+    """The document, its top-level table and its gestures (format and keys checked)."""
+    doc = _Doc(path, text)
+    top = loads_toml(text, path=path)
+    fmt = top.get("format")
+    if fmt != 1 or isinstance(fmt, bool):
+        if "format" in top:
+            raise doc.error(f"expected format = 1, found {fmt!r}", "format")
+        raise ConfigError(
+            "expected format = 1, found none (a gesture library's first line is format = 1)",
+            path=path,
+            line=1,
+        )
+    if own and "neutral" in top:
+        raise doc.error(
+            "a library of your own gives gestures only: the neutral pose is the robot's "
+            "standing pose, the built-in one, which every backend moves to at the start and "
+            "every gesture returns to (remove [neutral])",
+            "neutral",
+        )
+    doc.only(top, _TOP_KEYS, "")
+    known = set(limits.names)
+    raw = doc.table(top.get("gestures", {}), "gestures", "a table of [gestures.NAME] tables")
+    gestures = {
+        str(name): _parse_gesture(str(name), g, known=known, doc=doc) for name, g in raw.items()
+    }
+    return doc, top, gestures
 
 
 def parse_library(text: str, *, limits: JointLimits, path: str = GESTURES_FILE) -> GestureLibrary:
-    """Parse a gesture library from TOML text (joint names checked against ``limits``).
+    """Parse a whole gesture library (the built-in one's form) from TOML text (joint names
+    checked against ``limits``).
 
     Raises:
-        ConfigError: TOML syntax (with line and column) or a bad key (with its key path).
+        ConfigError: TOML syntax (with line and column) or a bad key (with its line, best
+            effort, and key path).
     """
-    doc = loads_toml(text, path=path)
-    if doc.get("format") != 1:
-        raise ConfigError(f"expected format = 1, found {doc.get('format')!r}", path=path)
+    doc, top, gestures = _read(text, limits=limits, path=path, own=False)
     known = set(limits.names)
     neutral = _parse_pose(
-        doc.get("neutral", {}), known=known, mirror=True, path=path, key="neutral", legs=True
+        top.get("neutral", {}), known=known, mirror=True, doc=doc, key="neutral", legs=True
     )
     neutral = limits.couple(neutral)
     missing = [n for n in limits.names if n not in neutral]
     if missing:
-        raise ConfigError(f"the neutral pose lacks {', '.join(missing)}", path=path, key="neutral")
+        raise doc.error(f"the neutral pose lacks {', '.join(missing)}", "neutral")
     limits.check(neutral, where=f"{path}: neutral")
-    gestures = {
-        name: _parse_gesture(name, raw, known=known, path=path)
-        for name, raw in dict(doc.get("gestures", {})).items()
-    }
     return GestureLibrary(MappingProxyType(neutral), MappingProxyType(gestures))
+
+
+def parse_own_library(
+    text: str, *, limits: JointLimits, path: str, base: GestureLibrary
+) -> GestureLibrary:
+    """A library of one's own from TOML text: ``base`` (the built-in library) with the
+    gestures ``text`` defines put in by name (one of the same name is replaced, a new name
+    added). The text gives ``format = 1`` and ``[gestures.NAME]`` tables only: the neutral pose
+    stays ``base``'s.
+
+    Raises:
+        ConfigError: as :func:`parse_library`; also a ``[neutral]`` table, or no gesture.
+    """
+    doc, _, gestures = _read(text, limits=limits, path=path, own=True)
+    if not gestures:
+        raise doc.error(
+            "defines no gesture: give a [gestures.NAME] table for each gesture to replace "
+            "(prezence --list gestures names the built-in ones)"
+        )
+    merged = {**base.gestures, **gestures}
+    return GestureLibrary(
+        base.neutral, MappingProxyType(merged), source=path, text=text, own=tuple(gestures)
+    )
 
 
 @functools.cache
@@ -314,6 +474,73 @@ def _builtin(source: str) -> GestureLibrary:
 def load_library(limits: JointLimits | None = None) -> GestureLibrary:
     """The built-in gesture library (parsed once per URDF)."""
     return _builtin(str(limits.source) if limits is not None else "")
+
+
+def load_library_file(path: str | Path, *, limits: JointLimits | None = None) -> GestureLibrary:
+    """A gesture library of one's own: the built-in library with the gestures of the TOML file
+    at ``path`` in place of those of the same name (see :func:`parse_own_library`).
+
+    Raises:
+        ConfigError: the file cannot be read, or is not a valid library (``file:line:``).
+    """
+    from prezence.feedback.limits import load_limits
+
+    limits = limits if limits is not None else load_limits()
+    text = read_text(path)
+    return parse_own_library(text, limits=limits, path=str(path), base=load_library(limits))
+
+
+def unplayed(library: GestureLibrary) -> list[str]:
+    """A note per gesture of a library of one's own that no command plays (a talk never
+    uses it: a new name, or a misspelt one)."""
+    from prezence.feedback.commands import load_commands
+
+    played = sorted({c.gesture for c in load_commands().values()})
+    out = []
+    for name in library.own:
+        if name not in played:
+            g = library[name]
+            out.append(
+                f"{g.at()}gestures.{name}: no command plays '{name}'{did_you_mean(name, played)} "
+                "(a talk plays only the gestures of the command table: prezence --list gestures)"
+            )
+    return out
+
+
+def check_plannable(library: GestureLibrary, *, limits: JointLimits) -> None:
+    """Raise if a gesture of a library of one's own cannot be planned within the joint limits
+    (every keyframe and the path between them, at each parameter's smallest and largest value).
+
+    Raises:
+        LimitViolation: naming the file, line, gesture, keyframe and joint.
+        ConfigError: a gesture that never moves.
+    """
+    for name in library.own:
+        check_keyframes(name, limits=limits, library=library)
+
+
+def library_for_talk(path: str | Path) -> GestureLibrary:
+    """The library a talk with ``--gestures path`` plays: loaded, each of the file's gestures
+    planned within the limits (before the talk starts), and a warning for each gesture no
+    command plays. Read once per version of the file."""
+    p = Path(path)
+    try:
+        st = p.stat()
+    except OSError:
+        return load_library_file(p)  # raises, naming the file
+    return _for_talk(str(p), str(p.resolve()), st.st_mtime_ns, st.st_size)
+
+
+@functools.lru_cache(maxsize=8)
+def _for_talk(path: str, resolved: str, mtime_ns: int, size: int) -> GestureLibrary:
+    from prezence.feedback.limits import load_limits
+
+    limits = load_limits()
+    library = load_library_file(path, limits=limits)
+    check_plannable(library, limits=limits)
+    for note in unplayed(library):
+        log.warning("%s", note)
+    return library
 
 
 # ---------------------------------------------------------------------------------------------
@@ -370,7 +597,10 @@ def build_trajectory(
     joints = _ordered_joints(limits, {j for kf in frames for j in kf.pose})
     if not joints:
         raise ConfigError(
-            f"gesture '{name}' moves no joint", path=GESTURES_FILE, key=f"gestures.{name}"
+            f"gesture '{name}' moves no joint",
+            path=gesture.path or GESTURES_FILE,
+            line=gesture.line,
+            key=f"gestures.{name}",
         )
 
     current = dict(lib.neutral)
@@ -389,12 +619,12 @@ def build_trajectory(
     heading: list[str] = []  # per keyframe time, the keyframe it arrives at
     t = 0.0
     prev = start
-    targets = [(kf.pose, kf.hold, kf.where) for kf in frames]
-    targets.append((lib.neutral, 0.0, "return to neutral"))
-    for pose, hold, where in targets:
+    targets = [(kf.pose, kf.hold, kf.where, kf.line) for kf in frames]
+    targets.append((lib.neutral, 0.0, "return to neutral", None))
+    for pose, hold, where, line in targets:
         goal = limits.couple(dict(pose))
         current.update(goal)
-        limits.check(current, where=f"gesture '{name}' {where}", pose=current)
+        limits.check(current, where=f"{gesture.at(line)}gesture '{name}' {where}", pose=current)
         q = tuple(current[j] for j in joints)
         if max(abs(b - a) for a, b in zip(prev, q, strict=True)) <= MIN_MOVE:
             q = prev  # nothing to move (a segment this short would not even advance the clock)
@@ -414,13 +644,19 @@ def build_trajectory(
     if not times:
         raise ConfigError(
             f"gesture '{name}' never moves from its start pose",
-            path=GESTURES_FILE,
+            path=gesture.path or GESTURES_FILE,
+            line=gesture.line,
             key=f"gestures.{name}",
         )
     traj = Trajectory(
         name=name, joints=joints, times=tuple(times), positions=tuple(positions), start=start
     )
-    check_path(traj, limits=limits, pose=still, labels=heading)
+    try:
+        check_path(traj, limits=limits, pose=still, labels=heading)
+    except LimitViolation as e:
+        if gesture.path is None:
+            raise
+        raise LimitViolation(f"{gesture.at()}{e}") from None
     return traj
 
 
@@ -542,8 +778,13 @@ __all__ = [
     "LimitViolation",
     "build_trajectory",
     "check_path",
+    "check_plannable",
+    "library_for_talk",
     "load_library",
+    "load_library_file",
     "parse_library",
+    "parse_own_library",
+    "unplayed",
     "segment_ratios",
     "time_optimal_minimum",
 ]

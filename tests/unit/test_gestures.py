@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,9 +16,12 @@ from prezence.feedback.gesture_check import MAX_RATIO, check_gestures, gesture_r
 from prezence.feedback.gestures import (
     DEFAULT_SPEED_FRACTION,
     build_trajectory,
+    check_plannable,
     load_library,
+    load_library_file,
     parse_library,
     time_optimal_minimum,
+    unplayed,
 )
 from prezence.feedback.limits import JointLimits, load_limits
 from prezence.feedback.trajectory import ACCEL_TIME_S, Trajectory
@@ -163,7 +167,11 @@ def test_a_path_that_cuts_the_head_range_names_gesture_time_and_joint() -> None:
     with pytest.raises(LimitViolation) as err:
         build_trajectory("wave", speed_fraction=0.6, limits=LIMITS, library=lib)
     msg = str(err.value)
-    assert re.match(r"gesture 'wave' at \d+\.\d{3} s, on the way to keyframes\[1\]: HeadPitch", msg)
+    assert re.match(
+        r"gestures\.toml:\d+: gesture 'wave' at \d+\.\d{3} s, "
+        r"on the way to keyframes\[1\]: HeadPitch",
+        msg,
+    )
     assert "anti-collision" in msg and "straight path" in msg
     t = float(msg.split(" at ", 1)[1].split(" s,", 1)[0])
     assert t > 0.0
@@ -336,3 +344,170 @@ def test_check_refuses_a_bad_fraction() -> None:
 def test_check_rows_give_positive_margins() -> None:
     rows = gesture_rows(1.0, collisions=False)
     assert all(r["ok"] and r["margin_deg"] >= 0.0 for r in rows)
+
+
+# --- a library of one's own (gestures check FILE, --gestures FILE) ---------------------------
+OWN_SLOW_DOWN = """format = 1
+# my slow_down: one pat, right arm only
+[gestures.slow_down]
+description = "One pat."
+[[gestures.slow_down.keyframes]]
+pose = { RShoulderPitch = 35.0, RHand = 1.0 }
+hold = 0.2
+[[gestures.slow_down.keyframes]]
+pose = { RShoulderPitch = 60.0 }
+"""
+
+
+def test_a_library_of_your_own_replaces_gestures_by_name_and_keeps_the_rest(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(OWN_SLOW_DOWN)
+    lib = load_library_file(path, limits=LIMITS)
+    assert lib.own == ("slow_down",) and lib.source == str(path)
+    assert lib.names == LIBRARY.names  # same names, same order: one replaced
+    assert lib["slow_down"] != LIBRARY["slow_down"]
+    assert lib["slow_down"].description == "One pat."
+    assert all(lib[n] == LIBRARY[n] for n in LIBRARY.names if n != "slow_down")
+    assert lib.neutral == LIBRARY.neutral
+    mine = build_trajectory("slow_down", speed_fraction=0.6, limits=LIMITS, library=lib)
+    assert mine.joints == ("RShoulderPitch", "RHand")
+    assert lib.record()["defines"] == ["slow_down"]
+    assert lib.record()["file"] == str(path.resolve())
+
+
+@pytest.mark.parametrize(
+    ("body", "where", "message"),
+    [
+        ("[gestures.x]\nkeyframes = [1, 2]\n", "2: gestures.x.keyframes[0]", "expected a table"),
+        (
+            "[gestures.x]\n[[gestures.x.keyframes]]\nrepeat = 2\nsequence = 5\n",
+            "4: gestures.x.keyframes[0].sequence",
+            "non-empty array",
+        ),
+        ("[gestures]\nx = 5\n", "2: gestures.x", "expected a table, got int"),
+        ("gestures = 5\n", "1: gestures", "a table of [gestures.NAME]"),
+        (
+            "[gestures.x]\nparams = 3\n[[gestures.x.keyframes]]\npose = { HeadYaw = 5 }\n",
+            "2: gestures.x.params",
+            "expected a table",
+        ),
+        (
+            "[gestures.x]\nmirorr = true\n[[gestures.x.keyframes]]\npose = { HeadYaw = 5 }\n",
+            "2: gestures.x.mirorr",
+            "unknown key 'mirorr'; did you mean 'mirror'?",
+        ),
+        (
+            "[gestures.x]\nmirror = 'yes'\n[[gestures.x.keyframes]]\npose = { HeadYaw = 5 }\n",
+            "2: gestures.x.mirror",
+            "expected true or false",
+        ),
+        (
+            "[gestures.x]\n[[gestures.x.keyframes]]\npose = { HeadYaw = 5 }\nhld = 0.2\n",
+            "4: gestures.x.keyframes[0].hld",
+            "did you mean 'hold'?",
+        ),
+        (
+            "[gestures.x]\n[[gestures.x.keyframes]]\npose = { HeadPitch = nan }\n",
+            "3: gestures.x.keyframes[0].pose.HeadPitch",
+            "HeadPitch target is nan",
+        ),
+        (
+            "[gestures.x]\n[[gestures.x.keyframes]]\npose = { LKneePitch = 30.0 }\n",
+            "3: gestures.x.keyframes[0].pose.LKneePitch",
+            "LKneePitch is a leg joint",
+        ),
+        (
+            "[gesture.x]\n[[gesture.x.keyframes]]\npose = { HeadYaw = 5 }\n",
+            "1: gesture",
+            "unknown key 'gesture'; did you mean 'gestures'?",
+        ),
+    ],
+    ids=[
+        "keyframes-not-tables",
+        "sequence-not-array",
+        "gesture-not-table",
+        "gestures-not-table",
+        "params-not-table",
+        "misspelt-gesture-key",
+        "mirror-not-bool",
+        "misspelt-keyframe-key",
+        "nan",
+        "knee",
+        "misspelt-top-table",
+    ],
+)
+def test_any_shape_of_library_gives_a_config_error_with_its_line(
+    body: str, where: str, message: str
+) -> None:
+    # keyframes = [1, 2] raised TypeError, [gestures] x = 5 AttributeError, a NaN a bare
+    # ValueError; mirorr, hld and [gesture.x] were ignored without a word; no error had a line
+    text = "format = 1\n" + body
+    with pytest.raises(ConfigError) as e:
+        parse_library(text, limits=LIMITS, path="lib.toml")
+    line, _, key = where.partition(": ")
+    assert str(e.value).startswith(f"lib.toml:{int(line) + 1}: {key}: "), str(e.value)
+    assert message in str(e.value)
+
+
+@pytest.mark.parametrize(
+    ("text", "start", "message"),
+    [
+        ("[gestures.x]\nkeyframes = 3\n", "mine.toml:1: ", "expected format = 1, found none"),
+        (
+            "format = 1\n[neutral]\nHeadYaw = 10\n" + OWN_SLOW_DOWN.removeprefix("format = 1\n"),
+            "mine.toml:2: neutral: ",
+            "a library of your own gives gestures only",
+        ),
+        ("format = 1\n", "mine.toml: ", "defines no gesture"),
+        ("format = 1\n[gestures.x\n", "mine.toml:2:12: ", "TOML: "),
+        (
+            OWN_SLOW_DOWN.replace("hold = 0.2", "hold = 1e9"),
+            "mine.toml:7: gestures.slow_down.keyframes[0].hold: ",
+            "hold must be seconds in [0, 5]",
+        ),
+    ],
+    ids=["no-format", "neutral", "no-gesture", "toml-syntax", "hold-1e9"],
+)
+def test_a_library_file_of_your_own_is_refused_with_file_line_and_key(
+    tmp_path: Path, text: str, start: str, message: str
+) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as e:
+        load_library_file(path, limits=LIMITS)
+    assert str(e.value).startswith(f"{tmp_path}/{start}"), str(e.value)
+    assert message in str(e.value)
+
+
+def test_a_missing_library_file_is_a_config_error_naming_it(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"nothere\.toml: cannot read"):
+        load_library_file(tmp_path / "nothere.toml", limits=LIMITS)
+
+
+def test_a_keyframe_of_your_own_out_of_the_limits_names_file_and_line(tmp_path: Path) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(OWN_SLOW_DOWN.replace("RShoulderPitch = 60.0", "RShoulderPitch = 150.0"))
+    lib = load_library_file(path, limits=LIMITS)
+    with pytest.raises(LimitViolation) as e:  # at the keyframe's table
+        check_plannable(lib, limits=LIMITS)
+    assert str(e.value).startswith(
+        f"{path}:8: gesture 'slow_down' keyframes[1]: RShoulderPitch = 150.0°"
+    ), str(e.value)
+
+
+def test_a_gesture_no_command_plays_is_noted_with_a_suggestion(tmp_path: Path) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(OWN_SLOW_DOWN.replace("slow_down", "slow_dwon"))
+    lib = load_library_file(path, limits=LIMITS)
+    [note] = unplayed(lib)
+    assert note.startswith(f"{path}:3: gestures.slow_dwon: no command plays 'slow_dwon'")
+    assert "did you mean 'slow_down'?" in note
+    assert unplayed(load_library_file(_write(tmp_path, OWN_SLOW_DOWN), limits=LIMITS)) == []
+
+
+def _write(tmp_path: Path, text: str, name: str = "lib.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
