@@ -488,11 +488,19 @@ def _is_room_file(path: Path) -> bool:
 
 
 def cmd_gestures_check(args: argparse.Namespace) -> int:
+    from prezence.errors import ConfigError
     from prezence.feedback.gesture_check import check_gestures
 
-    text, status = check_gestures(
-        args.speed, as_json=args.json, collisions=False if args.no_collisions else None
-    )
+    try:
+        text, status = check_gestures(
+            args.speed,
+            as_json=args.json,
+            collisions=False if args.no_collisions else None,
+            library=args.file,
+        )
+    except ConfigError as e:  # the file is not a library: it fails the check, as check-config
+        print(e, file=sys.stderr)
+        return 1
     print(text)
     return status
 
@@ -500,12 +508,17 @@ def cmd_gestures_check(args: argparse.Namespace) -> int:
 def cmd_gestures_render(args: argparse.Namespace) -> int:
     from prezence.backends.registry import load_tool
 
+    library = None
+    if args.library:
+        from prezence.feedback.gestures import load_library_file
+
+        library = load_library_file(args.library)
     render_gesture = load_tool("render")
 
     out = Path(args.out)
     video = Path(args.video) if args.video else out.with_suffix(".mp4")
     params = {"minutes": args.minutes} if args.minutes is not None else None
-    render_gesture(args.name, out, video, params=params)
+    render_gesture(args.name, out, video, params=params, library=library)
     print(f"wrote {out} and {video}")
     return 0
 
@@ -774,7 +787,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     g = add(sub, "gestures", help="check or render the gesture library")
     gs = g.add_subparsers(dest="gcommand", required=True)
-    p = add(gs, "check", help="timing and limit table for every gesture")
+    p = add(gs, "check", help="timing and limit table for every gesture (or those of FILE)")
+    p.add_argument(
+        "file",
+        nargs="?",
+        metavar="FILE",
+        help="a gesture library of your own (TOML): check its gestures; without it, the "
+        "built-in library's (docs/gestures.md)",
+    )
     p.add_argument("--json", action="store_true", help="print the table as JSON")
     p.add_argument("--speed", type=float, default=0.6, help="speed fraction (default 0.6)")
     p.add_argument(
@@ -788,6 +808,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="PNG contact sheet")
     p.add_argument("--video", help="MP4, AVI or GIF (default: next to --out, .mp4)")
     p.add_argument("--minutes", type=int, help="time_left: minutes to show")
+    p.add_argument(
+        "--library",
+        metavar="FILE",
+        help="a gesture library of your own: its gestures in place of the built-in ones",
+    )
     p.set_defaults(func=cmd_gestures_render)
 
     s = add(sub, "sim", help="the simulated NAO")

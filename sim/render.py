@@ -28,7 +28,12 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
-from prezence.feedback.gestures import DEFAULT_SPEED_FRACTION, build_trajectory, load_library
+from prezence.feedback.gestures import (
+    DEFAULT_SPEED_FRACTION,
+    GestureLibrary,
+    build_trajectory,
+    load_library,
+)
 from prezence.feedback.limits import load_limits
 from prezence.feedback.trajectory import Trajectory
 from sim.nao import NaoSim
@@ -190,6 +195,7 @@ def render_gesture(
     speed_fraction: float = DEFAULT_SPEED_FRACTION,
     size: tuple[int, int] = FRAME_SIZE,
     frames: int = 6,
+    library: GestureLibrary | None = None,
 ) -> dict[str, Any]:
     """Play gesture ``name`` on the simulated NAO and save pictures of it.
 
@@ -203,6 +209,8 @@ def render_gesture(
         speed_fraction: fraction of the URDF velocity limits.
         size: width and height of each view in pixels (a frame holds two views).
         frames: frames on the contact sheet.
+        library: the gesture library (default: the built-in one; a library of one's own from
+            :func:`~prezence.feedback.gestures.load_library_file`).
 
     Returns:
         Figures of the run: planned and measured duration, frames written, the video codec.
@@ -215,8 +223,11 @@ def render_gesture(
     if out_video is not None:
         out_video = check_video_path(out_video)
     limits = load_limits()
-    load_library(limits)[name]  # unknown gesture raises before any work
-    traj = build_trajectory(name, params=params, speed_fraction=speed_fraction, limits=limits)
+    lib = library if library is not None else load_library(limits)
+    lib[name]  # unknown gesture raises before any work
+    traj = build_trajectory(
+        name, params=params, speed_fraction=speed_fraction, limits=limits, library=lib
+    )
     out_png = Path(out_png)
     sheet_at = sheet_times(traj, frames)
     video_at = [k / fps for k in range(int(math.ceil((traj.duration + 0.3) * fps)) + 1)]

@@ -8,6 +8,10 @@ included) and, when PyBullet is installed, the least clearance between two non-a
 of the robot along the path (:mod:`prezence.feedback.collision`, the URDF's collision shapes).
 The exit status is non-zero when any gesture breaks a limit, comes closer to itself than
 ``MIN_CLEARANCE_M``, or is slower than ``MAX_RATIO`` × its minimum.
+
+``prezence gestures check FILE`` checks the gestures of a library of one's own
+(:func:`~prezence.feedback.gestures.load_library_file`) the same way; the built-in gestures it
+leaves in place are the ones ``prezence gestures check`` checks.
 """
 
 from __future__ import annotations
@@ -16,17 +20,20 @@ import json
 import logging
 import math
 from contextlib import ExitStack
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from prezence.errors import LimitViolation, PrezenceError
+from prezence.errors import ConfigError, LimitViolation, PrezenceError
 from prezence.feedback.collision import MIN_CLEARANCE_M, SelfCollisionChecker, pybullet_available
 from prezence.feedback.gestures import (
     GestureLibrary,
     build_trajectory,
     load_library,
+    load_library_file,
     time_optimal_minimum,
+    unplayed,
 )
 from prezence.feedback.limits import HANDS, JointLimits, load_limits
 from prezence.feedback.trajectory import ACCEL_TIME_S, BLEND_FRACTION, RAMP_S, Trajectory
@@ -40,8 +47,9 @@ _TOL = 1e-9
 
 
 def _cases(lib: GestureLibrary) -> list[tuple[str, str, dict[str, int] | None]]:
+    """Each gesture to check (a library of one's own: those its file defines)."""
     out: list[tuple[str, str, dict[str, int] | None]] = []
-    for name in lib.names:
+    for name in lib.own or lib.names:
         g = lib[name]
         if not g.params:
             out.append((name, name, None))
@@ -89,6 +97,7 @@ def gesture_rows(
     *,
     limits: JointLimits | None = None,
     collisions: bool | None = None,
+    library: GestureLibrary | None = None,
 ) -> list[dict[str, Any]]:
     """One row of figures per gesture case (see the module docstring).
 
@@ -96,9 +105,11 @@ def gesture_rows(
         speed_fraction: fraction of the URDF velocity limits, in (0, 1].
         limits: joint limits (default: the project's URDF).
         collisions: measure self-clearance (needs PyBullet); None: when PyBullet is installed.
+        library: the library (default: the built-in one); of one's own: the gestures its file
+            defines.
     """
     limits = limits if limits is not None else load_limits()
-    lib = load_library(limits)
+    lib = library if library is not None else load_library(limits)
     if collisions is None:
         collisions = pybullet_available()
     with ExitStack() as stack:
@@ -121,9 +132,9 @@ def _rows(
         row: dict[str, Any] = {"gesture": label}
         try:
             traj = build_trajectory(
-                name, params=params, speed_fraction=speed_fraction, limits=limits
+                name, params=params, speed_fraction=speed_fraction, limits=limits, library=lib
             )
-        except LimitViolation as e:
+        except (LimitViolation, ConfigError) as e:  # out of the limits, or never moves
             row.update(ok=False, error=str(e))
             rows.append(row)
             continue
@@ -174,28 +185,43 @@ def _rows(
 
 
 def check_gestures(
-    speed_fraction: float, *, as_json: bool, collisions: bool | None = None
+    speed_fraction: float,
+    *,
+    as_json: bool,
+    collisions: bool | None = None,
+    library: str | Path | None = None,
 ) -> tuple[str, int]:
-    """The report for ``prezence gestures check`` and its exit status.
+    """The report for ``prezence gestures check [FILE]`` and its exit status.
 
     Args:
         speed_fraction: fraction of the URDF velocity limits, in (0, 1].
         as_json: JSON (one object with the settings and a row per gesture) instead of a table.
         collisions: check self-collision (needs PyBullet); None: when PyBullet is installed.
+        library: a library file of one's own: its gestures are checked (None: the built-in
+            library's).
 
     Returns:
         (text, status): status 0 when every gesture is within every limit, keeps
         ``MIN_CLEARANCE_M`` from itself (when checked) and is within ``MAX_RATIO`` of its
         time-optimal minimum, 1 otherwise, 2 for a bad argument.
+
+    Raises:
+        ConfigError: ``library`` cannot be read or is not a valid library (``file:line:``).
     """
     if not 0.0 < speed_fraction <= 1.0:
         return f"error: --speed must be in (0, 1], got {speed_fraction}", 2
     if collisions is None:
         collisions = pybullet_available()
     try:
-        rows = gesture_rows(speed_fraction, collisions=collisions)
+        limits = load_limits()
     except PrezenceError as e:
         return f"error: {e}", 2
+    lib = load_library_file(library, limits=limits) if library is not None else None
+    try:
+        rows = gesture_rows(speed_fraction, limits=limits, collisions=collisions, library=lib)
+    except PrezenceError as e:
+        return f"error: {e}", 2
+    notes = unplayed(lib) if lib is not None else []
     status = 0 if all(r["ok"] for r in rows) else 1
     settings = {
         "speed_fraction": speed_fraction,
@@ -210,12 +236,14 @@ def check_gestures(
             else 'not checked (needs pybullet: pip install "prezence[sim]")'
         ),
     }
+    if lib is not None:
+        settings["library"] = str(library)
     if as_json:
-        return json.dumps(
-            {"settings": settings, "ok": status == 0, "gestures": rows}, indent=2
-        ), status
+        doc = {"settings": settings, "ok": status == 0, "gestures": rows}
+        return json.dumps({**doc, "notes": notes} if lib else doc, indent=2), status
+    of = f"gestures of {library}" if lib is not None else "gestures"
     lines = [
-        f"gestures at {speed_fraction:.0%} of the URDF velocity limits; profile: trapezoid with "
+        f"{of} at {speed_fraction:.0%} of the URDF velocity limits; profile: trapezoid with "
         f"{RAMP_S:.2f} s ramps and {BLEND_FRACTION:.0%} blends, "
         f"acceleration bound v/{ACCEL_TIME_S:.2f} s",
         f"{'gesture':<22}{'planned':>9}{'minimum':>9}{'ratio':>7}  {'peak speed (of limit)':<27}"
@@ -248,6 +276,8 @@ def check_gestures(
     worst = max(measured, key=lambda r: r["ratio"]) if measured else None
     names = {str(r["gesture"]).partition("[")[0] for r in rows}
     summary = f"{sum(r['ok'] for r in rows)}/{len(rows)} timings ok ({len(names)} gestures"
+    if lib is not None:
+        summary += f" of {library}"
     summary += ", some at several parameter values)" if len(names) < len(rows) else ")"
     if worst is not None:
         summary += (
@@ -261,4 +291,11 @@ def check_gestures(
             f"bound {1000 * MIN_CLEARANCE_M:.0f} mm"
         )
     lines.append(summary)
+    if lib is not None:
+        kept = len(lib.names) - len(lib.own)
+        lines.append(
+            f"the other {kept} gestures a talk with --gestures {library} plays are the built-in "
+            "ones (prezence gestures check)"
+        )
+    lines += [f"note: {n}" for n in notes]
     return "\n".join(lines), status

@@ -103,3 +103,21 @@ def test_render_writes_a_sheet_and_a_gif(tmp_path: Path) -> None:
     assert result["video_codec"] == "gif"
     assert (tmp_path / "e.png").stat().st_size > 0
     assert result["video_frames"] >= 10 * result["planned_s"]
+
+
+def test_render_plays_a_gesture_of_a_library_of_your_own(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from prezence.cli import main
+
+    mine = tmp_path / "mine.toml"
+    mine.write_text(
+        "format = 1\n[gestures.wave]\n[[gestures.wave.keyframes]]\n"
+        "pose = { RShoulderPitch = -40.0, RHand = 1.0 }\nhold = 0.2\n"
+    )
+    out = tmp_path / "w.png"
+    argv = ["gestures", "render", "wave", "--out", str(out), "--video", str(tmp_path / "w.gif")]
+    assert main([*argv, "--library", str(mine)]) == 0
+    assert out.stat().st_size > 0 and (tmp_path / "w.gif").stat().st_size > 0
+    assert main(argv) == 2  # the built-in library has no 'wave'
+    assert "unknown gesture 'wave'" in capsys.readouterr().err

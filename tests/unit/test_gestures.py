@@ -511,3 +511,62 @@ def _write(tmp_path: Path, text: str, name: str = "lib.toml") -> Path:
     path = tmp_path / name
     path.write_text(text)
     return path
+
+
+def test_gestures_check_takes_a_library_file_of_your_own(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `prezence gestures check` took no file: a pip-installed user could check nothing of
+    # their own
+    from prezence.cli import main
+
+    path = _write(tmp_path, OWN_SLOW_DOWN, "mine.toml")
+    assert main(["gestures", "check", str(path), "--no-collisions"]) == 0
+    out = capsys.readouterr().out
+    assert f"gestures of {path} at 60%" in out
+    rows = [ln.split()[0] for ln in out.splitlines()[3:-2]]
+    assert rows == ["slow_down"]  # its own gestures only: the built-in ones are checked alone
+    assert "1/1 timings ok (1 gestures of" in out
+    assert "the other 11 gestures a talk with --gestures" in out
+    assert main(["gestures", "check", str(path), "--no-collisions", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["settings"]["library"] == str(path) and report["notes"] == []
+    assert [r["gesture"] for r in report["gestures"]] == ["slow_down"]
+
+
+def test_gestures_check_fails_a_gesture_of_your_own_out_of_the_limits_with_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from prezence.cli import main
+
+    text = (
+        OWN_SLOW_DOWN
+        + "[gestures.wavee]\n[[gestures.wavee.keyframes]]\npose = { LShoulderRoll = 95 }\n"
+    )
+    path = _write(tmp_path, text, "mine.toml")
+    assert main(["gestures", "check", str(path), "--no-collisions"]) == 1
+    out = capsys.readouterr().out
+    assert f"FAIL: {path}:11: gesture 'wavee' keyframes[0]: LShoulderRoll = 95.0°" in out
+    assert f"note: {path}:10: gestures.wavee: no command plays 'wavee'" in out
+
+
+@pytest.mark.parametrize(
+    ("text", "where"),
+    [
+        (OWN_SLOW_DOWN.replace("RHand = 1.0", "RKneePitch = 3"), ":6: gestures.slow_down."),
+        ("format = 1\n[gestures.x]\n[[gestures.x.keyframes]]\npose = { HeadYaw = \n", ":4:"),
+        (None, ": cannot read"),
+    ],
+    ids=["leg-joint", "toml-syntax", "missing"],
+)
+def test_gestures_check_of_a_file_that_is_no_library_fails_naming_file_and_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str | None, where: str
+) -> None:
+    from prezence.cli import main
+
+    path = tmp_path / "mine.toml"
+    if text is not None:
+        path.write_text(text)
+    assert main(["gestures", "check", str(path), "--no-collisions"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"{path}{where}"), err
