@@ -53,6 +53,10 @@ def format_timeline(summary: dict[str, Any]) -> str:
         f"backend {summary.get('backend', '?')}  policy {summary.get('policy', '?')}"
     )
     lines.append(head)
+    if summary.get("gestures"):
+        g = summary["gestures"]
+        mine = ", ".join(g.get("defines") or ())
+        lines.append(f"gestures: {mine} from {g.get('file')}; the others built in")
     lines.append(f"{'time':>7}  {'cue':<12} {'metric':<16} {'lat':>6} {'ok':>3}  reason")
     for c in summary["cues"]:
         lat = c.get("latency_s")
@@ -215,6 +219,11 @@ def _options(args: argparse.Namespace) -> RunOptions:
     """The run options of a coaching command (pacing to a real robot is the loop's business)."""
     from prezence.talk import RunOptions
 
+    gestures = getattr(args, "gestures", None)
+    if gestures:
+        from prezence.feedback.gestures import library_for_talk
+
+        library_for_talk(gestures)  # refused now: before the robot, a module or a folder
     return RunOptions(
         policy=args.policy,
         seed=args.seed if args.seed is not None else 0,
@@ -222,6 +231,7 @@ def _options(args: argparse.Namespace) -> RunOptions:
         realtime=bool(getattr(args, "realtime", False)),
         report=not args.no_report,
         plots=getattr(args, "plots", True),
+        gestures=gestures,
     )
 
 
@@ -296,6 +306,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         )
     config = _load_config(args)
     kw = _backend_kwargs(args)
+    options = _options(args)
     out = claim_session_dir(
         args.out,
         "replay",
@@ -307,7 +318,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         result = replay(
             src,
             out=out,
-            options=_options(args),
+            options=options,
             config=config,
             backend=args.backend,
             backend_kwargs=kw,
@@ -324,6 +335,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
     rec = Path(args.recording)
     config = _config_or_default(args)
     kw = _backend_kwargs(args)
+    options = _options(args)
     margs = {
         "speech": module_args("--speech-args", "speech", args.speech_args),
         "vision": module_args("--vision-args", "vision", args.vision_args),
@@ -340,7 +352,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
         result = rehearse(
             rec,
             out=out,
-            options=_options(args),
+            options=options,
             config=config,
             backend=args.backend,
             backend_kwargs=kw,
@@ -384,6 +396,7 @@ def cmd_up(args: argparse.Namespace) -> int:
 
     kw = _backend_kwargs(args)
     check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
+    options = _options(args)
     backend = make_backend(args.backend, **kw)
     out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
     view = None if args.quiet else _live_view(config, specs)
@@ -394,7 +407,7 @@ def cmd_up(args: argparse.Namespace) -> int:
                 session_dir=out,
                 modules=specs,
                 backend=backend,
-                options=_options(args),
+                options=options,
                 grace_s=args.grace,
                 duration_s=args.duration,
                 view=view,
@@ -568,6 +581,12 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
         type=speed_fraction,
         default=DEFAULT_SPEED_FRACTION,
         help=f"gesture speed fraction (0..1], default {DEFAULT_SPEED_FRACTION}",
+    )
+    p.add_argument(
+        "--gestures",
+        metavar="FILE",
+        help="a gesture library of your own (TOML): its gestures replace the built-in ones of "
+        "the same name (check it first: prezence gestures check FILE)",
     )
     p.add_argument("--json", action="store_true", help="print summary.json instead")
     p.add_argument("--no-report", action="store_true", help="skip the post-talk report")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from prezence.backends.base import Backend, Motion
 from prezence.errors import BackendUnavailable
@@ -20,14 +20,20 @@ from prezence.processor import Cue, Decision, Processor
 from prezence.samples import Sample
 from prezence.session import JsonlWriter, SessionDir
 
+if TYPE_CHECKING:
+    from prezence.feedback.gestures import GestureLibrary
+
 log = logging.getLogger(__name__)
 
 #: Plans the gesture of a command: (gesture name, cue params) → trajectory.
 GesturePlanner = Callable[[str, Mapping[str, Any]], Trajectory]
 
 
-def default_planner(speed_fraction: float) -> GesturePlanner:
-    """The gesture library, retimed against the URDF's limits at ``speed_fraction``.
+def default_planner(
+    speed_fraction: float, *, library: GestureLibrary | None = None
+) -> GesturePlanner:
+    """The gesture library (default: the built-in one), retimed against the URDF's limits at
+    ``speed_fraction``.
 
     Trajectories are cached by gesture and the parameters the gesture declares (a cue's other
     parameters, such as ``minutes_over`` for the phrase, change nothing in the motion).
@@ -36,7 +42,7 @@ def default_planner(speed_fraction: float) -> GesturePlanner:
     from prezence.feedback.limits import load_limits
 
     limits = load_limits()
-    library = load_library(limits)
+    library = library if library is not None else load_library(limits)
     cache: dict[tuple[str, tuple[tuple[str, int], ...]], Trajectory] = {}
 
     def plan(gesture: str, params: Mapping[str, Any]) -> Trajectory:

@@ -14,7 +14,7 @@ import contextlib
 import logging
 import os
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from operator import attrgetter
 from pathlib import Path
 from typing import Any
@@ -110,6 +110,8 @@ def replay(
         options: policy, seed, gesture speed, pacing (``realtime``: at the recording's pace on
             the wall clock; a real robot is always paced), report.
         config: rules and settings; None uses ``src/config.toml`` if present, else the default.
+            Likewise the gestures: with ``options.gestures`` None, a recording that played a
+            library of one's own is replayed with its copy (``src/gestures.toml``).
         backend: robot backend name (see :mod:`prezence.backends.registry`).
         allocated_s: the time allocated, seconds (None keeps the config's).
 
@@ -136,7 +138,11 @@ def replay(
     rec = src_session
     if not rec.meta.exists() and src.name == "streams" and SessionDir(src.parent).meta.exists():
         rec = SessionDir(src.parent)
-    limit = sample_time_limit(rec, rec.read_meta())
+    rec_meta = rec.read_meta()
+    limit = sample_time_limit(rec, rec_meta)
+    if options.gestures is None and rec_meta.get("gestures"):
+        # the robot plays what it played in the recording, as the rules are the recording's
+        options = replace(options, gestures=str(recorded_gestures(rec, rec_meta)))
     readings = read_streams(paths, max_t=limit, ranges=config.value_ranges())
     samples = merge_readings(readings)
     talk_s = float(meta.get("talk_s") or min(limit, samples[-1].t if samples else 0.0))
@@ -180,6 +186,23 @@ def replay(
         },
         extra=extra,
     )
+
+
+def recorded_gestures(rec: SessionDir, meta: Mapping[str, Any]) -> Path:
+    """The copy of the gesture library of one's own a recorded talk played.
+
+    Raises:
+        ConfigError: ``session.json`` names one and the copy is gone.
+    """
+    kept = rec.gestures
+    if not kept.is_file():
+        played = (meta.get("gestures") or {}).get("file")
+        raise ConfigError(
+            f"gestures: the talk played the gestures of {played}, but their copy {kept} is "
+            "missing; give them with --gestures FILE",
+            path=rec.meta,
+        )
+    return kept
 
 
 #: One stream file as read: its samples in file order, its counters, the lines skipped.

@@ -5,6 +5,7 @@
     SESSION/
       session.json        what ran: scenario, seed, backend, config file, format version
       config.toml         the effective configuration (rebuild and replay use it)
+      gestures.toml       only with a gesture library of one's own (--gestures): a copy of it
       streams/<metric>.txt   one append-only file per module, "<t> <value>" per line
       streams/<metric>.txt.stamps  only for bare "<value>" lines: the time the coach gave each
       decisions.jsonl     a JSON line per decision point where a cue is chosen or something changes
@@ -95,6 +96,11 @@ class SessionDir:
         return self.root / "config.toml"
 
     @property
+    def gestures(self) -> Path:
+        """The copy of the gesture library of one's own the talk played (``--gestures``)."""
+        return self.root / "gestures.toml"
+
+    @property
     def streams(self) -> Path:
         return self.root / "streams"
 
@@ -158,7 +164,7 @@ class SessionDir:
                 path=self.root,
             )
         self.streams.mkdir(parents=True, exist_ok=True)
-        for p in (self.decisions, self.cues, self.truth, self.summary):
+        for p in (self.decisions, self.cues, self.truth, self.summary, self.gestures):
             if p.exists():
                 p.unlink()
         if not keep_streams:

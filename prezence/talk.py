@@ -35,6 +35,7 @@ from prezence.clock import ManualClock, MonotonicClock
 from prezence.coach import Coach, default_planner
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
+from prezence.feedback.gestures import library_for_talk
 from prezence.processor import Cue, Decision, Processor, end_of_talk_notes, make_policy
 from prezence.samples import Sample
 from prezence.session import SessionDir, dumps, read_jsonl
@@ -66,6 +67,8 @@ class RunOptions:
         decision_log: ``changes`` (the default: a line where a cue is chosen or the reason,
             the robot's state or a metric's state changes), ``every`` (a line per decision
             point) or ``off``.
+        gestures: a gesture library file of one's own (its gestures replace the built-in ones
+            of the same name; the session records it and keeps a copy); None: the built-in one.
     """
 
     policy: str
@@ -75,6 +78,7 @@ class RunOptions:
     report: bool
     plots: bool = True
     decision_log: str = "changes"
+    gestures: str | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 < self.speed_fraction <= 1.0:
@@ -371,6 +375,8 @@ class Talk:
         self.options = options
         self.on_decision = on_decision
         self.processor = Processor(config, policy=make_policy(options.policy, seed=options.seed))
+        # a library of one's own is read and planned before the robot opens
+        self.library = library_for_talk(options.gestures) if options.gestures else None
         self.coach: Coach | None = None
         self.wall0 = 0.0
         self._meta: dict[str, Any] = {}
@@ -391,6 +397,8 @@ class Talk:
         try:
             self.session.create(keep_streams=self.source.keep_streams)
             self.session.config.write_text(dumps_config(self.config))
+            if self.library is not None:  # what the robot played, kept with the talk
+                self.session.gestures.write_text(self.library.text)
             self.wall0 = time.perf_counter()
             self.source.start(self.session, self.config)
             self._meta = {  # after start: a live source's meta holds its start time
@@ -399,13 +407,14 @@ class Talk:
                 "policy": self.options.policy,
                 "backend": self.backend.name,
                 "speed_fraction": self.options.speed_fraction,
+                **({"gestures": self.library.record()} if self.library else {}),
             }
             self.session.write_meta(self._meta)
             self.coach = Coach(
                 self.processor,
                 self.backend,
                 self.session,
-                planner=default_planner(self.options.speed_fraction),
+                planner=default_planner(self.options.speed_fraction, library=self.library),
                 on_cue=self.source.on_cue,
                 log_mode=self.options.decision_log,
             )
@@ -491,6 +500,7 @@ class Talk:
             **self.source.summary_extra(),
             **({"stopped_repeating": notes} if notes else {}),
             **({"post_talk": post} if post is not None else {}),
+            **({"gestures": self.library.record()} if self.library else {}),
         }
         if clock.live:
             extra["interrupted"] = interrupted

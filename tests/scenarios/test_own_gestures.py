@@ -1,0 +1,160 @@
+"""A gesture library of one's own in a talk (``--gestures FILE``): played, recorded, replayed,
+and refused before the talk starts when it cannot be played."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from prezence.cli import main
+from prezence.feedback.gestures import build_trajectory, load_library_file
+from prezence.feedback.limits import load_limits
+from prezence.session import read_jsonl
+
+#: slow_down as one pat of the right arm (the built-in pats twice with both arms)
+MINE = """format = 1
+[gestures.slow_down]
+description = "One pat."
+[[gestures.slow_down.keyframes]]
+pose = { RShoulderPitch = 35.0, RHand = 1.0 }
+hold = 0.2
+[[gestures.slow_down.keyframes]]
+pose = { RShoulderPitch = 60.0 }
+"""
+
+
+def _durations(folder: Path) -> dict[str, set[float]]:
+    out: dict[str, set[float]] = {}
+    for c in read_jsonl(folder / "cues.jsonl"):
+        out.setdefault(c["gesture"], set()).add(c["gesture_planned_s"])
+    return out
+
+
+@pytest.fixture(scope="module")
+def played(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A fast talker coached with slow_down from a library of one's own."""
+    root = tmp_path_factory.mktemp("own")
+    mine = root / "mine.toml"
+    mine.write_text(MINE)
+    out = root / "s"
+    assert main(["-q", "run", "fast_talker", "--gestures", str(mine), "--out", str(out)]) == 0
+    return mine, out
+
+
+def test_a_talk_plays_the_gestures_of_your_own_library_and_the_built_in_rest(
+    played: tuple[Path, Path],
+) -> None:
+    mine, out = played
+    limits = load_limits()
+    own = build_trajectory(
+        "slow_down",
+        speed_fraction=0.6,
+        limits=limits,
+        library=load_library_file(mine, limits=limits),
+    ).duration
+    built_in = build_trajectory("slow_down", speed_fraction=0.6, limits=limits).duration
+    assert own != pytest.approx(built_in)
+    got = _durations(out)
+    assert got["slow_down"] == {round(own, 6)}
+    encourage = build_trajectory("encourage", speed_fraction=0.6, limits=limits).duration
+    assert got["encourage"] == {round(encourage, 6)}  # not in the file: the built-in one
+
+
+def test_the_session_records_which_library_the_talk_played(played: tuple[Path, Path]) -> None:
+    # so that a replay or a report can say what the robot did
+    mine, out = played
+    meta = json.loads((out / "session.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
+    for record in (meta["gestures"], summary["gestures"]):
+        assert record["file"] == str(mine.resolve())
+        assert record["defines"] == ["slow_down"]
+        assert len(record["sha256"]) == 64
+    assert (out / "gestures.toml").read_text() == MINE  # what was played, kept with the talk
+
+
+def test_the_timeline_says_which_gestures_came_from_the_file(
+    played: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mine, _ = played
+    assert main(["-q", "run", "short_talk", "--gestures", str(mine), "--out", str(tmp_path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1] == f"gestures: slow_down from {mine.resolve()}; the others built in"
+
+
+def test_a_replay_plays_the_recordings_own_gestures(
+    played: tuple[Path, Path], tmp_path: Path
+) -> None:
+    _, out = played
+    again = tmp_path / "r"
+    assert main(["-q", "replay", str(out), "--out", str(again)]) == 0
+    # the same gestures take the same time: the coach decides exactly as in the recording
+    assert (again / "decisions.jsonl").read_bytes() == (out / "decisions.jsonl").read_bytes()
+    meta = json.loads((again / "session.json").read_text())
+    assert meta["gestures"]["file"] == str((out / "gestures.toml").resolve())
+    # with another library given, slow_down is the built-in one again
+    plain = tmp_path / "plain.toml"
+    plain.write_text(
+        "format = 1\n[gestures.encourage]\n[[gestures.encourage.keyframes]]\n"
+        "pose = { HeadPitch = 10 }\n"
+    )
+    other = tmp_path / "o"
+    assert main(["-q", "replay", str(out), "--out", str(other), "--gestures", str(plain)]) == 0
+    assert _durations(other)["slow_down"] != _durations(out)["slow_down"]
+
+
+def test_a_replay_whose_recorded_library_is_gone_says_so(
+    played: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+
+    _, out = played
+    copy = tmp_path / "rec"
+    shutil.copytree(out, copy)
+    (copy / "gestures.toml").unlink()
+    assert main(["-q", "replay", str(copy), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert "session.json: gestures: the talk played the gestures of" in err
+    assert "give them with --gestures FILE" in err
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_synthetic_talk_run_again_without_the_library_keeps_no_copy(
+    played: tuple[Path, Path], tmp_path: Path
+) -> None:
+    mine, _ = played
+    out = tmp_path / "s"
+    assert main(["-q", "run", "short_talk", "--gestures", str(mine), "--out", str(out)]) == 0
+    assert (out / "gestures.toml").exists()
+    assert main(["-q", "run", "short_talk", "--out", str(out)]) == 0
+    assert not (out / "gestures.toml").exists()
+    assert "gestures" not in json.loads((out / "session.json").read_text())
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["run", "short_talk"],
+        ["demo"],
+        ["replay", "RECORDING"],
+        ["rehearse", "talk.wav"],
+        ["up", "--module", "x=true {session}", "--duration", "2"],
+    ],
+    ids=["run", "demo", "replay", "rehearse", "up"],
+)
+def test_a_library_that_cannot_be_played_stops_every_talk_before_it_starts(
+    played: tuple[Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    command: list[str],
+) -> None:
+    _, recording = played
+    bad = tmp_path / "bad.toml"
+    bad.write_text(MINE.replace("RShoulderPitch = 60.0", "RShoulderPitch = 150.0"))
+    out = tmp_path / "out"
+    argv = [str(recording) if a == "RECORDING" else a for a in command]
+    assert main(["-q", *argv, "--gestures", str(bad), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {bad}:7: gesture 'slow_down' keyframes[1]: RShoulderPitch"), err
+    assert not out.exists()
