@@ -31,6 +31,10 @@ log = logging.getLogger(__name__)
 DEMO_SCENARIO = "demo"
 #: ``prezence run``: the talk ran but missed what its scenario expects of the coach.
 EXIT_EXPECTATIONS = 3
+#: A talk ran (and, for ``run``, met its expectations) but the robot did not give every cue
+#: the coach chose, or its post-talk summary: cut short (a robot lost mid-cue, a motion that
+#: never ended) or dropped (the robot was gone). A scenario missed is 3 all the same.
+EXIT_ROBOT = 4
 
 
 def _mmss(t: float | None) -> str:
@@ -115,6 +119,42 @@ def post_talk_line(post: dict[str, Any]) -> str:
         why = post.get("drop_reason") or "cut short"
         return f'robot did NOT say its summary ({why}): "{post["phrase"]}"'
     return f'robot: "{post["phrase"]}"'
+
+
+def robot_shortfall(
+    summary: dict[str, Any], cues: Sequence[dict[str, Any]] | None = None
+) -> str | None:
+    """What the robot did not give of what the coach chose (None: it gave everything).
+
+    Counts the cues cut short and dropped and a post-talk summary not said, with the first
+    reason (``cues``: the cue records, for a dropped cue's reason).
+
+    Example:
+        >>> robot_shortfall({"counts": {"cues_dropped": 0}}) is None
+        True
+        >>> robot_shortfall({"counts": {"cues_dropped": 2, "cues_cut_short": 1},
+        ...                  "cues": [{"cut_short": "robot lost: reset"}],
+        ...                  "post_talk": {"ok": False, "drop_reason": "robot lost: gone"}})
+        '1 cue cut short, 2 dropped, the post-talk summary not said (robot lost: reset)'
+    """
+    counts = summary.get("counts") or {}
+    cut = int(counts.get("cues_cut_short") or 0)
+    dropped = int(counts.get("cues_dropped") or 0)
+    post = summary.get("post_talk") or {}
+    unsaid = post.get("ok") is False
+    parts = [f"{cut} cue{'s' if cut != 1 else ''} cut short"] if cut else []
+    if dropped:
+        cue = "" if cut else (" cue" if dropped == 1 else " cues")
+        parts.append(f"{dropped}{cue} dropped")
+    if unsaid:
+        parts.append("the post-talk summary not said")
+    if not parts:
+        return None
+    reasons = [c.get("cut_short") for c in summary.get("cues") or ()]
+    reasons += [c.get("drop_reason") for c in cues or () if c.get("dropped")]
+    reasons.append(post.get("drop_reason"))
+    why = next((str(r) for r in reasons if r), "")
+    return ", ".join(parts) + (f" ({why})" if why else "")
 
 
 def _trouble_notes(summary: dict[str, Any]) -> list[str]:
@@ -252,6 +292,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         progress=None if args.quiet else _progress_printer(),
     )
     problems = check_expectations(result.scenario, result.cues)
+    shortfall = robot_shortfall(result.summary, result.cues)
     if args.json:
         print(json.dumps(result.summary, indent=2, sort_keys=True))
     else:
@@ -260,6 +301,14 @@ def cmd_run(args: argparse.Namespace) -> int:
             print("scenario expectations NOT met:")
             for p in problems:
                 print(f"  - {p}")
+            if shortfall:
+                print(f"and the robot did not give them all: {shortfall}")
+        elif shortfall:
+            # the coach chose as expected; the robot (lost, stuck) did not give it all
+            print(
+                "scenario expectations met by the cues chosen, but the robot did not give "
+                f"them all: {shortfall}"
+            )
         else:
             print("scenario expectations met")
         post = result.summary.get("post_talk")
@@ -273,8 +322,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             else:
                 again = f"prezence report {result.session.root}"
                 print(f"report: {page}  (tables; plots: --plots or {again})")
-    # A scenario states what a good coach must do; missing it fails the run, as CI wants.
-    return EXIT_EXPECTATIONS if problems else 0
+    # A scenario states what a good coach must do; missing it fails the run, as CI wants, and
+    # so does a robot that did not give what the coach chose.
+    if problems:
+        return EXIT_EXPECTATIONS
+    return EXIT_ROBOT if shortfall else 0
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -324,8 +376,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             backend_kwargs=kw,
             allocated_s=args.allocated,
         )
-    _finish_session(result.session.root, result.summary, args, report=result.report)
-    return 0
+    return _finish_session(result.session.root, result.summary, args, report=result.report)
 
 
 def cmd_rehearse(args: argparse.Namespace) -> int:
@@ -360,8 +411,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
             allocated_s=args.allocated,
             progress=show,
         )
-    _finish_session(result.session.root, result.summary, args, report=result.report)
-    return 0
+    return _finish_session(result.session.root, result.summary, args, report=result.report)
 
 
 def cmd_up(args: argparse.Namespace) -> int:
@@ -417,11 +467,11 @@ def cmd_up(args: argparse.Namespace) -> int:
         finally:
             if view is not None:
                 view.close()
-    _finish_session(result.session.root, result.summary, args, report=result.report)
+    status = _finish_session(result.session.root, result.summary, args, report=result.report)
     if result.error is not None:
         print(f"error: the talk stopped: {result.error}", file=sys.stderr)
         return 2
-    return 0
+    return status
 
 
 def _live_view(config: Config, specs: Sequence[Any]) -> RichLiveView:
@@ -436,11 +486,18 @@ def _live_view(config: Config, specs: Sequence[Any]) -> RichLiveView:
 
 def _finish_session(
     root: Path, summary: dict[str, Any], args: argparse.Namespace, *, report: Path | None
-) -> None:
-    """Print what a session left: the timeline (or summary.json), notes, its folder, its report."""
+) -> int:
+    """Print what a session left: the timeline (or summary.json), notes, its folder, its report.
+
+    Returns:
+        0, or :data:`EXIT_ROBOT` when the robot did not give every cue or its summary.
+    """
+    from prezence.session import read_jsonl
+
+    shortfall = robot_shortfall(summary, read_jsonl(root / "cues.jsonl"))
     if getattr(args, "json", False):
         print(json.dumps(summary, indent=2, sort_keys=True))
-        return
+        return EXIT_ROBOT if shortfall else 0
     print(format_timeline(summary))
     if summary.get("truth_dropped"):
         print(
@@ -450,9 +507,12 @@ def _finish_session(
     post = summary.get("post_talk")
     if post:
         print(post_talk_line(post))
+    if shortfall:
+        print(f"the robot did not give every cue: {shortfall}")
     print(f"session folder: {root}")
     if report is not None:
         print(f"report: {report}")
+    return EXIT_ROBOT if shortfall else 0
 
 
 def cmd_check_config(args: argparse.Namespace) -> int:

@@ -115,7 +115,7 @@ def test_a_cue_cut_off_by_a_lost_robot_and_an_unsaid_summary_are_shown_as_such(
 ) -> None:
     # session 13: the robot was lost 0.5 s into a 2.8 s cue; the timeline, the counts and the
     # report showed the cue like any other and 'robot: "You used 40 seconds…"', never said
-    from prezence.cli import format_timeline, post_talk_line
+    from prezence.cli import format_timeline, post_talk_line, robot_shortfall
 
     short = (Path(__file__).parents[2] / "scenarios" / "short_talk.toml").read_text()
     scenario = tmp_path / "racer.toml"  # short_talk cut to 8 s, its expectations left out
@@ -152,9 +152,60 @@ def test_a_cue_cut_off_by_a_lost_robot_and_an_unsaid_summary_are_shown_as_such(
     assert "(dropped 0, cut short 1," in timeline
     post = result.summary["post_talk"]
     assert post_talk_line(post).startswith("robot did NOT say its summary (")
+    # what makes `prezence run` exit 4 (EXIT_ROBOT), not 0 with "expectations met"
+    shortfall = robot_shortfall(result.summary, result.cues)
+    assert shortfall is not None and shortfall.startswith("1 cue cut short")
+    assert "the post-talk summary not said" in shortfall
     text = (tmp_path / "s" / "report" / "summary.txt").read_text()
     assert "note: 1 cue cut short (" in text and "CUT SHORT: robot lost" in text
     assert "note: the robot did not say its summary after the talk (" in text
     page = (tmp_path / "s" / "report" / "report.html").read_text()
     assert "cut short: robot lost" in page
     assert "What the robot was to say, <b" in page and "What the robot says" not in page
+
+
+@pytest.mark.slow
+def test_run_exits_4_when_the_robot_is_lost_mid_cue(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # session 13: the same talk said "scenario expectations met" and exited 0, so a CI job
+    # never saw that the robot dropped out
+    import prezence.synthetic.runner as runner
+    from prezence.cli import EXIT_ROBOT
+    from prezence.config.tomlconf import dumps_config
+
+    short = (Path(__file__).parents[2] / "scenarios" / "short_talk.toml").read_text()
+    scenario = tmp_path / "racer.toml"  # short_talk cut to 8 s, its expectations left out
+    scenario.write_text(short.split("[expect]")[0].replace('"0:40"', '"0:08"'))
+    base = load_config(None)
+    config = tmp_path / "quick.toml"  # a cue within the 8 s
+    config.write_text(
+        dumps_config(replace(base, processor=replace(base.processor, threshold=100.0)))
+    )
+    proc, url = spawn("--port", "0")
+    lost: list[float] = []
+
+    def lose_the_robot_as_it_starts_a_cue(d: Decision) -> None:
+        if d.cue is not None and not lost:
+            stop_spawned(proc, kill=True)
+            lost.append(d.t)
+
+    real = runner.run_talk
+
+    def with_the_robot_lost(*args: Any, **kwargs: Any) -> Any:
+        return real(*args, on_decision=lose_the_robot_as_it_starts_a_cue, **kwargs)
+
+    monkeypatch.setattr(runner, "run_talk", with_the_robot_lost)
+    argv = ["run", str(scenario), "--backend", "naoqi", "--robot", url, "--config", str(config)]
+    argv += ["--policy", "weighted:persistence_s=0,escalate_after=0", "--out", str(tmp_path / "s")]
+    try:
+        status = main([*argv, "--no-report"])
+    finally:
+        stop_spawned(proc)
+    assert lost
+    out = capsys.readouterr().out
+    assert (
+        "scenario expectations met by the cues chosen, but the robot did not give them all: " in out
+    )
+    assert "1 cue cut short" in out and "robot lost" in out
+    assert status == EXIT_ROBOT == 4
