@@ -158,8 +158,9 @@ def robot_shortfall(
 
 
 def _trouble_notes(summary: dict[str, Any]) -> list[str]:
-    """Modules that crashed or hung (and what they left unmeasured), and unreadable lines."""
-    from prezence.report.speech import module_sentences
+    """Modules that crashed or hung (and what they left unmeasured), unreadable lines and
+    damaged cue lines."""
+    from prezence.report.speech import module_sentences, skipped_sentences
     from prezence.summary import module_notes
 
     metrics = summary.get("metrics") or {}
@@ -175,7 +176,7 @@ def _trouble_notes(summary: dict[str, Any]) -> list[str]:
                 f"{n} unreadable line{'s' if n != 1 else ''} of {name} skipped"
                 + (f" (e.g. {first})" if first else "")
             )
-    return out
+    return out + skipped_sentences(summary.get("skipped_records") or [])
 
 
 def _progress_printer() -> Callable[[float, float], None] | None:

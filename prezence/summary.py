@@ -15,7 +15,7 @@ import numpy as np
 
 from prezence.config.model import Config, Rule
 from prezence.samples import Sample
-from prezence.session import SessionDir, read_jsonl, write_json
+from prezence.session import CUE_KEYS, SessionDir, read_jsonl, write_json
 
 if TYPE_CHECKING:
     from prezence.processor import Processor
@@ -253,6 +253,7 @@ def build_summary(
     problems: Sequence[str] = (),
     not_measured: Collection[str] = (),
     modules: Mapping[str, Any] | None = None,
+    skipped_records: Sequence[str] = (),
 ) -> dict[str, Any]:
     """The ``summary.json`` of a talk.
 
@@ -272,6 +273,8 @@ def build_summary(
         modules: the launcher's record of the modules (``summary.json``'s ``modules``): a
             metric whose module died holds its last value only until then, and its
             ``lost`` stretches (:func:`module_outages`) are listed.
+        skipped_records: damaged lines of ``cues.jsonl`` left out, as ``file:line: why``
+            (``skipped_records`` and ``counts.skipped_records``, only when there is one).
     """
     metrics: dict[str, Any] = {}
     stale_default = config.processor.stale_after_s
@@ -373,9 +376,11 @@ def build_summary(
             "stale_episodes": sum(m["stale_episodes"] for m in metrics.values()),
             "joint_limit_violations": int((backend_stats or {}).get("joint_limit_violations", 0)),
             **({"cues_cut_short": n_cut} if n_cut else {}),
+            **({"skipped_records": len(skipped_records)} if skipped_records else {}),
         },
         "backend_stats": dict(backend_stats or {}),
         "stream_problems": list(problems)[:100],
+        **({"skipped_records": list(skipped_records)[:100]} if skipped_records else {}),
     }
     if extra:
         out.update(extra)
@@ -403,6 +408,10 @@ def summarize_session(
         processor: the talk's processor: the samples it dropped (late, ahead) are counted.
         readings: stream files already read (metric → samples, counters, skipped lines; a
             replay's), used instead of reading the session's copies again.
+
+    A damaged line of ``cues.jsonl`` (a torn one, or one in the middle) is skipped, named
+    (``file:line: why``) in ``skipped_records`` and counted, as the report does: the end of a
+    talk never fails on it, and the summary is built from the other cues.
     """
     from prezence.streams.tail import read_stream
 
@@ -430,10 +439,12 @@ def summarize_session(
             stats[metric] = lst.to_dict()
         found = live.problems()
     problems = [str(p) for p in found]
+    bad_cues: list[str] = []
+    cues = read_jsonl(session.cues, require=CUE_KEYS, skipped=bad_cues)
     summary = build_summary(
         config,
         samples,
-        read_jsonl(session.cues),
+        cues,
         talk_s=talk_s,
         truth=truth,
         stream_stats=stats,
@@ -443,6 +454,7 @@ def summarize_session(
         problems=problems,
         not_measured=absent,
         modules=(extra or {}).get("modules"),
+        skipped_records=bad_cues,
     )
     write_json(session.summary, summary)
     return summary

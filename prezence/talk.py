@@ -38,7 +38,7 @@ from prezence.config.tomlconf import dumps_config
 from prezence.feedback.gestures import library_for_talk
 from prezence.processor import Cue, Decision, Processor, end_of_talk_notes, make_policy
 from prezence.samples import Sample
-from prezence.session import SessionDir, dumps, read_jsonl
+from prezence.session import CUE_KEYS, SessionDir, dumps, read_jsonl
 from prezence.streams.tail import MultiTailer
 from prezence.summary import summarize_session
 
@@ -527,7 +527,8 @@ class Talk:
         return TalkRun(
             self.session,
             summary,
-            read_jsonl(self.session.cues),
+            # a damaged line is skipped here too (summary.json names it)
+            read_jsonl(self.session.cues, require=CUE_KEYS, skipped=[]),
             coach.decisions,
             wall,
             truncated=truncated,

@@ -95,3 +95,34 @@ def test_screenshot_of_the_report_is_not_blank(crashed: SessionDir, tmp_path: Pa
         colours = im.convert("L").getcolors(maxcolors=1 << 16)
     # A blank page has one or two shades; a rendered report has text, plots and tables.
     assert colours is None or len(colours) > 50
+
+
+def test_a_cue_line_damaged_during_the_talk_is_skipped_and_named_in_the_summary(
+    tmp_path: Path,
+) -> None:
+    # session 14: one bad line in the middle of cues.jsonl stopped the end of the talk with
+    # 'error: …/cues.jsonl:2: not a JSON line': no summary.json, no report
+    from prezence.cli import format_timeline
+
+    out = tmp_path / "s"
+    cues = out / "cues.jsonl"
+
+    def damage_after_the_first_cue(d: Decision) -> None:
+        if cues.exists() and cues.read_text().count("\n") == 1:
+            with cues.open("a") as f:
+                f.write('{"t": 12.0, "comm\n')
+
+    run = run_talk("demo", out=out, seed=0, on_decision=damage_after_the_first_cue, report=True)
+    where = f"{cues}:2: not a JSON line (Unterminated string starting at); line skipped"
+    assert run.summary["skipped_records"] == [where]
+    assert run.summary["counts"]["skipped_records"] == 1
+    written = json.loads((out / "summary.json").read_text())
+    assert written["skipped_records"] == [where]
+    kept = read_jsonl(cues, skipped=[])
+    assert [c["t"] for c in run.cues] == [c["t"] for c in kept] and len(kept) >= 2
+    assert [c["t"] for c in written["cues"]] == [c["t"] for c in kept]
+    assert (out / "report" / "report.html").exists()
+    assert "cues.jsonl:2: not a JSON line" in (out / "report" / "summary.txt").read_text()
+    assert f"note: a damaged record line was left out, so a cue may be missing: {where}" in (
+        format_timeline(run.summary)
+    )
