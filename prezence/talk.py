@@ -20,11 +20,12 @@ when ``RunOptions.realtime`` is set or the backend declares it moves in real tim
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import shutil
 import time
 from bisect import bisect_right
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from operator import attrgetter
 from pathlib import Path
@@ -611,68 +612,104 @@ def run_talk(
         options=options,
         on_decision=on_decision,
     )
-    talk.start()
-    events: list[str] = []
-    now = talk_s = 0.0
-    completed = truncated = interrupted = False
-    try:
-        if isinstance(clock, SteppedClock):
-            length = float(source.talk_s or 0.0)
-            pace = talk.pace if talk.paced else None
-            for now in clock.points(length):
-                clock.set(now)
-                if pace is not None:
-                    pace(now)
-                d = talk.step(now)
-                if view is not None:
-                    view.decision(_with_views(talk, d))
-                if progress is not None:
-                    progress(now, length)
-                if stop is not None and stop():
-                    truncated = True
-                    break
-            talk_s = now if truncated else length
-        else:
-            next_tick = 0.0
-            while True:
-                now = clock.now()
-                if source.ended(now):
-                    break
-                if stop is not None and stop():
-                    break
-                source.wait(max(0.0, min(dt, next_tick - now)))  # new data: decide at once
-                now = clock.now()
-                d = talk.step(now)
-                next_tick = now + dt
-                if view is not None:
-                    view.decision(_with_views(talk, d))
-                for ev in source.events(now):
-                    events.append(f"{now:.1f} {ev}")
+    with _each_warning_once():
+        talk.start()
+        events: list[str] = []
+        now = talk_s = 0.0
+        completed = truncated = interrupted = False
+        try:
+            if isinstance(clock, SteppedClock):
+                length = float(source.talk_s or 0.0)
+                pace = talk.pace if talk.paced else None
+                for now in clock.points(length):
+                    clock.set(now)
+                    if pace is not None:
+                        pace(now)
+                    d = talk.step(now)
                     if view is not None:
-                        view.event(now, ev)
-        completed = source.error is None  # a module's bad input: no post-talk summary
-    except KeyboardInterrupt:
-        completed = interrupted = True
-        talk_s = now
-        log.info("stopped by Ctrl-C")
-    except BaseException:
-        # the robot and the source are released; the error goes on
-        _abandon(talk)
-        raise
-    if clock.live:
-        talk_s = clock.now()
-        talk.source.finish_input()
-        talk.step(talk_s)  # the samples written while the modules stopped
-        now = talk_s
-    return talk.finish(
-        now,
-        clock=clock,
-        talk_s=talk_s,
-        completed=completed,
-        truncated=truncated,
-        interrupted=interrupted,
-        events=events,
-    )
+                        view.decision(_with_views(talk, d))
+                    if progress is not None:
+                        progress(now, length)
+                    if stop is not None and stop():
+                        truncated = True
+                        break
+                talk_s = now if truncated else length
+            else:
+                next_tick = 0.0
+                while True:
+                    now = clock.now()
+                    if source.ended(now):
+                        break
+                    if stop is not None and stop():
+                        break
+                    source.wait(max(0.0, min(dt, next_tick - now)))  # new data: decide at once
+                    now = clock.now()
+                    d = talk.step(now)
+                    next_tick = now + dt
+                    if view is not None:
+                        view.decision(_with_views(talk, d))
+                    for ev in source.events(now):
+                        events.append(f"{now:.1f} {ev}")
+                        if view is not None:
+                            view.event(now, ev)
+            completed = source.error is None  # a module's bad input: no post-talk summary
+        except KeyboardInterrupt:
+            completed = interrupted = True
+            talk_s = now
+            log.info("stopped by Ctrl-C")
+        except BaseException:
+            # the robot and the source are released; the error goes on
+            _abandon(talk)
+            raise
+        if clock.live:
+            talk_s = clock.now()
+            talk.source.finish_input()
+            talk.step(talk_s)  # the samples written while the modules stopped
+            now = talk_s
+        return talk.finish(
+            now,
+            clock=clock,
+            talk_s=talk_s,
+            completed=completed,
+            truncated=truncated,
+            interrupted=interrupted,
+            events=events,
+        )
+
+
+#: The loggers whose warnings name a bad line of the talk's files (a stream line, a cue line).
+_LINE_LOGGERS = ("prezence.streams.tail", "prezence.session")
+
+
+class _Once(logging.Filter):
+    """Lets each message through once."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: set[str] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        msg = record.getMessage()
+        if msg in self.seen:
+            return False
+        self.seen.add(msg)
+        return True
+
+
+@contextlib.contextmanager
+def _each_warning_once() -> Iterator[None]:
+    """Within, a bad line is warned about once in the talk: the coach's reader names it
+    while the talk runs, and the post-talk summary, ``summary.json`` and the report read
+    the same files again (a damaged cue line was warned about five times)."""
+    once = _Once()
+    loggers = [logging.getLogger(name) for name in _LINE_LOGGERS]
+    for lg in loggers:
+        lg.addFilter(once)
+    try:
+        yield
+    finally:
+        for lg in loggers:
+            lg.removeFilter(once)
 
 
 def _with_views(talk: Talk, d: Decision) -> Decision:

@@ -98,7 +98,7 @@ def test_screenshot_of_the_report_is_not_blank(crashed: SessionDir, tmp_path: Pa
 
 
 def test_a_cue_line_damaged_during_the_talk_is_skipped_and_named_in_the_summary(
-    tmp_path: Path,
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
     # session 14: one bad line in the middle of cues.jsonl stopped the end of the talk with
     # 'error: …/cues.jsonl:2: not a JSON line': no summary.json, no report
@@ -114,6 +114,8 @@ def test_a_cue_line_damaged_during_the_talk_is_skipped_and_named_in_the_summary(
 
     run = run_talk("demo", out=out, seed=0, on_decision=damage_after_the_first_cue, report=True)
     where = f"{cues}:2: not a JSON line (Unterminated string starting at); line skipped"
+    # warned once, though the spoken summary, summary.json and the report each read the file
+    assert [r.getMessage() for r in caplog.records if "cues.jsonl:2" in r.getMessage()] == [where]
     assert run.summary["skipped_records"] == [where]
     assert run.summary["counts"]["skipped_records"] == 1
     written = json.loads((out / "summary.json").read_text())
