@@ -489,6 +489,7 @@ class LiveSource(SourceBase):
         self._stopped = True
         self.finish_input()
         if self._tailer is not None:
+            self._tailer.finish()  # the modules are gone: a torn last line is a bad one
             self._tailer.close()
         for f in self._logs:
             f.close()

@@ -7,7 +7,8 @@
       config.toml         the effective configuration (rebuild and replay use it)
       gestures.toml       only with a gesture library of one's own (--gestures): a copy of it
       streams/<metric>.txt   one append-only file per module, "<t> <value>" per line
-      streams/<metric>.txt.stamps  only for bare "<value>" lines: the time the coach gave each
+      streams/<metric>.txt.stamps  only for bare "<value>" lines (the time the coach gave
+                          each) and lines the coach skipped as stamped ahead of its clock
       decisions.jsonl     a JSON line per decision point where a cue is chosen or something changes
       cues.jsonl          one JSON line per cue the robot performed, with its outcome
       truth.jsonl         synthetic talks only: when each metric was really out of range

@@ -40,7 +40,7 @@ from prezence.feedback.gestures import library_for_talk
 from prezence.processor import Cue, Decision, Processor, end_of_talk_notes, make_policy
 from prezence.samples import Sample
 from prezence.session import CUE_KEYS, SessionDir, dumps, read_jsonl
-from prezence.streams.tail import MultiTailer
+from prezence.streams.tail import MultiTailer, stamps_path
 from prezence.summary import summarize_session
 
 log = logging.getLogger(__name__)
@@ -257,6 +257,9 @@ class RecordedSource(SourceBase):
         self._i = 0
         for name, path in self._copy.items():
             shutil.copyfile(path, session.stream(name))
+            stamps = stamps_path(path)  # what the coach alone knew of its lines
+            if stamps.is_file():
+                shutil.copyfile(stamps, stamps_path(session.stream(name)))
 
     def poll(self, now: float) -> Sequence[Sample]:
         ss = self._samples

@@ -30,7 +30,11 @@ reached last time) and returns the samples of the *complete* lines among them. W
 - **a time ahead of the reader's clock**, when the tailer is given ``max_ahead_s`` (the coach
   gives :data:`prezence.samples.MAX_AHEAD_S`): a line stamped more than that after the ``now``
   given to ``poll`` is a bad line like the others (skipped, counted as malformed, logged with
-  ``file:line``). :func:`read_stream` has no clock and keeps such lines.
+  ``file:line``). :func:`read_stream` has no clock: with ``record_stamps`` the coach notes each
+  such line in the sidecar (``<line> ahead <now>``), and :func:`read_stream` skips the lines
+  noted there with the same reason, so the summary, the report and a replay count and leave
+  out what the coach did (a line 5 s ahead was a sample to the report, and one 1e5 s ahead a
+  sample "stamped after the end of the talk", while the coach had skipped both as unreadable).
 - **timestamps going backwards**: the sample is kept as written and ``out_of_order`` counts it
   (a sample whose ``t`` is below the previous sample's of the same stream). Ordering and
   staleness are the processor's business; the count is for the summary. After a truncation or
@@ -204,6 +208,7 @@ class StreamTailer:
         self._beyond = 0
         self._stamps_out = stamps_path(self.path) if record_stamps else None
         self._stamps_in: dict[int, float] = {}  # read_stream: line -> recorded stamp
+        self._ahead_in: dict[int, float] = {}  # read_stream: line -> clock it was ahead of
         self._name = str(self.path)
         self._problems: deque[StreamProblem] = deque(maxlen=max_problems)
         self._logged = 0
@@ -476,7 +481,7 @@ class StreamTailer:
         # cannot fail), so lines take the short path below; a bad one still goes to parse_line
         # for its reason.
         plain = complete.isascii() and b"_" not in complete
-        if plain and not self._skipping and len(complete) >= BULK_MIN_BYTES:
+        if plain and not self._skipping and len(complete) >= BULK_MIN_BYTES and not self._ahead_in:
             bulk = self._feed_bulk(complete, now)
             if bulk is not None:
                 self._samples += len(bulk)
@@ -493,6 +498,7 @@ class StreamTailer:
         max_t = self.max_t
         last_t = self._last_t
         recorded = self._stamps_in
+        skipped_ahead = self._ahead_in
         vlo, vhi = self._vlo, self._vhi
         stamped: list[str] = []
         t: float | None
@@ -504,7 +510,12 @@ class StreamTailer:
                 hi = min(hi, now + ahead)
             lo = -math.inf if last_t is None else last_t
             done = 0
-            for line in lines:
+            todo = lines
+            if skipped_ahead:  # stop before the next line the coach skipped
+                nxt = min((n for n in skipped_ahead if n > self._line_no), default=None)
+                if nxt is not None:
+                    todo = lines[: nxt - self._line_no - 1]
+            for line in todo:
                 fields = line.split()
                 if len(fields) != 2 or len(line) > MAX_LINE_BYTES:
                     break
@@ -574,7 +585,12 @@ class StreamTailer:
                 if self._stamps_out is not None:
                     stamped.append(f"{self._line_no} {t!r}\n")
             elif ahead is not None and now is not None and t > now + ahead:
-                self._problem(self._line_no, f"t={t:g} is ahead of the talk clock ({now:.3f} s)")
+                self._problem(self._line_no, _ahead_reason(t, now))
+                if self._stamps_out is not None:  # so that a later reading skips it too
+                    stamped.append(f"{self._line_no} ahead {now!r}\n")
+                continue
+            elif skipped_ahead and self._line_no in skipped_ahead:
+                self._problem(self._line_no, _ahead_reason(t, skipped_ahead[self._line_no]))
                 continue
             if max_t is not None and t > max_t:
                 self._beyond += 1
@@ -623,32 +639,44 @@ class StreamTailer:
                 log.warning("%s: further bad lines are counted but not logged", self._name)
 
 
+def _ahead_reason(t: float, now: float) -> str:
+    return f"t={t:g} is ahead of the talk clock ({now:.3f} s)"
+
+
 def stamps_path(path: str | os.PathLike[str]) -> Path:
-    """The sidecar of a stream file where the times given to its bare-value lines are kept."""
+    """The sidecar of a stream file where the coach keeps what it alone knew of its lines:
+    the times it gave to bare-value lines (``<line> <t>``) and the lines it skipped as ahead
+    of its clock (``<line> ahead <now>``); ``restart`` when the file began again."""
     p = Path(path)
     return p.with_name(p.name + ".stamps")
 
 
-def _read_stamps(path: Path) -> dict[int, float]:
-    """``line -> t`` from a stamps sidecar, for the file's current content (after the last
-    ``restart``); unreadable lines in it are ignored."""
+def _read_stamps(path: Path) -> tuple[dict[int, float], dict[int, float]]:
+    """From a stamps sidecar, for the file's current content (after the last ``restart``):
+    ``line -> t`` given to bare values, and ``line -> now`` of the lines skipped as ahead of
+    the clock ``now``; unreadable lines in it are ignored."""
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
-        return {}
+        return {}, {}
     out: dict[int, float] = {}
+    ahead: dict[int, float] = {}
     for line in text.splitlines():
         if line == "restart":
             out.clear()
+            ahead.clear()
             continue
         parts = line.split()
+        into = out
+        if len(parts) == 3 and parts[1] == "ahead":
+            into, parts = ahead, [parts[0], parts[2]]
         try:
             n, t = int(parts[0]), float(parts[1])
         except (IndexError, ValueError):
             continue
         if math.isfinite(t):
-            out[n] = t
-    return out
+            into[n] = t
+    return out, ahead
 
 
 def read_stream(
@@ -664,6 +692,8 @@ def read_stream(
 
     Same parsing as :meth:`StreamTailer.poll` (it is one poll), followed by
     :meth:`StreamTailer.finish`: an unterminated last line is ignored and counted as malformed.
+    Lines the coach skipped as ahead of its clock (noted in :func:`stamps_path`) are skipped
+    and counted as malformed here too.
     A missing file gives no samples and ``missing == 1``.
 
     Args:
@@ -684,7 +714,7 @@ def read_stream(
         The samples in file order, and the counters.
     """
     tailer = StreamTailer(path, metric, max_t=max_t, value_range=value_range)
-    tailer._stamps_in = _read_stamps(stamps_path(path))
+    tailer._stamps_in, tailer._ahead_in = _read_stamps(stamps_path(path))
     at = None if now is None else _check_now(now)
     samples = tailer._poll(at)
     while tailer._offset < MAX_STREAM_BYTES and tailer.changed():
@@ -977,6 +1007,12 @@ class MultiTailer:
             if remaining <= 0:
                 return False
             watcher.block(min(remaining, 3600.0))
+
+    def finish(self) -> None:
+        """End of every stream (see :meth:`StreamTailer.finish`): a line left unterminated is
+        counted as :func:`read_stream` counts it afterwards."""
+        for tailer in self._tailers.values():
+            tailer.finish()
 
     def close(self) -> None:
         """Release the watcher; a second call does nothing."""

@@ -24,6 +24,7 @@ from prezence.talk import RunOptions
 
 PACE = Path(__file__).with_name("pace_module.py")
 BEAT = Path(__file__).with_name("beat_module.py")
+JUNK = Path(__file__).with_name("junk_module.py")
 
 CONFIG = Config(
     rules=(Rule("speech_speed", Check.IN_RANGE, 140, 180, below="speedUp", above="slowDown"),),
@@ -88,6 +89,44 @@ def test_up_skips_values_outside_the_physical_range_and_says_where(tmp_path: Pat
     assert result.summary["stream_problems"][0] == (
         f"{stream}:1: value 5000 is outside speech_speed's physical range 0..400"
     )
+
+
+@pytest.mark.slow
+def test_the_printed_summary_the_report_and_a_replay_count_the_same_unreadable_lines(
+    tmp_path: Path,
+) -> None:
+    # session 14: 246 unreadable lines printed at the end of the talk, 205 in the report and
+    # 41 "samples stamped after the end": the coach skips a line stamped ahead of its clock,
+    # a reading afterwards had no clock and took it as a sample (5 s ahead) or as after the end
+    import json
+
+    from prezence.cli import format_timeline
+    from prezence.replay import replay
+
+    argv = [sys.executable, str(JUNK), "--out", "{session}", "--t0", "{t0}"]
+    result = up(
+        CONFIG,
+        session_dir=tmp_path / "s",
+        modules=[ModuleSpec("junk", argv, metrics=("speech_speed",))],
+        backend=FakeBackend(time_scale=0.01),
+        duration_s=2.0,
+        options=RunOptions.default(report=True),
+    )
+    speed = result.summary["metrics"]["speech_speed"]
+    n = speed["stream"]["malformed"]
+    assert n >= 10
+    assert f"note: {n} unreadable lines of speech_speed skipped" in format_timeline(result.summary)
+    text = (tmp_path / "s" / "report" / "summary.txt").read_text()
+    assert f"note: {n} unreadable lines in streams/speech_speed.txt were skipped" in text
+    assert "stamped after the end" not in text
+    report = json.loads((tmp_path / "s" / "report" / "report.json").read_text())
+    read = report["metrics"]["speech_speed"]
+    assert read["samples"] == speed["samples"] == speed["stream"]["samples"]
+    assert read["p90"] == speed["p90"] == 160.0  # no 230 written 5 s ahead
+    options = RunOptions.default(report=True)
+    again = replay(tmp_path / "s", out=tmp_path / "r", options=options, backend="fake")
+    assert again.summary["metrics"]["speech_speed"]["stream"]["malformed"] == n
+    assert f"{n} unreadable lines" in (tmp_path / "r" / "report" / "summary.txt").read_text()
 
 
 @pytest.mark.slow

@@ -412,6 +412,33 @@ def test_bare_values_read_afterwards_get_the_times_the_live_reader_gave_them(
     assert stamps_path(stream).name == "speech_speed.txt.stamps"
 
 
+_AHEAD_CASES = {
+    # (what the module wrote, the coach's clock when it read it, lines it skipped)
+    "line by line": (b"1.0 150\nhello world\n7.0 230\n100000.0 231\n2.5 160\n", 2.0, 3),
+    # in time order and past BULK_MIN_BYTES: a reading afterwards takes it in one go
+    "large read": (b"".join(b"%.2f 150\n" % (i / 100) for i in range(8000)) + b"85 160\n", 80.0, 1),
+}
+
+
+@pytest.mark.parametrize("case", list(_AHEAD_CASES), ids=list(_AHEAD_CASES))
+def test_lines_the_coach_skipped_as_ahead_of_its_clock_are_skipped_when_read_again(
+    stream: Path, case: str
+) -> None:
+    """Session 14: the end-of-talk summary said 246 unreadable lines, the report 205 and 41
+    samples stamped after the end: the coach skips a line ahead of its clock, a reading
+    afterwards has no clock. A line 5 s ahead was even a sample to the report."""
+    data, now, n_skipped = _AHEAD_CASES[case]
+    live = StreamTailer(stream, M, max_ahead_s=1.0, record_stamps=True)
+    append(stream, data)
+    seen = live.poll(now)
+    again: list[StreamProblem] = []
+    samples, stats = read_stream(stream, M, problems=again, max_t=now + 30.0)
+    assert samples == seen
+    assert (stats.malformed, stats.beyond_talk) == (live.stats().malformed, 0) == (n_skipped, 0)
+    assert [str(p) for p in again] == [str(p) for p in live.problems()]
+    assert f"is ahead of the talk clock ({now:.3f} s)" in again[-1].reason
+
+
 # -- large reads in one go ------------------------------------------------------------------
 
 _DEFECTS: dict[str, bytes] = {
