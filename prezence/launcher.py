@@ -427,6 +427,7 @@ class LiveSource(SourceBase):
         self.procs: list[ModuleProcess] = []
         self._logs: list[IO[str]] = []
         self._tailer: MultiTailer | None = None
+        self._streams: Path | None = None
         self._next_look = 0.0
         self._stopped = False
 
@@ -435,6 +436,7 @@ class LiveSource(SourceBase):
         return None
 
     def start(self, session: SessionDir, config: Config) -> None:
+        self._streams = session.streams
         streams = {r.metric: session.stream(r.stream) for r in config.rules}
         self._tailer = MultiTailer(
             streams, max_ahead_s=MAX_AHEAD_S, record_stamps=True, ranges=config.value_ranges()
@@ -497,19 +499,37 @@ class LiveSource(SourceBase):
     def tailer(self) -> MultiTailer | None:
         return self._tailer
 
+    def written_by(self, spec: ModuleSpec) -> tuple[str, ...] | None:
+        """The metrics ``spec``'s module writes: those it names, else found by elimination.
+
+        A module started as ``NAME=COMMAND`` names none. The stream files in ``streams/``
+        that no module names as its own were then written by it when it is the only module
+        that names none (the built-in modules name all of theirs); with two or more such
+        modules nothing says which wrote which: None.
+        """
+        if spec.metrics:
+            return spec.metrics
+        if sum(1 for p in self.procs if not p.spec.metrics) != 1 or self._streams is None:
+            return None
+        named = {m for p in self.procs for m in p.spec.metrics}
+        found = (f.stem for f in self._streams.glob("*.txt") if not f.name.startswith("."))
+        return tuple(sorted(m for m in found if m not in named))
+
     def summary_extra(self) -> dict[str, Any]:
+        modules: dict[str, Any] = {}
+        for p in self.procs:
+            rec: dict[str, Any] = {"restarts": p.restarts, "crashes": p.crashes}
+            if p.crashes:
+                # which metrics a crash took with it (the report says when they were lost);
+                # none recorded: not known (the report says so)
+                metrics = self.written_by(p.spec)
+                if metrics is not None:
+                    rec["metrics"] = list(metrics)
+            modules[p.spec.name] = rec
         return {
             "kind": "live",
             **({"error": self.error} if self.error is not None else {}),
-            "modules": {
-                p.spec.name: {
-                    "restarts": p.restarts,
-                    "crashes": p.crashes,
-                    # which metrics a crash took with it (the report says when they were lost)
-                    **({"metrics": list(p.spec.metrics)} if p.crashes and p.spec.metrics else {}),
-                }
-                for p in self.procs
-            },
+            "modules": modules,
         }
 
 

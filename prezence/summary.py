@@ -134,8 +134,9 @@ def module_outages(
     Each crash or hang in ``summary.json``'s ``modules`` (the launcher's record, with the
     metrics each module writes) starts a stretch when the module stopped (a hung one: when it
     last showed life); it ends at the metric's first sample after the module was restarted,
-    or at the talk's end. Overlapping stretches are merged. Modules that do not name their
-    metrics are left out (nothing says which metrics they took with them).
+    or at the talk's end. Overlapping stretches are merged. A module whose record has no
+    metrics is left out (nothing says which metrics it took with it; :func:`module_notes`
+    says so).
 
     Example:
         >>> mods = {"pace": {"metrics": ["speech_speed"], "crashes": [{"t": 5.0, "why": "x"}]}}
@@ -184,7 +185,8 @@ def module_notes(
         One dict per module that stopped at least once: ``module``, ``crashes`` (exits) and
         ``first_crash_t``, ``hangs``, ``first_hang_t`` (when it went silent) and
         ``first_kill_t``, ``restarts``, ``last_why`` and ``lost`` (``metric``, ``from``,
-        ``to``); [] when every module ran throughout.
+        ``to``), and ``metrics_unknown`` (True) when the record does not say which metrics it
+        writes (so nothing says which it left unmeasured); [] when every module ran throughout.
     """
     notes: list[dict[str, Any]] = []
     for name, rec in (modules or {}).items():
@@ -212,6 +214,7 @@ def module_notes(
                 "restarts": int(rec.get("restarts") or 0),
                 "last_why": str(crashes[-1].get("why") or ""),
                 "lost": lost,
+                **({} if isinstance(rec.get("metrics"), list) else {"metrics_unknown": True}),
             }
         )
     return notes

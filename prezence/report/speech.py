@@ -149,6 +149,11 @@ def module_sentences(
                 parts.append(f"from {_mmss(sp['from'])} to {end}")
             name = label(metric)
             text += f"; {name} {was(name)} not measured {' and '.join(parts)}"
+        if n.get("metrics_unknown"):
+            text += (
+                "; which metrics it measures is not known, so none is marked as lost (name "
+                f"them: --module {n['module']}:METRIC,...=COMMAND)"
+            )
         out.append(text)
     return out
 

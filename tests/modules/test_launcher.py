@@ -272,6 +272,45 @@ def test_crashed_module_is_restarted_and_the_talk_completes(tmp_path: Path) -> N
     assert (tmp_path / "s" / "summary.json").exists()
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "beside", [False, True], ids=["the only module naming none", "beside another naming none"]
+)
+def test_a_crashed_module_that_names_no_metrics_loses_the_metrics_it_wrote(
+    tmp_path: Path, beside: bool
+) -> None:
+    # session 14: --module NAME=CMD crashed, the crash was said, but no metric was 'not
+    # measured from X': the launcher knew no metric of a module that named none
+    from prezence.cli import format_timeline
+
+    marker = tmp_path / "crashed"
+    crashing = ModuleSpec("pace", pace("--crash-after", "5", "--marker", str(marker)).argv)
+    other = ModuleSpec("beat", beat("beat", "--metric", "cv_gestures").argv)
+    result = up(
+        CONFIG,
+        session_dir=tmp_path / "s",
+        modules=[crashing, other] if beside else [crashing],
+        backend=FakeBackend(time_scale=0.01),
+        duration_s=5.0,
+        options=RunOptions.default(report=True),
+    )
+    mod = result.summary["modules"]["pace"]
+    assert "status 3" in mod["crashes"][0]["why"]
+    printed = format_timeline(result.summary)
+    text = (tmp_path / "s" / "report" / "summary.txt").read_text()
+    if not beside:  # the stream files no other module names are its own
+        assert mod["metrics"] == ["speech_speed"]
+        (lost,) = result.summary["metrics"]["speech_speed"]["lost"]
+        assert lost["module"] == "pace" and lost["from"] < lost["to"] < 5.0
+        assert "and was restarted; speech_speed was not measured from 0:0" in printed
+        assert "and was restarted; pace was not measured from 0:0" in text
+    else:  # which of speech_speed.txt and cv_gestures.txt is whose: not known, and said
+        assert "metrics" not in mod and "lost" not in result.summary["metrics"]["speech_speed"]
+        said = "which metrics it measures is not known, so none is marked as lost (name them: "
+        said += "--module pace:METRIC,...=COMMAND)"
+        assert said in printed and said in text
+
+
 def test_module_spec_parse() -> None:
     spec = ModuleSpec.parse("pace=python pace.py --out {session}")
     assert spec.name == "pace" and spec.argv == ["python", "pace.py", "--out", "{session}"]
