@@ -19,7 +19,8 @@ def _mmss(t: float | None) -> str:
 def _spoken_minutes(s: float) -> str:
     """Seconds as a speakable length: ``"9 and a half minutes"``, ``"40 seconds"``."""
     if s < 60:
-        return f"{int(round(s))} seconds"
+        n = int(round(s))
+        return f"{n} second{'' if n == 1 else 's'}"
     half = round(s / 30.0) / 2.0
     whole = int(half)
     unit = "minute" if half == 1 else "minutes"
@@ -75,11 +76,14 @@ def measured_share(report: Mapping[str, Any]) -> str:
     """Which of the report's metrics have samples: ``"all"``, ``"some"`` or ``"none"``.
 
     Praise needs something measured: a talk whose microphone gave nothing is not a talk
-    whose delivery stayed in range.
+    whose delivery stayed in range. A metric whose module died mid-talk (``lost``) was
+    measured only in part: ``"some"`` at most.
     """
-    metrics = list((report.get("metrics") or {}).values())
-    n = sum(1 for m in metrics if isinstance(m, Mapping) and m.get("samples"))
-    return "none" if n == 0 else "all" if n == len(metrics) else "some"
+    metrics = [m for m in (report.get("metrics") or {}).values() if isinstance(m, Mapping)]
+    n = sum(1 for m in metrics if m.get("samples"))
+    if n == 0:
+        return "none"
+    return "all" if n == len(metrics) and not any(m.get("lost") for m in metrics) else "some"
 
 
 def of_time(row: Mapping[str, Any], measured: str = "it was measured") -> str:
@@ -176,6 +180,58 @@ def unreadable_sentences(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     return out
 
 
+def _spoken_after(t: float) -> str:
+    """``"after 6 seconds"``, ``"after 2 and a half minutes"``."""
+    return f"after {_spoken_minutes(t)}"
+
+
+def lost_sentences(report: Mapping[str, Any]) -> list[str]:
+    """What the robot says of each module that died mid-talk: what it could not follow.
+
+    A person told "everything stayed in range" after the camera died half way must hear that
+    half of it was not watched.
+
+    Example:
+        >>> n = {"module": "vision", "lost": [{"metric": "cv_gestures", "from": 65.0, "to": 300.0},
+        ...      {"metric": "cv_headGaze", "from": 65.0, "to": 300.0}]}
+        >>> lost_sentences({"talk_s": 300.0, "modules": [n]})
+        ['I could not follow your gestures and eye contact after 1 minute.']
+        >>> n = {"module": "pace", "lost": [{"metric": "speech_speed", "from": 6.0, "to": 46.0}]}
+        >>> lost_sentences({"talk_s": 300.0, "modules": [n]})
+        ['I could not follow your pace for 40 seconds.']
+        >>> lost_sentences({"modules": [{"module": "fidget", "metrics_unknown": True,
+        ...                              "first_crash_t": 5.7}]})
+        ['Your fidget module stopped after 6 seconds, so I may have missed something.']
+    """  # noqa: E501 - a doctest input line
+    from prezence.report.build import metric_label
+
+    talk_s = _talk_s(report)
+    out = []
+    for n in report.get("modules") or ():
+        spans = [sp for sp in n.get("lost") or () if isinstance(sp, Mapping)]
+        if spans:
+            labels = " and ".join(dict.fromkeys(metric_label(str(sp["metric"])) for sp in spans))
+            per_metric: dict[str, float] = {}
+            for sp in spans:
+                key = str(sp["metric"])
+                per_metric[key] = per_metric.get(key, 0.0) + float(sp["to"]) - float(sp["from"])
+            once = len(spans) == len(per_metric)  # one stretch per metric
+            if once and all(float(sp["to"]) >= talk_s - 0.5 for sp in spans):
+                when = _spoken_after(min(float(sp["from"]) for sp in spans))
+                out.append(f"I could not follow your {labels} {when}.")
+            elif (lost_s := max(per_metric.values())) >= 1.0:  # a blink is not worth a word
+                out.append(f"I could not follow your {labels} for {_spoken_minutes(lost_s)}.")
+        elif n.get("metrics_unknown"):
+            died = [
+                float(t)
+                for t in (n.get("first_crash_t"), n.get("first_hang_t"))
+                if isinstance(t, int | float)
+            ]
+            when = f" {_spoken_after(min(died))}" if died else ""
+            out.append(f"Your {n['module']} module stopped{when}, so I may have missed something.")
+    return out
+
+
 def cut_sentences(report: Mapping[str, Any]) -> list[str]:
     """Cues the robot did not give in full, and a post-talk summary it did not say."""
     out = []
@@ -232,8 +288,10 @@ def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
 def summary_phrase(report: Mapping[str, Any]) -> str:
     """What the robot says after the talk (at most :data:`MAX_SPOKEN_WORDS` words).
 
-    Time used vs allocated, then the two things to work on first (or praise when nothing was
-    out of range).
+    Time used vs allocated, what it could not follow (a module that died mid-talk), then the
+    two things to work on first (or praise when nothing was out of range). To keep under the
+    limit with what it could not follow, the second thing to work on, then what it stopped
+    reminding of, is left out, and a metric a little off is said without "Nothing was far off".
 
     Example:
         >>> r = {"time": {"used_s": 600.0, "allocated_s": 600.0, "over_under_pct": 0.0},
@@ -242,18 +300,23 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         'You used 10 minutes of 10 minutes, right on time. Work first on this: slow down. Then: look up at your audience.'
     """  # noqa: E501 - a doctest output line
     parts = [time_sentence(report)]
+    lost = lost_sentences(report)
+    parts += lost
+    droppable: list[str] = []  # least important last
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, Mapping)]
     if stopped:  # the coach stopped repeating these during the talk: said once, here
         from prezence.report.build import metric_label
 
         names = " and ".join(dict.fromkeys(metric_label(str(n.get("metric"))) for n in stopped))
         parts.append(f"I stopped reminding you about your {names}: work on it next time.")
+        droppable.append(parts[-1])
     pri = list(report.get("priorities") or [])
     off = [o for o in report.get("slightly_off") or [] if isinstance(o, Mapping)]
     if not pri and off:  # too little to work on first, too much to call in range
         o = off[0]
+        lead = "Your" if lost else "Nothing was far off, but your"  # room for what was lost
         parts.append(
-            f"Nothing was far off, but your {o['label']} {was(o['label'])} a little "
+            f"{lead} {o['label']} {was(o['label'])} a little "
             f"{'under' if o['side'] == 'below' else 'over'} the ideal range "
             f"{100.0 * float(o['share_out']):.0f}% of the {of_time(o, 'I could measure it')}: "
             f"{o['advice']}."
@@ -271,6 +334,9 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         parts.append(f"Work first on this: {pri[0]['advice']}.")
         if len(pri) > 1:
             parts.append(f"Then: {pri[1]['advice']}.")
+            droppable.append(parts[-1])
+    while lost and droppable and len(" ".join(parts).split()) > MAX_SPOKEN_WORDS:
+        parts.remove(droppable.pop())
     text = " ".join(parts)
     words = text.split()
     if len(words) > MAX_SPOKEN_WORDS:  # custom advice texts could be long: never ramble

@@ -304,6 +304,7 @@ def test_a_crashed_module_that_names_no_metrics_loses_the_metrics_it_wrote(
         assert lost["module"] == "pace" and lost["from"] < lost["to"] < 5.0
         assert "and was restarted; speech_speed was not measured from 0:0" in printed
         assert "and was restarted; pace was not measured from 0:0" in text
+        assert "I could not follow your pace for " in result.summary["post_talk"]["phrase"]
     else:  # which of speech_speed.txt and cv_gestures.txt is whose: not known, and said
         assert "metrics" not in mod and "lost" not in result.summary["metrics"]["speech_speed"]
         said = "which metrics it measures is not known, so none is marked as lost (name them: "

@@ -7,6 +7,7 @@ import json
 import re
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -493,6 +494,54 @@ def test_a_crashed_module_is_reported_and_its_last_value_not_held_as_measured(
     assert report["priorities"] == []  # 5.7 s measured: no priority on held, stale data
     assert "Work first" not in summary_phrase(report)
     assert "100% of the 6 s I could measure it" in summary_phrase(report)
+
+
+def test_the_spoken_summary_says_what_it_could_not_follow_after_a_module_died(
+    tmp_path: Path,
+) -> None:
+    # session 14: the robot said 'Your delivery stayed in the ideal range. Well done!' after
+    # the module died at 0:06 of a 45 s talk; the printed summary and the report said it died
+    session = crashed_module_session(tmp_path / "s", [{"t": 5.7, "why": "exited with status 1"}])
+    session.stream("fidget_rate.txt").write_text("".join(f"{t} 1.0\n" for t in range(6)))
+    write_report(session.root)
+    assert (session.report / "spoken.txt").read_text() == (
+        "You used 45 seconds of 1 minute, 25% under. I could not follow your fidget_rate after "
+        "6 seconds. Everything I could measure stayed in the ideal range. Well done!\n"
+    )
+    session.stream("fidget_rate.txt").write_text("".join(f"{t} 6.0\n" for t in range(6)))
+    said = summary_phrase(build_report(session.root))
+    assert said == (
+        "You used 45 seconds of 1 minute, 25% under. I could not follow your fidget_rate after "
+        "6 seconds. Your fidget_rate was a little over the ideal range 100% of the 6 s I could "
+        "measure it: lower fidget_rate."
+    )
+    assert len(said.split()) <= MAX_SPOKEN_WORDS
+
+
+def test_what_it_could_not_follow_is_said_within_the_word_limit() -> None:
+    # the least important parts make room for it: the second thing to work on, then what
+    # the coach stopped reminding of
+    lost = [{"metric": "cv_gestures", "from": 65.0, "to": 600.0}]
+    report: dict[str, Any] = {
+        "talk_s": 600.0,
+        "time": {"used_s": 600.0, "allocated_s": 600.0, "over_under_pct": 0.0},
+        "modules": [{"module": "vision", "lost": lost}],
+        "stopped_repeating": [{"metric": "speech_volume"}],
+        "priorities": [{"advice": "slow down"}, {"advice": "look up at your audience"}],
+    }
+    said = (
+        "You used 10 minutes of 10 minutes, right on time. I could not follow your gestures "
+        "after 1 minute. I stopped reminding you about your volume: work on it next time. "
+        "Work first on this: slow down."
+    )
+    assert summary_phrase(report) == said
+    report["priorities"][0]["advice"] = "slow down and breathe between your main points"
+    assert summary_phrase(report) == (
+        "You used 10 minutes of 10 minutes, right on time. I could not follow your gestures "
+        "after 1 minute. Work first on this: slow down and breathe between your main points."
+    )
+    report["modules"] = []  # nothing lost: said as before, the second advice too
+    assert summary_phrase(report).endswith("Then: look up at your audience.")
 
 
 def test_a_hung_module_is_reported_from_when_it_went_silent(tmp_path: Path) -> None:
