@@ -180,9 +180,9 @@ def unreadable_sentences(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     return out
 
 
-def _spoken_after(t: float) -> str:
-    """``"after 6 seconds"``, ``"after 2 and a half minutes"``."""
-    return f"after {_spoken_minutes(t)}"
+def _spoken_after(t: float, start: str) -> str:
+    """``"after 6 seconds"``, ``"after 2 and a half minutes"``; ``start`` under half a second."""
+    return start if t < 0.5 else f"after {_spoken_minutes(max(t, 1.0))}"
 
 
 def lost_sentences(report: Mapping[str, Any]) -> list[str]:
@@ -217,7 +217,7 @@ def lost_sentences(report: Mapping[str, Any]) -> list[str]:
                 per_metric[key] = per_metric.get(key, 0.0) + float(sp["to"]) - float(sp["from"])
             once = len(spans) == len(per_metric)  # one stretch per metric
             if once and all(float(sp["to"]) >= talk_s - 0.5 for sp in spans):
-                when = _spoken_after(min(float(sp["from"]) for sp in spans))
+                when = _spoken_after(min(float(sp["from"]) for sp in spans), "from the start")
                 out.append(f"I could not follow your {labels} {when}.")
             elif (lost_s := max(per_metric.values())) >= 1.0:  # a blink is not worth a word
                 out.append(f"I could not follow your {labels} for {_spoken_minutes(lost_s)}.")
@@ -227,7 +227,7 @@ def lost_sentences(report: Mapping[str, Any]) -> list[str]:
                 for t in (n.get("first_crash_t"), n.get("first_hang_t"))
                 if isinstance(t, int | float)
             ]
-            when = f" {_spoken_after(min(died))}" if died else ""
+            when = f" {_spoken_after(min(died), 'at the start')}" if died else ""
             out.append(f"Your {n['module']} module stopped{when}, so I may have missed something.")
     return out
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
@@ -310,6 +311,9 @@ def test_a_crashed_module_that_names_no_metrics_loses_the_metrics_it_wrote(
         said = "which metrics it measures is not known, so none is marked as lost (name them: "
         said += "--module pace:METRIC,...=COMMAND)"
         assert said in printed and said in text
+        phrase = result.summary["post_talk"]["phrase"]
+        stopped = r"Your pace module stopped after \d+ seconds?, so I may have missed something"
+        assert re.search(stopped, phrase)
 
 
 def test_module_spec_parse() -> None:
