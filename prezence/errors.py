@@ -5,6 +5,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 
 class PrezenceError(Exception):
@@ -59,6 +60,11 @@ class UnknownName(PrezenceError, LookupError):
 
     def __str__(self) -> str:  # LookupError would quote the whole message otherwise
         return str(self.args[0])
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Exception pickles as cls(*self.args), i.e. with the message alone, which this
+        # __init__ cannot take: a worker process's error would break the process pool.
+        return (type(self), (self.kind, self.name, self.known), self.__dict__)
 
 
 class BackendUnavailable(PrezenceError, RuntimeError):

@@ -32,7 +32,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 from prezence.config.model import Check, Direction, RoomProfile, Rule
 from prezence.errors import ConfigError, unknown_message
@@ -85,6 +85,10 @@ class RuleProblem(ValueError):
         super().__init__(message)
         self.field = field
         self.message = message
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # picklable (a process pool sends errors back): Exception's own gives cls(message)
+        return (type(self), (self.field, self.message), self.__dict__)
 
 
 def command_table() -> dict[str, Direction]:

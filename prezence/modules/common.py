@@ -30,6 +30,7 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
 from prezence.errors import PrezenceError
 from prezence.session import SessionDir
@@ -53,6 +54,10 @@ class ModuleInputError(PrezenceError, ValueError):
         self.source = str(source)
         self.reason = reason
         super().__init__(f"{self.source}: {reason}")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # picklable (a process pool sends errors back): Exception's own gives cls(message)
+        return (type(self), (self.source, self.reason), self.__dict__)
 
 
 #: The environment variable holding the heartbeat file's path (``prezence.launcher`` sets it).
