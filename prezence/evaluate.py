@@ -393,13 +393,18 @@ def evaluate(
 
     Raises:
         ValueError: ``jobs`` < 1, no seeds or an unknown presenter model.
-        UnknownName: an unknown scenario or policy (raised by the first talk).
+        UnknownName: an unknown scenario or policy (before any talk runs).
+        ConfigError: a scenario file or a policy spec that is not valid (likewise).
     """
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")
     from prezence.processor import make_policy
     from prezence.synthetic.presenters import parse_presenter_model
+    from prezence.synthetic.scenario import load_scenario
 
+    scenarios = list(scenarios)
+    for s in scenarios:
+        load_scenario(s)  # here, not in a worker: the error is the same for any --jobs
     policies = list(policies)
     for p in policies:
         make_policy(p)  # an unknown name fails here, before any talk runs

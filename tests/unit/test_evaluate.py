@@ -274,3 +274,20 @@ def test_an_evaluation_that_fails_leaves_no_folder(tmp_path: Path) -> None:
     with pytest.raises(UnknownName):
         evaluate_main(["--scenarios", "nope", "--policies", "none", "--out", str(out)])
     assert not out.exists()
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_misspelt_scenario_is_the_same_error_line_for_any_jobs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], jobs: int
+) -> None:
+    # with --jobs 2 a worker raised it and the process pool broke unpickling it (a traceback)
+    from prezence.cli import main
+
+    out = tmp_path / "x"
+    argv = ["evaluate", "--scenarios", "fast_taker", "--policies", "none", "--seeds", "1",
+            "--jobs", str(jobs), "--out", str(out)]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "error: unknown scenario 'fast_taker'; did you mean 'fast_talker'?" in err
+    assert "Traceback" not in err
+    assert not out.exists()
