@@ -199,6 +199,25 @@ class RoomProfile:
         return d
 
 
+#: Sane bounds of the settings (seconds unless said): a decision period of 1e-4 s would write
+#: hundreds of megabytes a minute, one of 1e-300 never end; a day is longer than any talk.
+DAY_S = 86400.0
+#: Both the config file and a policy spec (``weighted:threshold=800``) hold values to these.
+SETTING_BOUNDS: dict[str, tuple[float, float]] = {
+    "threshold": (1e-3, 1e9),
+    "decay_half_life_s": (0.1, DAY_S),
+    "min_gap_s": (0.0, DAY_S),
+    "refractory_s": (0.0, DAY_S),
+    "stale_after_s": (0.1, DAY_S),
+    "decision_period_s": (0.02, 10.0),
+    "praise_after_s": (1.0, DAY_S),
+    "allocated_s": (1.0, DAY_S),
+    "overtime_repeat_s": (1.0, DAY_S),
+}
+#: Settings that may also be 0, meaning "off".
+ZERO_IS_OFF = frozenset({"praise_after_s", "overtime_repeat_s"})
+
+
 @dataclass(frozen=True)
 class ProcessorSettings:
     """How weights grow, decay and fire, and how often cues may go.

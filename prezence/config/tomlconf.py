@@ -39,7 +39,10 @@ from prezence.config.lines import (
     resolve_name,
 )
 from prezence.config.model import (
+    DAY_S,
     FORMAT,
+    SETTING_BOUNDS,
+    ZERO_IS_OFF,
     Config,
     ProcessorSettings,
     RoomProfile,
@@ -207,25 +210,9 @@ def _between(lo: float, hi: float, *, zero: bool = False) -> Converter:
     return conv
 
 
-#: Sane bounds of the settings (seconds unless said): a decision period of 1e-4 s would write
-#: hundreds of megabytes a minute, one of 1e-300 never end; a day is longer than any talk.
-DAY_S = 86400.0
-SETTING_BOUNDS: dict[str, tuple[float, float]] = {
-    "threshold": (1e-3, 1e9),
-    "decay_half_life_s": (0.1, DAY_S),
-    "min_gap_s": (0.0, DAY_S),
-    "refractory_s": (0.0, DAY_S),
-    "stale_after_s": (0.1, DAY_S),
-    "decision_period_s": (0.02, 10.0),
-    "praise_after_s": (1.0, DAY_S),
-    "allocated_s": (1.0, DAY_S),
-    "overtime_repeat_s": (1.0, DAY_S),
-}
-
-
-def _bounded(key: str, *, zero: bool = False) -> Converter:
+def _bounded(key: str) -> Converter:
     lo, hi = SETTING_BOUNDS[key]
-    return _between(lo, hi, zero=zero)
+    return _between(lo, hi, zero=key in ZERO_IS_OFF)
 
 
 def _allocated(v: object, ctx: _Ctx) -> float | None:
@@ -247,7 +234,7 @@ _PROCESSOR: dict[str, Converter] = {
     "refractory_s": _bounded("refractory_s"),
     "stale_after_s": _bounded("stale_after_s"),
     "decision_period_s": _bounded("decision_period_s"),
-    "praise_after_s": _bounded("praise_after_s", zero=True),
+    "praise_after_s": _bounded("praise_after_s"),
     "praise_command": _command_or_false,
 }
 _TIME: dict[str, Converter] = {
@@ -255,7 +242,7 @@ _TIME: dict[str, Converter] = {
     "warn_at_s_left": _warn_times_bounded,
     "warn_command": _command,
     "overtime_command": _command,
-    "overtime_repeat_s": _bounded("overtime_repeat_s", zero=True),
+    "overtime_repeat_s": _bounded("overtime_repeat_s"),
 }
 
 

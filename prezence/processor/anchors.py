@@ -50,13 +50,15 @@ from collections import deque
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, ClassVar
 
-from prezence.processor.resolve import ALIASES, ConflictPolicy, register_policy
+from prezence.errors import ConfigError
+from prezence.processor.resolve import ALIASES, Bound, ConflictPolicy, register_policy
 from prezence.processor.types import Candidate, Cue, Kind
 
 if TYPE_CHECKING:
     from prezence.config.model import Config, Rule
 
 _SIGN = {"below": -1, "above": 1}
+_DAY_S = 86400.0
 
 
 def _candidate(
@@ -110,6 +112,11 @@ class PZ16Policy(_Anchor):
         "expire_s": 10.0,
         "robot_delay_s": 10.0,
         "warmup_s": 9.0,
+    }
+    bounds: ClassVar[Mapping[str, Bound]] = {
+        "expire_s": Bound(0.1, _DAY_S, "s"),
+        "robot_delay_s": Bound(0.0, _DAY_S, "s"),
+        "warmup_s": Bound(0.0, _DAY_S, "s"),
     }
     #: metric → (allowance, priority); lower priority number wins. central_proc/config.txt.
     TABLE: ClassVar[Mapping[str, tuple[int, int]]] = {
@@ -174,6 +181,13 @@ class PresentationTrainerPolicy(_Anchor):
         "interrupt_s": 6.0,
         "praise": 1.0,
         "period_s": 1.0,  # assumed sample period before a stream's second sample (ours)
+    }
+    bounds: ClassVar[Mapping[str, Bound]] = {
+        "between_s": Bound(0.0, _DAY_S, "s"),
+        "persist_s": Bound(0.0, _DAY_S, "s"),
+        "interrupt_s": Bound(0.0, _DAY_S, "s"),
+        "praise": Bound(0.0, 1.0, whole=True),  # 1: on, 0: off
+        "period_s": Bound(0.01, _DAY_S, "s"),
     }
 
     def start(self, config: Config) -> None:
@@ -254,6 +268,22 @@ class RhemaPolicy(_Anchor):
         "max_samples": 20.0,
         "hits": 11.0,
     }
+    #: window_s: 0 or less would never end a window (the talk hung); 0.1 s is far below any
+    #: decision period that matters and keeps a 10-minute talk at 6000 windows.
+    bounds: ClassVar[Mapping[str, Bound]] = {
+        "window_s": Bound(0.1, _DAY_S, "s"),
+        "max_samples": Bound(1.0, 1e6, whole=True),
+        "hits": Bound(0.0, 1e6, whole=True),
+    }
+
+    @classmethod
+    def check_params(cls, params: Mapping[str, float]) -> None:
+        super().check_params(params)
+        if params["hits"] >= params["max_samples"]:
+            raise ConfigError(
+                f"hits must be less than max_samples ({params['max_samples']:g}): a cue needs "
+                f"more than hits of the window's samples out, found {params['hits']:g}"
+            )
 
     def start(self, config: Config) -> None:
         super().start(config)

@@ -18,12 +18,20 @@ Processor keys a spec may set (any policy): the fields of
 :mod:`prezence.processor.state`; 0 = off), ``escalate_after`` (N unheeded cues about one metric
 stop its cues for the rest of the talk; 0 = never) and ``effect_s`` (seconds back in range that
 count as an effect and reset the unheeded count).
+
+Every value is checked before the talk starts (:meth:`ConflictPolicy.check_params`): a
+processor setting against the bounds the config file holds it to
+(:data:`~prezence.config.model.SETTING_BOUNDS`), the other keys against :data:`PROCESSOR_BOUNDS`
+and each policy's :attr:`~ConflictPolicy.bounds`. ``decision_period_s`` (the talk loop's, for
+every policy alike) and ``praise_command`` (a command, not a number) are set in the config
+file's ``[processor]`` only.
 """
 
 from __future__ import annotations
 
 import abc
 import dataclasses
+import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -37,6 +45,81 @@ if TYPE_CHECKING:
 
 #: Spec keys that are not ProcessorSettings fields but processor features every policy has.
 PROCESSOR_KEYS = ("persistence_s", "escalate_after", "effect_s")
+
+
+@dataclasses.dataclass(frozen=True)
+class Bound:
+    """The values a spec key may take: a number from ``lo`` to ``hi``.
+
+    Attributes:
+        lo: the smallest value.
+        hi: the largest (``inf``: no upper bound).
+        unit: said in the message (``s``).
+        whole: only whole numbers (a count).
+        zero_off: 0 is allowed too, meaning "off".
+
+    Example:
+        >>> str(Bound(0.1, 86400, "s")), str(Bound(0, whole=True))
+        ('between 0.1 and 86400 s', 'a whole number, 0 or more')
+    """
+
+    lo: float
+    hi: float = math.inf
+    unit: str = ""
+    whole: bool = False
+    zero_off: bool = False
+
+    def __str__(self) -> str:
+        if self.lo == -math.inf and self.hi == math.inf and not self.whole:
+            return "a finite number"
+        if self.whole and (self.lo, self.hi) == (0, 1):
+            return "0 or 1"
+        u = f" {self.unit}" if self.unit else ""
+        span = (
+            f"between {self.lo:g} and {self.hi:g}{u}"
+            if math.isfinite(self.hi)
+            else f"{self.lo:g}{u} or more"
+        )
+        if self.whole:
+            span = "a whole number, " + span
+        return span + (" (or 0: off)" if self.zero_off else "")
+
+    def admits(self, x: float) -> bool:
+        """Whether ``x`` is allowed (never NaN or an infinity)."""
+        if not math.isfinite(x):
+            return False
+        if self.zero_off and x == 0:
+            return True
+        return self.lo <= x <= self.hi and not (self.whole and x != int(x))
+
+
+#: The processor keys that are not config-file settings: 0 turns persistence and escalation off.
+PROCESSOR_BOUNDS: dict[str, Bound] = {
+    "persistence_s": Bound(0.0, 86400.0, "s"),
+    "escalate_after": Bound(0.0, whole=True),
+    "effect_s": Bound(0.0, 86400.0, "s"),
+}
+
+#: Settings a spec cannot hold, and where to set them instead.
+NOT_SPEC_KEYS: dict[str, str] = {
+    "decision_period_s": "it is how often the talk loop asks for a decision, the same for every "
+    "policy; set it in a --config file: [processor] decision_period_s (between 0.02 and 10 s)",
+    "praise_command": "it names a command, not a number; set it in a --config file: "
+    '[processor] praise_command = "encourage" (or false: no praise)',
+}
+
+
+def _setting_bounds() -> dict[str, Bound]:
+    """The config file's bounds of the processor settings a spec may set."""
+    from prezence.config.model import SETTING_BOUNDS, ZERO_IS_OFF, ProcessorSettings
+
+    out = {}
+    for f in dataclasses.fields(ProcessorSettings):
+        if f.name in SETTING_BOUNDS and f.name not in NOT_SPEC_KEYS:
+            lo, hi = SETTING_BOUNDS[f.name]
+            unit = "%·s" if f.name == "threshold" else "s"
+            out[f.name] = Bound(lo, hi, unit, zero_off=f.name in ZERO_IS_OFF)
+    return out
 
 
 class ConflictPolicy(abc.ABC):
@@ -55,11 +138,33 @@ class ConflictPolicy(abc.ABC):
     #: Defaults of the spec keys this policy understands (overridden by ``name:key=value``).
     defaults: ClassVar[Mapping[str, float]] = {}
 
+    #: The values each of the policy's own keys may take; a key not here takes any finite
+    #: number. Processor keys are held to :func:`spec_bounds`'s bounds whatever the policy.
+    bounds: ClassVar[Mapping[str, Bound]] = {}
+
     #: Overrides from the spec (processor settings and the policy's own parameters).
     params: dict[str, float]
 
     def __init__(self, **params: float) -> None:
         self.params = {**self.defaults, **params}
+        self.check_params(self.params)
+
+    @classmethod
+    def check_params(cls, params: Mapping[str, float]) -> None:
+        """Refuse a value its key does not allow (a policy with rules between its keys adds
+        them here, calling this first).
+
+        Args:
+            params: the defaults with the spec's values applied.
+
+        Raises:
+            ConfigError: ``window_s must be between 0.1 and 86400 s, found 0``.
+        """
+        bounds = spec_bounds(cls)
+        for key, x in params.items():
+            b = bounds.get(key, Bound(-math.inf))
+            if not b.admits(x):
+                raise ConfigError(f"{key} must be {b}, found {x:g}")
 
     @property
     def spec(self) -> str:
@@ -272,20 +377,32 @@ def make_policy(name: str, *, seed: int = 0) -> ConflictPolicy:
         cls = POLICIES[base]
     except KeyError:
         raise UnknownName("policy", base, [*POLICIES, *ALIASES]) from None
-    from prezence.config.model import ProcessorSettings
-
-    known = {f.name for f in dataclasses.fields(ProcessorSettings)} | set(PROCESSOR_KEYS)
-    known |= set(cls.defaults)
+    for key in params:
+        if key in NOT_SPEC_KEYS:
+            raise ConfigError(
+                f"policy {name!r}: {key} is not a policy parameter: {NOT_SPEC_KEYS[key]}"
+            )
+    known = set(spec_bounds(cls)) | set(cls.defaults)
     bad = sorted(set(params) - known)
     if bad:
         raise ConfigError(
             f"policy {name!r}: unknown parameter(s) {', '.join(bad)} "
             f"(known: {', '.join(sorted(known))})"
         )
+    try:
+        cls.check_params({**cls.defaults, **params})
+    except ConfigError as e:
+        raise ConfigError(f"policy {name!r}: {e.reason}") from None
     make: Callable[..., ConflictPolicy] = cls
     if cls is RandomPolicy:
         return RandomPolicy(seed, **params)
     return make(**params)
+
+
+def spec_bounds(cls: type[ConflictPolicy]) -> dict[str, Bound]:
+    """Every key a spec of ``cls`` may set, with the values it may take: the processor's
+    settings (the config file's bounds), :data:`PROCESSOR_BOUNDS`, then the policy's own."""
+    return {**_setting_bounds(), **PROCESSOR_BOUNDS, **cls.bounds}
 
 
 def policy_names() -> list[str]:
@@ -297,11 +414,15 @@ def policy_names() -> list[str]:
 
 __all__ = [
     "ALIASES",
+    "NOT_SPEC_KEYS",
+    "PROCESSOR_BOUNDS",
     "POLICIES",
     "PROCESSOR_KEYS",
+    "Bound",
     "ConflictPolicy",
     "make_policy",
     "parse_spec",
     "policy_names",
     "register_policy",
+    "spec_bounds",
 ]
