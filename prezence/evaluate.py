@@ -39,6 +39,7 @@ from __future__ import annotations
 import argparse
 import bisect
 import csv
+import importlib
 import io
 import json
 import logging
@@ -283,10 +284,13 @@ def run_task(task: Task) -> dict[str, Any]:
     return row
 
 
-def _worker_init(level: int) -> None:
+def _worker_init(level: int, modules: Sequence[str] = ()) -> None:
     """Workers log at the parent's level, but no lower than ERROR unless it is verbose: the
-    tailer's per-line warnings about deliberately garbled streams would flood the terminal."""
+    tailer's per-line warnings about deliberately garbled streams would flood the terminal.
+    They import ``modules``, which register policies of one's own (``register_policy``)."""
     logging.getLogger().setLevel(level if level < logging.WARNING else logging.ERROR)
+    for m in modules:
+        importlib.import_module(m)
 
 
 def _grid(
@@ -399,6 +403,7 @@ def evaluate(
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")
     from prezence.processor import make_policy
+    from prezence.processor.resolve import worker_imports
     from prezence.synthetic.presenters import parse_presenter_model
     from prezence.synthetic.scenario import load_scenario
 
@@ -408,6 +413,7 @@ def evaluate(
     policies = list(policies)
     for p in policies:
         make_policy(p)  # an unknown name fails here, before any talk runs
+    imports = worker_imports(policies) if jobs > 1 and ray is None else []
     for m in presenters:
         parse_presenter_model(m)
     tasks = _grid(scenarios, policies, seeds, backend, keep_sessions, presenters)
@@ -427,7 +433,7 @@ def evaluate(
             max_workers=jobs,
             mp_context=get_context("spawn"),
             initializer=_worker_init,
-            initargs=(logging.getLogger().getEffectiveLevel(),),
+            initargs=(logging.getLogger().getEffectiveLevel(), imports),
         ) as pool:
             for i, row in enumerate(pool.map(run_task, tasks, chunksize=1)):
                 rows.append(row)

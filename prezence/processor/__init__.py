@@ -3,6 +3,7 @@
 from prezence.processor.core import Processor, end_of_talk_notes
 from prezence.processor.resolve import (
     POLICIES,
+    Bound,
     ConflictPolicy,
     make_policy,
     parse_spec,
@@ -13,6 +14,7 @@ from prezence.processor.types import Candidate, Cue, Decision, Kind
 
 __all__ = [
     "POLICIES",
+    "Bound",
     "Candidate",
     "ConflictPolicy",
     "Cue",

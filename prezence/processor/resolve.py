@@ -8,8 +8,16 @@ measure the seed's choice against them, and the anchors of :mod:`prezence.proces
 A policy is named by a *spec*: its name, optionally followed by ``:`` and ``key=value`` pairs
 that override the processor's settings or set the policy's own parameters, e.g.
 ``weighted:threshold=800,escalate_after=3``. Every command that takes ``--policy`` (run,
-replay, evaluate, the Gym env) goes through :func:`make_policy`, so a name registered here
-(:func:`register_policy`) is usable everywhere without touching them.
+replay, evaluate, the Gym env) goes through :func:`make_policy`.
+
+A policy of one's own (a :class:`ConflictPolicy` subclass in any module) is named
+``MODULE:CLASS[:key=value,…]``, e.g. ``own_policy:BiggestNow:min_deviation=25``
+(``examples/own_policy.py``): the module is imported by name wherever the spec is used, so
+it works from the command line and in ``evaluate``'s worker processes alike
+(:func:`split_spec` says why the form cannot be mistaken for a name with parameters). A name
+added with :func:`register_policy` is known in the process that imported its module (and in
+``evaluate``'s workers, which import that module too: :func:`worker_imports`), not on the
+command line.
 
 Processor keys a spec may set (any policy): the fields of
 :class:`~prezence.config.model.ProcessorSettings` (``threshold``, ``decay_half_life_s``,
@@ -31,13 +39,18 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import importlib
+import inspect
 import math
-from collections.abc import Callable, Mapping, Sequence
+import os
+import re
+import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from prezence.errors import ConfigError, UnknownName
+from prezence.errors import ConfigError, UnknownName, did_you_mean
 from prezence.processor.types import Candidate, Cue, Kind
 
 if TYPE_CHECKING:
@@ -336,8 +349,35 @@ def register_policy(cls: type[ConflictPolicy], *aliases: str) -> type[ConflictPo
     return cls
 
 
+#: The class part of an import spec: a Python name, dotted for a class inside a class.
+_ATTR = re.compile(r"[A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*")
+
+
+def split_spec(spec: str) -> tuple[str, str]:
+    """A spec → (the policy: a registered name or ``MODULE:CLASS``, its ``key=value`` text).
+
+    The import form ``MODULE:CLASS[:key=value,…]`` names a policy of one's own. It cannot be
+    read as a name with parameters: after a name's ``:`` every pair has an ``=``, a class name
+    has none; and a registered name (with its alias) is always read as the name.
+
+    Example:
+        >>> split_spec("weighted:threshold=800")
+        ('weighted', 'threshold=800')
+        >>> split_spec("own_policy:BiggestNow:min_deviation=25")
+        ('own_policy:BiggestNow', 'min_deviation=25')
+    """
+    import prezence.processor.anchors  # noqa: F401 - registers the anchors
+
+    head, colon, rest = spec.strip().partition(":")
+    if colon and head not in POLICIES and head not in ALIASES:
+        attr, _, params = rest.partition(":")
+        if _ATTR.fullmatch(attr.strip()):
+            return f"{head.strip()}:{attr.strip()}", params
+    return head, rest
+
+
 def parse_spec(spec: str) -> tuple[str, dict[str, float]]:
-    """``"name:key=value,key=value"`` → (name, {key: value}).
+    """``"name:key=value,key=value"`` (or ``"MODULE:CLASS:key=value,…"``) → (name, {key: value}).
 
     Raises:
         ConfigError: a pair that is not ``key=number``.
@@ -346,7 +386,7 @@ def parse_spec(spec: str) -> tuple[str, dict[str, float]]:
         >>> parse_spec("weighted:threshold=800,escalate_after=3")
         ('weighted', {'threshold': 800.0, 'escalate_after': 3.0})
     """
-    name, _, rest = spec.strip().partition(":")
+    name, rest = split_spec(spec)
     params: dict[str, float] = {}
     for part in filter(None, (x.strip() for x in rest.split(","))):
         key, eq, raw = part.partition("=")
@@ -361,22 +401,93 @@ def parse_spec(spec: str) -> tuple[str, dict[str, float]]:
     return ALIASES.get(name, name), params
 
 
+def load_policy_class(ref: str, *, spec: str | None = None) -> type[ConflictPolicy]:
+    """The class a ``MODULE:CLASS`` reference names: ``MODULE`` is imported as Python
+    imports it (installed packages, ``PYTHONPATH``), then from the current folder.
+
+    Raises:
+        ConfigError: the module cannot be imported, or has no such class, or it is not a
+            :class:`ConflictPolicy` subclass that implements :meth:`~ConflictPolicy.choose`.
+    """
+    module_name, _, attr = ref.partition(":")
+    where = f"policy {spec or ref!r}"
+    try:
+        module = _import_from_here(module_name)
+    except ModuleNotFoundError as e:
+        if e.name is None or not (module_name + ".").startswith(e.name + "."):
+            raise ConfigError(f"{where}: importing {module_name} failed: {e}") from e
+        raise ConfigError(
+            f"{where}: no module named {e.name!r} (a policy of your own is MODULE:CLASS, "
+            "MODULE importable from the current folder or PYTHONPATH)"
+        ) from None
+    except Exception as e:  # the policy's own module failed: say so, keep its traceback
+        raise ConfigError(
+            f"{where}: importing {module_name} failed: {type(e).__name__}: {e}"
+        ) from e
+    obj: Any = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            policies = [
+                k
+                for k, v in vars(module).items()
+                if isinstance(v, type)
+                and issubclass(v, ConflictPolicy)
+                and not inspect.isabstract(v)
+                and v.__module__ == module.__name__
+            ]
+            hint = did_you_mean(attr, policies) or (
+                "; its policies: " + ", ".join(policies)
+                if policies
+                else "; it defines no ConflictPolicy subclass"
+            )
+            raise ConfigError(f"{where}: {module_name} has no {attr!r}{hint}")
+        obj = getattr(obj, part)
+    if not (isinstance(obj, type) and issubclass(obj, ConflictPolicy)):
+        what = type(obj).__name__ if not isinstance(obj, type) else "class"
+        raise ConfigError(
+            f"{where}: {module_name}.{attr} is a {what}, not a ConflictPolicy subclass "
+            "(from prezence.processor import ConflictPolicy)"
+        )
+    if inspect.isabstract(obj):
+        raise ConfigError(f"{where}: {module_name}.{attr} does not implement choose()")
+    return obj
+
+
+def _import_from_here(module_name: str) -> Any:
+    """Import ``module_name``; if Python cannot find it, look in the current folder too (put
+    last on ``sys.path``, so that it shadows nothing installed)."""
+    try:
+        return importlib.import_module(module_name)
+    except ModuleNotFoundError as e:
+        top = module_name.partition(".")[0]
+        here = os.getcwd()
+        if e.name != top or here in sys.path or "" in sys.path:
+            raise
+        sys.path.append(here)
+        return importlib.import_module(module_name)
+
+
 def make_policy(name: str, *, seed: int = 0) -> ConflictPolicy:
     """Build a policy from its spec (``weighted``, ``first_rule``, ``recent``, ``random``,
-    ``most_conditions``, ``none``, ``pz16``, ``presentation_trainer``/``pt``, ``rhema``,
-    optionally with ``:key=value,…``; see the module doc).
+    ``most_conditions``, ``none``, ``pz16``, ``presentation_trainer``/``pt``, ``rhema``, or a
+    policy of one's own as ``MODULE:CLASS``, optionally with ``:key=value,…``; see the module
+    doc).
 
     Raises:
         UnknownName: no such policy.
-        ConfigError: a malformed or unknown parameter.
+        ConfigError: a malformed or unknown parameter, a value out of its range, or a
+            ``MODULE:CLASS`` that cannot be imported or is not a policy.
     """
     import prezence.processor.anchors  # noqa: F401 - registers the anchors
 
     base, params = parse_spec(name)
-    try:
-        cls = POLICIES[base]
-    except KeyError:
-        raise UnknownName("policy", base, [*POLICIES, *ALIASES]) from None
+    if ":" in base:
+        cls = load_policy_class(base, spec=name)
+    else:
+        try:
+            cls = POLICIES[base]
+        except KeyError:
+            raise UnknownName("policy", base, [*POLICIES, *ALIASES]) from None
     for key in params:
         if key in NOT_SPEC_KEYS:
             raise ConfigError(
@@ -394,9 +505,40 @@ def make_policy(name: str, *, seed: int = 0) -> ConflictPolicy:
     except ConfigError as e:
         raise ConfigError(f"policy {name!r}: {e.reason}") from None
     make: Callable[..., ConflictPolicy] = cls
-    if cls is RandomPolicy:
-        return RandomPolicy(seed, **params)
+    if issubclass(cls, RandomPolicy):
+        return cls(seed, **params)
     return make(**params)
+
+
+def worker_imports(specs: Iterable[str]) -> list[str]:
+    """The modules a worker process must import to know the registered policies among
+    ``specs`` (those registered by a module of one's own, not by Prezence).
+
+    ``MODULE:CLASS`` specs need nothing: a worker imports them by name. A policy registered
+    in a script's ``__main__`` needs nothing either (a spawned worker runs the script again,
+    as ``__mp_main__``).
+
+    Raises:
+        ConfigError: a policy registered where no other process can import it (a notebook,
+            ``python -c``, an interactive session).
+    """
+    out: list[str] = []
+    for spec in specs:
+        base, _ = parse_spec(spec)
+        cls = POLICIES.get(base)
+        if cls is None or cls.__module__.partition(".")[0] == "prezence":
+            continue
+        if cls.__module__ == "__main__":
+            if getattr(sys.modules["__main__"], "__file__", None) is None:
+                raise ConfigError(
+                    f"policy {spec!r} is registered in __main__ of an interactive session, "
+                    "which worker processes cannot import: put the class in a module and "
+                    "name it MODULE:CLASS, or use jobs=1"
+                )
+            continue
+        if cls.__module__ not in out:
+            out.append(cls.__module__)
+    return out
 
 
 def spec_bounds(cls: type[ConflictPolicy]) -> dict[str, Bound]:
@@ -423,6 +565,9 @@ __all__ = [
     "make_policy",
     "parse_spec",
     "policy_names",
+    "load_policy_class",
     "register_policy",
     "spec_bounds",
+    "split_spec",
+    "worker_imports",
 ]
