@@ -734,7 +734,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--policies",
         nargs="+",
-        help="policy specs, e.g. weighted pz16 rhema 'weighted:escalate_after=3' (default: all)",
+        help="policy specs, e.g. weighted pz16 rhema 'weighted:escalate_after=3', or one of "
+        "your own as MODULE:CLASS (docs/evaluation.md) (default: all)",
     )
     p.add_argument(
         "--presenters",
