@@ -52,11 +52,12 @@ class ConfigError(PrezenceError, ValueError):
 class UnknownName(PrezenceError, LookupError):
     """A name (command, gesture, metric, backend, scenario…) is not known."""
 
-    def __init__(self, kind: str, name: str, known: Iterable[str]) -> None:
+    def __init__(self, kind: str, name: str, known: Iterable[str], hint: str = "") -> None:
         self.kind = kind
         self.name = name
         self.known = sorted(known)
-        super().__init__(unknown_message(kind, name, self.known))
+        self.hint = hint
+        super().__init__(unknown_message(kind, name, self.known) + (f" ({hint})" if hint else ""))
 
     def __str__(self) -> str:  # LookupError would quote the whole message otherwise
         return str(self.args[0])
@@ -64,7 +65,7 @@ class UnknownName(PrezenceError, LookupError):
     def __reduce__(self) -> tuple[Any, ...]:
         # Exception pickles as cls(*self.args), i.e. with the message alone, which this
         # __init__ cannot take: a worker process's error would break the process pool.
-        return (type(self), (self.kind, self.name, self.known), self.__dict__)
+        return (type(self), (self.kind, self.name, self.known, self.hint), self.__dict__)
 
 
 class BackendUnavailable(PrezenceError, RuntimeError):

@@ -487,7 +487,12 @@ def make_policy(name: str, *, seed: int = 0) -> ConflictPolicy:
         try:
             cls = POLICIES[base]
         except KeyError:
-            raise UnknownName("policy", base, [*POLICIES, *ALIASES]) from None
+            raise UnknownName(
+                "policy",
+                base,
+                [*POLICIES, *ALIASES],
+                hint="a policy of your own is named MODULE:CLASS, see docs/evaluation.md",
+            ) from None
     for key in params:
         if key in NOT_SPEC_KEYS:
             raise ConfigError(

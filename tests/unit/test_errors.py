@@ -19,7 +19,7 @@ def _examples() -> dict[type[BaseException], BaseException]:
     """One instance of each exception class of the product whose __init__ is its own."""
     out: dict[type[BaseException], BaseException] = {
         ConfigError: ConfigError("bad value", path="rules.toml", line=3, col=7, key="rules[0].min"),
-        UnknownName: UnknownName("scenario", "fast_taker", ["fast_talker", "demo"]),
+        UnknownName: UnknownName("policy", "biggest_now", ["weighted"], hint="see the docs"),
         ModuleInputError: ModuleInputError("talk.flac", "the audio is damaged"),
         RuleProblem: RuleProblem("low", "min must be below max"),
         StreamLineError: StreamLineError("not a number: 'abc'"),

@@ -13,7 +13,7 @@ import pytest
 
 from prezence.config.model import SETTING_BOUNDS
 from prezence.config.tomlconf import loads_config
-from prezence.errors import ConfigError
+from prezence.errors import ConfigError, UnknownName
 from prezence.processor import make_policy, policy_names
 from prezence.processor.anchors import RhemaPolicy
 from prezence.processor.resolve import (
@@ -145,6 +145,12 @@ def test_a_policy_of_one_s_own_is_named_module_colon_class() -> None:
     assert type(p).__name__ == "BiggestNow"
     assert (p.params["min_deviation"], p.params["refractory_s"]) == (25.0, 20.0)
     assert make_policy("own_policy:BiggestNow").params["min_deviation"] == 10.0
+
+
+def test_an_unknown_policy_says_how_to_name_one_of_your_own() -> None:
+    # 'evaluate --policies biggest_now' said only 'unknown policy', listing the built-in ones
+    with pytest.raises(UnknownName, match=r"'biggest_now'; known: .* is named MODULE:CLASS"):
+        make_policy("biggest_now")
 
 
 def test_a_registered_name_is_never_read_as_a_module() -> None:
