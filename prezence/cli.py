@@ -635,7 +635,10 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
         "--room", metavar="FILE", help="room profile TOML: the named values the rules use"
     )
     p.add_argument(
-        "--policy", default=DEFAULT_POLICY, help=f"conflict policy (default: {DEFAULT_POLICY})"
+        "--policy",
+        default=DEFAULT_POLICY,
+        help=f"conflict policy: a name, a spec (weighted:escalate_after=0) or your own as "
+        f"MODULE:CLASS (default: {DEFAULT_POLICY})",
     )
     p.add_argument(
         "--speed",
