@@ -76,6 +76,18 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     slowDown, louder, articulate, lookUp, gestureMore, gestureLess, timeLeft, overtime (see
     :attr:`actions`).
 
+    Every action is always legal (no exception), but not every one is given. A cue about a
+    metric the episode's persona does not have (an audio-only persona has no ``cv_headGaze``
+    and no ``cv_gestures``; a configuration may have a rule for a metric of its own) is
+    refused: the robot stays still, the step is a no-op like action 0, it costs nothing and
+    ``info["invalid_action"]`` is True. The seed's processor can never cue a metric it has no
+    sample of, there is no truth to judge it by, and the presenter has nothing to change. A
+    cue asked for while the robot is busy is likewise not given (``info["ignored"]``).
+    ``info["action_mask"]`` (and :meth:`action_masks`, the name sb3-contrib's ``MaskablePPO``
+    calls) is an ``int8`` array, 1 for the actions that would be given at the next step:
+    always 0 (no cue), and the others only while the robot is free and only for metrics the
+    persona has.
+
     ## Observation Space
 
     ``Box(float32)`` of ``4 × n_rules + 4`` values. Per rule, in config order:
@@ -98,9 +110,11 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     Per step: ``step_s / talk length × (share of metrics really in range at the end of the
     step)`` − ``cue_cost`` per cue given − ``in_range_penalty`` per corrective cue about a metric
     that was really (noise-free) in range when given. "Really in range" is the presenter's
-    noise-free value judged by the rule. Without costs, an episode's return is the talk's mean
-    time in range (1.0 for a perfect talk); time cues earn nothing in v0 (the presenter's talk
-    length is scripted) and cost ``cue_cost``.
+    noise-free value judged by the rule; only the metrics the persona has are counted (an
+    audio-only persona is judged on its three speech metrics). Without costs, an episode's
+    return is the talk's mean time in range (1.0 for a perfect talk); time cues earn nothing in
+    v0 (the presenter's talk length is scripted) and cost ``cue_cost``. A cue not given (the
+    robot busy, or a metric the persona does not have) costs nothing.
 
     ## Starting State
 
@@ -113,6 +127,14 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     Terminated when the talk's scripted length is reached. Truncated when the registration's
     ``max_episode_steps`` (:data:`sim.MAX_EPISODE_STEPS`, or the one given to ``make``) cuts
     the talk short.
+
+    ## Info
+
+    ``t`` (talk time), ``scenario``, ``presenter_seed``, ``samples`` (the step's new samples),
+    ``robot_busy``, ``robot_free_since``, ``cue`` (the cue given at the start of the step, or
+    None), ``ignored`` (a cue asked for while the robot was busy), ``invalid_action`` (a cue
+    about a metric the persona does not have), ``action_mask`` (see Action Space) and
+    ``in_range`` (the share of the persona's metrics really in range at ``t``).
 
     ## Arguments
 
@@ -132,7 +154,9 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     ## Version History
 
     * v0: initial version; episodes run on the one talk loop (the agent's cues go through
-      the coach, as the processor's do).
+      the coach, as the processor's do). Session 14: a cue about a metric the persona does
+      not have is refused (``invalid_action``) instead of raising ``UnknownName``, and
+      ``action_mask`` is given; nothing changed for episodes that ran before.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}
@@ -235,6 +259,21 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         have = {m.metric for m in sc.metrics}
         return [r.metric for r in self.rules if r.metric in have]
 
+    def _robot_busy(self) -> bool:
+        coach = self.talk.coach
+        return bool(self.talk.backend.busy) or (coach is not None and coach.current is not None)
+
+    def action_masks(self) -> npt.NDArray[np.int8]:
+        """1 for each action the robot would give at the next step (see Action Space)."""
+        if not self._episode:
+            raise RuntimeError("call reset() before action_masks()")
+        can: npt.NDArray[np.int8] = self._episode["can_cue"]
+        if self._robot_busy():
+            only_none = np.zeros_like(can)
+            only_none[0] = 1
+            return only_none
+        return can.copy()
+
     def _obs(self) -> npt.NDArray[np.float32]:
         ep = self._episode
         proc: Processor = self.talk.processor
@@ -274,7 +313,11 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         return np.array(out, dtype=np.float32)
 
     def _info(
-        self, samples: list[Sample], cue: dict[str, Any] | None, ignored: bool
+        self,
+        samples: list[Sample],
+        cue: dict[str, Any] | None,
+        ignored: bool,
+        invalid: bool = False,
     ) -> dict[str, Any]:
         ep = self._episode
         return {
@@ -286,6 +329,8 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             "robot_free_since": None if self.talk.backend.busy else self._free_since(),
             "cue": cue,
             "ignored": ignored,
+            "invalid_action": invalid,
+            "action_mask": self.action_masks(),
             "in_range": ep["in_range"],
         }
 
@@ -342,6 +387,8 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             ),
         )
         talk.start()
+        have = {m.metric for m in sc.metrics}
+        can_cue = np.array([m is None or m in have for _, m in self.actions], dtype=np.int8)
         self._episode = {
             "scenario": sc,
             "seed": pseed,
@@ -351,6 +398,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             "t": 0.0,
             "in_range": 1.0,
             "cues": 0,
+            "can_cue": can_cue,
         }
         source.poll(0.0)
         return self._obs(), self._info([], None, False)
@@ -398,9 +446,11 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         t0 = float(ep["t"])
         reward = 0.0
         cue: dict[str, Any] | None = None
-        ignored = False
+        ignored = invalid = False
         command, metric = self.actions[int(action)]
-        if command is not None:
+        if command is not None and not ep["can_cue"][int(action)]:
+            invalid = True  # a metric this persona does not have: refused, costs nothing
+        elif command is not None:
             cue = self._perform(command, metric, t0)
             if cue is None:
                 ignored = True  # the robot is busy: the cue is not given and costs nothing
@@ -418,7 +468,8 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         ep["in_range"] = share
         reward += (t1 - t0) / duration * share
         terminated = t1 >= duration - 1e-9
-        return self._obs(), float(reward), terminated, False, self._info(samples, cue, ignored)
+        info = self._info(samples, cue, ignored, invalid)
+        return self._obs(), float(reward), terminated, False, info
 
     def render(self) -> Any:
         if self.render_mode is None or not self._episode:

@@ -129,17 +129,25 @@ class ThresholdPolicy:
 
 
 def run_episode(env: CoachEnv, policy: EnvPolicy, seed: int) -> dict[str, Any]:
-    """One episode; returns its return, cues, ignored actions and scenario."""
+    """One episode; returns its return, cues, ignored actions (the robot busy), invalid
+    actions (a metric the persona does not have) and scenario."""
     obs, info = env.reset(seed=seed)
     policy.reset(env, seed)
-    total, cues, ignored, done = 0.0, 0, 0, False
+    total, cues, ignored, invalid, done = 0.0, 0, 0, 0, False
     while not done:
         obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
         total += reward
         cues += info["cue"] is not None
         ignored += bool(info["ignored"])
+        invalid += bool(info["invalid_action"])
         done = terminated or truncated
-    return {"return": total, "cues": cues, "ignored": ignored, "scenario": info["scenario"]}
+    return {
+        "return": total,
+        "cues": cues,
+        "ignored": ignored,
+        "invalid": invalid,
+        "scenario": info["scenario"],
+    }
 
 
 def mean_return(env: CoachEnv, policy: EnvPolicy, seeds: Iterable[int]) -> float:

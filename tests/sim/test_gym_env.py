@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -174,3 +175,81 @@ def test_env_checker_passes_with_rendering() -> None:
     env = gym.make(ENV_ID, scenarios="demo", render_mode="rgb_array", render_size=(48, 48))
     check_env(env.unwrapped)
     env.close()
+
+
+AUDIO_ONLY = """\
+format = 1
+name = "audio_only"
+description = "Speech only: no camera, so no head gaze and no gestures."
+duration_s = 120
+seed = 0
+
+[metrics.speech_speed]
+baseline = 200.0
+noise = 6.0
+
+[metrics.speech_volume]
+baseline = 67.0
+
+[metrics.speech_accuracy]
+baseline = 0.9
+"""
+
+
+@pytest.fixture
+def audio_only(tmp_path: Path) -> str:
+    path = tmp_path / "audio_only.toml"
+    path.write_text(AUDIO_ONLY)
+    return str(path)
+
+
+def test_a_cue_about_a_metric_the_persona_lacks_is_refused(audio_only: str) -> None:
+    """An audio-only persona (scenarios/README allows it): lookUp used to raise UnknownName
+    ('cv_headGaze') from inside step(). It is now a no-op that costs nothing, said in info."""
+    env = CoachEnv(audio_only)
+    _, info = env.reset(seed=0)
+    camera = {env.action_index(c, m) for c, m in env.actions if m in ("cv_headGaze", "cv_gestures")}
+    assert len(camera) == 3
+    assert [i for i, ok in enumerate(info["action_mask"]) if not ok] == sorted(camera)
+    assert info["action_mask"].dtype == np.int8
+    quiet = CoachEnv(audio_only)
+    quiet.reset(seed=0)
+    for a in sorted(camera):
+        *_, want, _, _, _ = quiet.step(0)
+        _, reward, _, _, info = env.step(a)
+        assert info["invalid_action"] and info["cue"] is None and not info["ignored"]
+        assert reward == want
+    look_up = env.action_index("lookUp", "cv_headGaze")
+    assert not env.action_masks()[look_up]
+
+
+def test_a_random_agent_runs_a_persona_without_camera_to_the_end(audio_only: str) -> None:
+    env = CoachEnv(audio_only)
+    check_env(env, skip_render_check=True)
+    obs, info = env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    done, invalid = False, 0
+    while not done:
+        obs, _, term, trunc, info = env.step(int(rng.integers(env.action_space.n)))
+        assert env.observation_space.contains(obs)
+        invalid += info["invalid_action"]
+        done = term or trunc
+    assert invalid > 0
+
+
+def test_the_action_mask_says_which_actions_the_robot_would_give() -> None:
+    env = CoachEnv("demo")
+    _, info = env.reset(seed=3)
+    rng = np.random.default_rng(3)
+    given = refused = 0
+    for _ in range(600):
+        mask = info["action_mask"]
+        a = int(rng.integers(1, env.action_space.n))
+        assert mask[0] == 1
+        _, _, term, _, info = env.step(a)
+        assert (info["cue"] is not None) == bool(mask[a])
+        given += info["cue"] is not None
+        refused += not mask[a]
+        if term:
+            break
+    assert given > 5 and refused > 5
