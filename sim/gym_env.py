@@ -58,7 +58,9 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     A synthetic presenter (:class:`SyntheticPresenter`) plays a scenario: metric
     samples (speech speed, volume, clarity, head gaze, gesture rate) that drift out of their
     ideal bands in scripted episodes. At every step (``step_s`` of talk time, by default the
-    configuration's decision period, 0.5 s) the agent may have the robot give one cue. The
+    configuration's decision period, 0.5 s) the agent may have the robot give one cue; step
+    ``k`` (from 1) runs from ``(k − 1) × step_s`` to ``k × step_s`` of talk time (the last one
+    ends at the talk's end), the headless talk's decision points, so times never drift. The
     robot is busy for the cue's planned duration (the gesture, timed against the URDF joint
     limits, and the phrase, whichever is longer, on the fake backend); a cue asked for while it
     is busy is ignored and costs nothing. The presenter reacts to a corrective cue as the
@@ -396,6 +398,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             "source": source,
             "talk": talk,
             "t": 0.0,
+            "k": 0,
             "in_range": 1.0,
             "cues": 0,
             "can_cue": can_cue,
@@ -459,7 +462,10 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
                 if metric is not None and self._truly_in_range(metric, t0):
                     reward -= self.in_range_penalty
         duration = float(ep["scenario"].duration_s)
-        t1 = min(t0 + self.step_s, duration)
+        # step k ends at k × step_s, as the headless runner's decision points (SteppedClock):
+        # adding step_s at every step drifted (479.9999999999813 after 2400 steps of 0.2 s)
+        ep["k"] += 1
+        t1 = min(ep["k"] * self.step_s, duration)
         self.talk.step(t1)
         samples = list(self.talk.last_samples)
         ep["t"] = t1

@@ -253,3 +253,24 @@ def test_the_action_mask_says_which_actions_the_robot_would_give() -> None:
         if term:
             break
     assert given > 5 and refused > 5
+
+
+def test_time_is_the_step_index_times_step_s_and_does_not_drift() -> None:
+    """Adding step_s 2400 times reached 479.9999999999813; each step's time is now k × step_s,
+    as the headless runner's decision points are (SteppedClock.points)."""
+    from prezence.talk import SteppedClock
+
+    env = CoachEnv("ideal", step_s=0.2)
+    _, info = env.reset(seed=0)
+    assert info["t"] == 0.0
+    points = SteppedClock(0.2).points(2400 * 0.2)
+    times, cue_times = [], []
+    for k in range(2400):
+        before = info["t"]
+        _, _, _, _, info = env.step(env.action_index("timeLeft", None) if k % 300 == 0 else 0)
+        times.append(info["t"])
+        if info["cue"] is not None:
+            cue_times.append(info["cue"]["t"])
+            assert info["cue"]["t"] == before
+    assert times == points and times[-1] == 480.0 and env.now == 480.0
+    assert cue_times == [k * 0.2 for k in range(0, 2400, 300)]
