@@ -96,7 +96,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
 
     | column           | meaning                                              | range          |
     |------------------|------------------------------------------------------|----------------|
-    | value            | newest sample (the band's midpoint before the first) | physical range |
+    | value            | newest sample (a value in the band before the first) | physical range |
     | signed_deviation | deviation % / 100, negative below the band           | [-10, 10]      |
     | weight           | the processor's time-integrated weight / threshold   | [0, 10]        |
     | fresh            | 1 if the newest sample is newer than the stale time  | {0, 1}         |
@@ -106,6 +106,12 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     ((allocated − now) / allocated, [-1, 1]; 1 when no time is allocated). Weights are those
     of the seed's processor (growth ∝ deviation × time, halving in range), reset when the agent
     cues that metric.
+
+    ``value`` is the band's midpoint, or a one-sided rule's bound, before the first sample
+    (``signed_deviation``, ``weight`` and ``fresh`` 0): the in-range value the rule itself
+    names. A one-sided band has no midpoint of its own, and one taken with the physical range
+    is far from any presenter (95 dB for ≥ 60 dB, the head raised 37.5° for ≥ −15°). A metric
+    the persona does not have keeps these values all episode.
 
     ## Rewards
 

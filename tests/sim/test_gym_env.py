@@ -14,7 +14,7 @@ gym = pytest.importorskip("gymnasium")
 
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
-from sim.gym_env import ENV_ID, CoachEnv  # noqa: E402
+from sim.gym_env import ENV_ID, METRIC_FEATURES, CoachEnv  # noqa: E402
 from sim.policies import RuleBaseline, ThresholdPolicy, mean_return, run_episode  # noqa: E402
 
 
@@ -274,3 +274,25 @@ def test_time_is_the_step_index_times_step_s_and_does_not_drift() -> None:
             assert info["cue"]["t"] == before
     assert times == points and times[-1] == 480.0 and env.now == 480.0
     assert cue_times == [k * 0.2 for k in range(0, 2400, 300)]
+
+
+def test_the_first_observation_is_what_the_docstring_says() -> None:
+    """Before the first sample a two-sided rule shows its band's midpoint and a one-sided rule
+    its bound (a value in range, deviation 0, fresh 0), as the Observation Space table says."""
+    env = CoachEnv("demo")
+    obs, _ = env.reset(seed=0)
+    k = len(METRIC_FEATURES)
+    one_sided = 0
+    for i, r in enumerate(env.rules):
+        value, signed, weight, fresh = (float(x) for x in obs[i * k : (i + 1) * k])
+        if r.low is not None and r.high is not None:
+            assert value == pytest.approx((r.low + r.high) / 2)
+        else:
+            one_sided += 1
+            bound = r.low if r.low is not None else r.high
+            assert value == pytest.approx(bound)
+            assert r.side(value) is None  # in range
+        assert (signed, weight, fresh) == (0.0, 0.0, 0.0)
+    assert one_sided >= 3
+    doc = " ".join((CoachEnv.__doc__ or "").split())
+    assert "the band's midpoint, or a one-sided rule's bound, before the first" in doc
