@@ -12,7 +12,8 @@ Run::
     python examples/coach_env.py [--train 4] [--test 6] [--scenarios demo fast_talker ...]
 
 A return is the talk's mean time in range (1.0 = every metric in range all the time) minus
-0.005 per cue and 0.01 per cue about a metric that was in range.
+0.005 per cue and 0.01 per cue about a metric that was in range; "in range" is that first
+part alone, "time cues" the cues/talk that were time warnings (they earn nothing in v0).
 """
 
 from __future__ import annotations
@@ -64,12 +65,14 @@ def main(argv: list[str] | None = None) -> int:
     }
     names = ", ".join(s.name for s in env.scenarios)
     print(f"\nmean return over {len(test)} held-out seeds ({names})")
-    print(f"{'policy':<24} {'return':>8} {'cues/talk':>10}")
+    print(f"{'policy':<24} {'return':>8} {'in range':>9} {'cues/talk':>10} {'time cues':>10}")
     for name, policy in policies.items():
         eps = [run_episode(env, policy, s) for s in test]
-        ret = sum(e["return"] for e in eps) / len(eps)
-        cues = sum(e["cues"] for e in eps) / len(eps)
-        print(f"{name:<24} {ret:>8.4f} {cues:>10.1f}")
+        ret, tir, cues, tcues = (
+            sum(e[k] for e in eps) / len(eps)
+            for k in ("return", "time_in_range", "cues", "time_cues")
+        )
+        print(f"{name:<24} {ret:>8.4f} {tir:>9.4f} {cues:>10.1f} {tcues:>10.1f}")
     env.close()
     return 0
 

@@ -247,6 +247,12 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         return cfg
 
     @property
+    def scenario(self) -> Scenario:
+        """The current episode's persona."""
+        sc: Scenario = self._episode["scenario"]
+        return sc
+
+    @property
     def now(self) -> float:
         """Talk time of the current step."""
         return float(self._episode["t"])

@@ -129,21 +129,36 @@ class ThresholdPolicy:
 
 
 def run_episode(env: CoachEnv, policy: EnvPolicy, seed: int) -> dict[str, Any]:
-    """One episode; returns its return, cues, ignored actions (the robot busy), invalid
-    actions (a metric the persona does not have) and scenario."""
+    """One episode.
+
+    Returns:
+        ``return``; ``time_in_range`` (the return's time-in-range part, before the cue costs);
+        ``cues`` given and, of them, ``time_cues`` (no metric: they earn nothing in v0);
+        ``ignored`` actions (the robot busy); ``invalid`` actions (a metric the persona does
+        not have); ``scenario``.
+    """
     obs, info = env.reset(seed=seed)
     policy.reset(env, seed)
-    total, cues, ignored, invalid, done = 0.0, 0, 0, 0, False
+    talk_s = float(env.scenario.duration_s)
+    total, in_range, t = 0.0, 0.0, 0.0
+    cues = time_cues = ignored = invalid = 0
+    done = False
     while not done:
         obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
         total += reward
-        cues += info["cue"] is not None
+        in_range += (info["t"] - t) / talk_s * info["in_range"]
+        t = info["t"]
+        cue = info["cue"]
+        cues += cue is not None
+        time_cues += cue is not None and cue["metric"] is None
         ignored += bool(info["ignored"])
         invalid += bool(info["invalid_action"])
         done = terminated or truncated
     return {
         "return": total,
+        "time_in_range": in_range,
         "cues": cues,
+        "time_cues": time_cues,
         "ignored": ignored,
         "invalid": invalid,
         "scenario": info["scenario"],

@@ -296,3 +296,22 @@ def test_the_first_observation_is_what_the_docstring_says() -> None:
     assert one_sided >= 3
     doc = " ".join((CoachEnv.__doc__ or "").split())
     assert "the band's midpoint, or a one-sided rule's bound, before the first" in doc
+
+
+def test_run_episode_splits_the_return_into_time_in_range_and_cue_costs() -> None:
+    env = CoachEnv("demo")
+
+    class Silent:
+        def reset(self, env: CoachEnv, seed: int) -> None:
+            pass
+
+        def act(self, obs: object, info: object) -> int:
+            return 0
+
+    quiet = run_episode(env, Silent(), 0)
+    assert quiet["return"] == pytest.approx(quiet["time_in_range"], abs=1e-12)
+    rules = run_episode(env, RuleBaseline(), 0)
+    assert rules["time_cues"] == 2  # the two timeLeft warnings of a 10-minute talk
+    costs = rules["time_in_range"] - rules["return"]
+    assert costs >= env.cue_cost * rules["cues"] - 1e-12
+    assert rules["time_in_range"] > quiet["time_in_range"]
