@@ -315,3 +315,33 @@ def test_run_episode_splits_the_return_into_time_in_range_and_cue_costs() -> Non
     costs = rules["time_in_range"] - rules["return"]
     assert costs >= env.cue_cost * rules["cues"] - 1e-12
     assert rules["time_in_range"] > quiet["time_in_range"]
+
+
+@pytest.mark.parametrize("scenario", ["demo", "fast_talker", "quiet_speaker", "overrunning"])
+def test_the_rule_baseline_gives_the_headless_talks_cues(scenario: str, tmp_path: Path) -> None:
+    """RuleBaseline in the env is the seed's processor: with praise off (it has no action) its
+    cues are a headless ``weighted`` talk's, cue for cue, so its return is the processor's."""
+    import dataclasses
+
+    from prezence.config.load import load_config
+    from prezence.synthetic.runner import run_talk
+
+    base = load_config(None)
+    cfg = dataclasses.replace(
+        base, processor=dataclasses.replace(base.processor, praise_command=None)
+    )
+    env = CoachEnv(config=cfg)
+    obs, info = env.reset(seed=5, options={"scenario": scenario})
+    policy = RuleBaseline()
+    policy.reset(env, 5)
+    got, done = [], False
+    while not done:
+        obs, _, term, trunc, info = env.step(policy.act(obs, info))
+        if info["cue"] is not None:
+            got.append((info["cue"]["t"], info["cue"]["command"], info["cue"]["metric"]))
+        done = term or trunc
+    head = run_talk(
+        scenario, out=tmp_path / "s", seed=info["presenter_seed"], config=cfg, policy="weighted"
+    )
+    assert got == [(c["t"], c["command"], c.get("metric")) for c in head.cues]
+    assert len(got) >= 2
