@@ -162,9 +162,12 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     ## Version History
 
     * v0: initial version; episodes run on the one talk loop (the agent's cues go through
-      the coach, as the processor's do). Session 14: a cue about a metric the persona does
-      not have is refused (``invalid_action``) instead of raising ``UnknownName``, and
-      ``action_mask`` is given; nothing changed for episodes that ran before.
+      the coach, as the processor's do). Session 14, kept v0 (an episode with the default
+      ``step_s`` gives the same observations and rewards, bit for bit): a cue about a metric
+      the persona does not have is refused (``invalid_action``) instead of raising
+      ``UnknownName``; ``action_mask`` is given; step ``k`` ends at ``k × step_s`` (it
+      drifted with a ``step_s`` such as 0.2, so a cue due on a boundary, the 8:00 timeLeft,
+      came a step late).
     """
 
     metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}
