@@ -99,8 +99,10 @@ def format_timeline(summary: dict[str, Any]) -> str:
         )
     c = summary["counts"]
     cut = f", cut short {c['cues_cut_short']}" if c.get("cues_cut_short") else ""
+    stale = f", stale {c['stale']}" if c.get("stale") else ""  # as evaluate counts them
     lines.append(
-        f"cues {c['cues']} (dropped {c['cues_dropped']}{cut}, false alarms {c['false_alarms']}), "
+        f"cues {c['cues']} (dropped {c['cues_dropped']}{cut}, false alarms {c['false_alarms']}"
+        f"{stale}), "
         f"malformed samples {c['malformed_samples']}, stale episodes {c['stale_episodes']}, "
         f"joint-limit violations {c['joint_limit_violations']}"
     )

@@ -87,16 +87,92 @@ def _truth_intervals(truth: Sequence[Mapping[str, Any]], metric: str) -> list[tu
     return sorted((float(x["start"]), float(x["end"])) for x in truth if x.get("metric") == metric)
 
 
-def truth_out_of_range(
-    truth: Sequence[Mapping[str, Any]], metric: str, t: float
-) -> tuple[bool, float | None]:
-    """Was ``metric`` really out of range at ``t``? Returns (flag, onset of that stretch)."""
-    iv = _truth_intervals(truth, metric)
-    starts = [a for a, _ in iv]
-    i = bisect.bisect_right(starts, t) - 1
-    if i >= 0 and iv[i][0] <= t <= iv[i][1]:
-        return True, iv[i][0]
-    return False, None
+#: A corrective cue within this many seconds after its problem ended is "stale", not a false
+#: alarm: the same window as :data:`prezence.evaluate.STALE_WINDOW_S` (a test holds them equal).
+STALE_WINDOW_S = 10.0
+
+
+def classify_cue(
+    intervals: Sequence[Mapping[str, Any]],
+    metric: str,
+    side: str,
+    t: float,
+    *,
+    window_s: float = STALE_WINDOW_S,
+) -> tuple[str, float | None]:
+    """``"relevant"``, ``"stale"`` or ``"false_alarm"`` for a corrective cue at ``t``, and the
+    onset of the stretch it is about (relevant) or when that stretch ended (stale).
+
+    The definitions of the evaluation (docs/evaluation.md, "What the columns mean";
+    :func:`prezence.evaluate.classify_cue` with the cue chosen and started at ``t``, as the
+    coach starts a cue when it chooses it): *relevant* when ``metric`` was out of range on the
+    cued ``side`` at ``t``; *stale* when it was in range but had been out on that side in the
+    ``window_s`` before; a *false alarm* otherwise.
+
+    Args:
+        intervals: out-of-range stretches ``{"metric", "start", "end", "side"}``: the ground
+            truth of a synthetic talk, or :func:`measured_intervals` of the recorded values.
+
+    Example:
+        >>> iv = [{"metric": "m", "start": 10.0, "end": 20.0, "side": "above"}]
+        >>> [classify_cue(iv, "m", "above", t) for t in (15.0, 25.0, 40.0)]
+        [('relevant', 10.0), ('stale', 20.0), ('false_alarm', None)]
+        >>> classify_cue(iv, "m", "below", 15.0)
+        ('false_alarm', None)
+    """
+    iv = sorted(
+        (float(x["start"]), float(x["end"]))
+        for x in intervals
+        if x.get("metric") == metric and x.get("side") == side
+    )
+    for a, b in iv:
+        if a <= t <= b:
+            return "relevant", a
+    ended = [b for a, b in iv if a <= t and t - window_s <= b < t]
+    if ended:
+        return "stale", max(ended)
+    return "false_alarm", None
+
+
+def measured_intervals(
+    rule: Rule,
+    samples: Sequence[Sample],
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float] = (),
+) -> list[dict[str, Any]]:
+    """The stretches the recorded values were out of ``rule``'s range, as :func:`classify_cue`
+    takes them: each sample holds as in the time in range (until the next sample, the stale
+    time, the talk's end or its module's death); a gap or a change of side ends a stretch.
+
+    What a talk without ground truth (a live one, a rehearsal) judges its cues by.
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("v", Check.MIN, low=60.0)
+        >>> ss = [Sample("v", float(t), v) for t, v in [(0, 50), (1, 55), (2, 70), (3, 50)]]
+        >>> [(x["start"], x["end"], x["side"]) for x in measured_intervals(r, ss, 10.0, 2.0)]
+        [(0.0, 2.0, 'below'), (3.0, 5.0, 'below')]
+    """
+    ss = sorted(samples, key=attrgetter("t"))
+    ends = hold_ends([s.t for s in ss], cuts) if cuts else None
+    out: list[dict[str, Any]] = []
+    for i, s in enumerate(ss):
+        if s.t >= talk_s:
+            break
+        nxt = ss[i + 1].t if i + 1 < len(ss) else talk_s
+        end = min(nxt, s.t + stale_s, talk_s)
+        if ends is not None:
+            end = min(end, float(ends[i]))
+        side = rule.side(s.value)
+        if side is None:
+            continue
+        last = out[-1] if out else None
+        if last is not None and last["side"] == side and last["end"] >= s.t:
+            last["end"] = max(last["end"], end)
+        else:
+            out.append({"metric": rule.metric, "start": s.t, "end": end, "side": side})
+    return out
 
 
 def _truth_in_range_fraction(
@@ -319,6 +395,19 @@ def build_summary(
             m["dropped"] = {"late": int(pc.get("late", 0)), "ahead": int(pc.get("ahead", 0))}
         metrics[rule.metric] = m
 
+    rules = {r.metric: r for r in config.rules}
+    # what each corrective cue is judged by: the ground truth, else the recorded values
+    judged_by: dict[str, list[dict[str, Any]]] = {}
+    if truth is None:
+        for rule in config.rules:
+            stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
+            judged_by[rule.metric] = measured_intervals(
+                rule,
+                streams.get(rule.metric, ()),
+                talk_s,
+                stale_s,
+                [sp["from"] for sp in lost.get(rule.metric, ())],
+            )
     cue_rows: list[dict[str, Any]] = []
     for c in cues:
         row = {k: c.get(k) for k in ("t", "command", "metric", "kind", "reason", "params")}
@@ -339,13 +428,22 @@ def build_summary(
         metric = c.get("metric")
         onset = c.get("onset")
         relevant: bool | None = None
-        if metric is not None:
-            if truth is not None:
-                relevant, truth_onset = truth_out_of_range(truth, metric, t)
-                if truth_onset is not None:
-                    onset = truth_onset
-            else:
-                relevant = float(c.get("deviation") or 0.0) > 0.0
+        rule = rules.get(metric) if metric is not None else None
+        if rule is not None:
+            side = "below" if c["command"] == rule.below else "above"
+            intervals = truth if truth is not None else judged_by.get(rule.metric, [])
+            kind, when = classify_cue(intervals, rule.metric, side, t)
+            row["cue_class"] = kind
+            relevant = kind == "relevant"
+            if kind == "relevant":
+                if truth is not None:  # the real onset; the coach's is its own view
+                    onset = when
+            else:  # no problem to measure a delay from
+                onset = None
+                if kind == "stale" and when is not None:
+                    row["ended_s_before"] = round(t - when, 3)
+        elif metric is not None:  # a metric no rule judges: the coach's own view
+            relevant = float(c.get("deviation") or 0.0) > 0.0
         elif c.get("kind") == "time":
             relevant = True
         row["onset"] = onset
@@ -370,7 +468,9 @@ def build_summary(
         "counts": {
             "cues": len(cue_rows),
             "cues_dropped": sum(1 for c in cues if c.get("dropped")),
-            "false_alarms": sum(1 for r in cue_rows if r["relevant"] is False),
+            "false_alarms": sum(1 for r in cue_rows if r.get("cue_class") == "false_alarm")
+            + sum(1 for r in cue_rows if r["relevant"] is False and "cue_class" not in r),
+            "stale": sum(1 for r in cue_rows if r.get("cue_class") == "stale"),
             "malformed_samples": malformed,
             "dropped_samples": sum(
                 int(pc.get("late", 0)) + int(pc.get("ahead", 0))

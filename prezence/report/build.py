@@ -137,33 +137,172 @@ def mean_deviation(rule: Rule, samples: Sequence[Sample], start: float, end: flo
     return sum(devs) / len(devs) if devs else None
 
 
+def back_in_range_s(
+    rule: Rule, samples: Sequence[Sample], t: float, *, window_s: float = EFFECT_WINDOW_S
+) -> float | None:
+    """Seconds from ``t`` until the metric was back in range to stay, within ``window_s``.
+
+    The samples in ``[t, t + window_s)`` must end in range: the answer is the time of the
+    first of the in-range samples after the last one out of range; None when the window ends
+    out of range or holds no sample.
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
+        >>> ss = [Sample("speech_speed", t, 200.0 if t < 42 else 170.0) for t in range(60)]
+        >>> back_in_range_s(r, ss, 30.0), back_in_range_s(r, ss[:40], 30.0)
+        (12.0, None)
+    """
+    after = [s for s in samples if t <= s.t < t + window_s]
+    if not after or rule.side(after[-1].value) is not None:
+        return None
+    out = [i for i, s in enumerate(after) if rule.side(s.value) is not None]
+    first = out[-1] + 1 if out else 0
+    return round(after[first].t - t, 3)
+
+
 def cue_effect(
     rule: Rule, samples: Sequence[Sample], t: float, *, window_s: float = EFFECT_WINDOW_S
 ) -> dict[str, Any]:
-    """Did the presenter improve after a cue at ``t``? Mean deviation before vs after.
+    """What the metric did after a cue at ``t``: mean deviation before vs after, and whether
+    it was back in range within the window.
 
     Compares the mean deviation of the samples in ``[t - window_s, t)`` with those in
     ``[t, t + window_s)``. ``improved`` is True when the deviation after is at most
     :data:`IMPROVED_RATIO` of the one before, False when it is not, None when either window has
-    no samples or there was nothing to improve (deviation 0 before).
+    no samples or there was nothing to improve (deviation 0 before); ``back_in_range_s`` is
+    :func:`back_in_range_s` (None when not judged). This is what was measured, not why: a
+    presenter who ignored the cue may be back in range all the same (the report says so where
+    the talk records whether the presenter reacted).
 
     Example:
         >>> from prezence.config.model import Check
         >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
         >>> ss = [Sample("speech_speed", t, 200.0 if t < 30 else 170.0) for t in range(60)]
         >>> cue_effect(r, ss, 30.0)
-        {'deviation_before': 11.111, 'deviation_after': 0.0, 'improved': True}
-    """
+        {'deviation_before': 11.111, 'deviation_after': 0.0, 'improved': True, 'back_in_range_s': 0.0}
+    """  # noqa: E501 - a doctest output line
     before = mean_deviation(rule, samples, t - window_s, t)
     after = mean_deviation(rule, samples, t, t + window_s)
     improved: bool | None = None
     if before is not None and after is not None and before > 0.0:
         improved = after <= IMPROVED_RATIO * before
+    back = back_in_range_s(rule, samples, t, window_s=window_s) if improved is not None else None
     return {
         "deviation_before": None if before is None else round(before, 3),
         "deviation_after": None if after is None else round(after, 3),
         "improved": improved,
+        "back_in_range_s": back,
     }
+
+
+def effect_words(row: Mapping[str, Any]) -> str | None:
+    """What followed a cue, in words that say what was measured, not that the cue caused it.
+
+    Example:
+        >>> effect_words({"improved": True, "back_in_range_s": 16.0})
+        'back in range after 16 s'
+        >>> effect_words({"improved": True}), effect_words({"improved": False})
+        ('closer to range after', 'no closer after')
+    """
+    improved = row.get("improved")
+    if improved is None:
+        return None
+    back = row.get("back_in_range_s")
+    if isinstance(back, int | float):
+        return f"back in range after {back:.0f} s"
+    return "closer to range after" if improved else "no closer after"
+
+
+#: Kinds of session whose speaker heard the robot's cues as they were given (``session.json``).
+HEARD_KINDS = ("live", "synthetic")
+#: Two cues are the same cue when their times differ by less than this (seconds): a replay's
+#: decision points fall at the recording's times.
+SAME_CUE_S = 1e-3
+
+
+def heard_cues(
+    session: SessionDir,
+    meta: Mapping[str, Any],
+    cues: Sequence[Mapping[str, Any]],
+    own: Mapping[str, Any],
+) -> tuple[list[Mapping[str, Any] | None], str | None]:
+    """Which cues the speaker heard, and the folder whose record says how they reacted.
+
+    A cue's effect can be judged only if the speaker heard it. In a live or synthetic talk
+    (and a folder whose kind is not recorded) they heard every cue. In a rehearsal the coach
+    chose its cues after the recording was made: nobody heard them. In a replay the speaker
+    heard the *recording's* cues: a replayed cue is judged only when the recording (a live or
+    synthetic talk whose folder is still there) gave the same command at the same time, and
+    then on the recorded talk it followed; the others are not judged.
+
+    Args:
+        own: the folder's own ``summary.json`` ({} when there is none).
+
+    Returns:
+        Per cue, the ``summary.json`` (a dict, {} when there is none) of the talk in which it
+        was heard, or None when it was not heard; and a sentence saying why some were not
+        (None when all were).
+    """
+    kind = meta.get("kind")
+    if kind == "rehearsal":
+        return [None] * len(cues), (
+            "a recorded rehearsal is coached after it was recorded, so the speaker heard none "
+            "of these cues"
+        )
+    if kind != "replay":
+        return [own] * len(cues), None
+    why = "this is a replay, whose speaker heard the recording's cues, not these"
+    src = _replay_source(session, meta)
+    if src is None:
+        return [None] * len(cues), f"{why} (the recording's folder is not found)"
+    try:
+        src_kind = src.read_meta().get("kind")
+    except PrezenceError:
+        src_kind = None
+    if src_kind not in HEARD_KINDS:
+        return [None] * len(cues), why
+    given = read_jsonl(src.cues, require=CUE_KEYS, skipped=[]) if src.cues.is_file() else []
+    src_summary = _read_summary(src)
+    heard: list[Mapping[str, Any] | None] = []
+    for c in cues:
+        same = any(
+            g["command"] == c["command"] and abs(float(g["t"]) - float(c["t"])) < SAME_CUE_S
+            for g in given
+        )
+        heard.append(src_summary if same else None)
+    if all(h is not None for h in heard):
+        return heard, None
+    return heard, why
+
+
+def _replay_source(session: SessionDir, meta: Mapping[str, Any]) -> SessionDir | None:
+    """The recording a replay coached (``session.json``'s ``source``), if it is still there:
+    the path as recorded, or relative to the replay's own folder's parent."""
+    source = meta.get("source")
+    if not isinstance(source, str) or not source:
+        return None
+    path = Path(source)
+    tries = [path] if path.is_absolute() else [path, session.root.parent / path.name]
+    for p in tries:
+        s = SessionDir(p)
+        if s.meta.is_file() or (p.name == "streams" and SessionDir(p.parent).meta.is_file()):
+            return s if s.meta.is_file() else SessionDir(p.parent)
+    return None
+
+
+def _reaction(summary: Mapping[str, Any], cue: Mapping[str, Any]) -> Mapping[str, Any] | None:
+    """The synthetic presenter's recorded reaction to ``cue`` (``summary.json``'s
+    ``reactions``: its ground truth), None when the talk records none."""
+    for r in summary.get("reactions") or ():
+        if (
+            isinstance(r, Mapping)
+            and r.get("command") == cue.get("command")
+            and isinstance(r.get("t"), int | float)
+            and abs(float(r["t"]) - float(cue["t"])) < SAME_CUE_S
+        ):
+            return r
+    return None
 
 
 def rank_priorities(
@@ -509,7 +648,8 @@ def _rebuild(
 
     rules = {r.metric: r for r in cfg.rules}
     cue_rows = _cue_dicts(summary)
-    for row, rec in zip(cue_rows, cues, strict=True):
+    heard, not_heard = heard_cues(session, meta, cues, recorded)
+    for row, rec, heard_in in zip(cue_rows, cues, heard, strict=True):
         row["phrase"] = rec.get("phrase")
         cue_rule = rules.get(row.get("metric") or "")
         if cue_rule is not None:
@@ -518,21 +658,43 @@ def _rebuild(
             row["value"] = _value_at(streams[cue_rule.metric], float(row["t"]))
             row["why"] = _why(cue_rule, row)
             row.update(cue_effect(cue_rule, streams[cue_rule.metric], float(row["t"])))
+            if heard_in is None:  # the speaker never heard it: nothing followed from it
+                row.update(heard=False, improved=None, back_in_range_s=None)
+            else:
+                reaction = _reaction(heard_in, rec)
+                if reaction is not None:  # the synthetic presenter's ground truth
+                    row["reacted"] = bool(reaction.get("reacted"))
+                    if reaction.get("why"):
+                        row["reaction"] = str(reaction["why"])
         else:
             row["why"] = _why_other(row)
-        # a cue about a metric that was in range is a false alarm: what followed it is no
-        # improvement the cue brought
-        row["false_alarm"] = row.get("relevant") is False and row.get("metric") is not None
-        if row["false_alarm"]:
+        # a cue about a metric that was in range (a false alarm, or stale: its problem had
+        # just ended) corrected nothing: what followed it is no improvement it brought
+        kind = row.get("cue_class")
+        row["false_alarm"] = kind == "false_alarm" or (
+            kind is None and row.get("relevant") is False and row.get("metric") is not None
+        )
+        row["stale"] = kind == "stale"
+        if row["false_alarm"] or row["stale"]:
             row["improved"] = None
             if cue_rule is not None:
                 v = row.get("value")
                 unit = f" {cue_rule.unit}" if cue_rule.unit else ""
                 now = f" ({float(v):.3g}{unit})" if isinstance(v, int | float) else ""
-                row["why"] = (
-                    f"cued as {row.get('side')} its ideal range, but your "
-                    f"{metric_label(cue_rule.metric)} was in range{now}"
-                )
+                label = metric_label(cue_rule.metric)
+                if row["stale"]:
+                    ago = float(row.get("ended_s_before") or 0.0)
+                    row["why"] = (
+                        f"cued as {row.get('side')} its ideal range, but your {label} had come "
+                        f"back in range {ago:.0f} s before{now}"
+                    )
+                else:
+                    row["why"] = (
+                        f"cued as {row.get('side')} its ideal range, but your {label} "
+                        f"{was(label)} in range{now}"
+                    )
+    for row in cue_rows:
+        row["effect"] = effect_words(row)
     helped = [r for r in cue_rows if r.get("improved") is not None]
 
     time_used = dict(summary["time"])
@@ -542,6 +704,16 @@ def _rebuild(
     counts = dict(summary["counts"])
     counts["cues_improved"] = sum(1 for r in helped if r["improved"])
     counts["cues_judged"] = len(helped)
+    counts["cues_back_in_range"] = sum(1 for r in helped if r.get("back_in_range_s") is not None)
+    unheard = sum(
+        1 for r in cue_rows if r.get("heard") is False and not (r["false_alarm"] or r["stale"])
+    )
+    if unheard:
+        counts["cues_not_heard"] = unheard
+    reacted = [r["reacted"] for r in helped if "reacted" in r]
+    if reacted:  # ground truth: did the presenter react to the corrections judged?
+        counts["cues_reacted"] = sum(reacted)
+        counts["cues_reaction_known"] = len(reacted)
     report: dict[str, Any] = {
         "format": REPORT_FORMAT,
         "session": str(session.root),
@@ -560,6 +732,7 @@ def _rebuild(
         "counts": counts,
         "has_truth": truth is not None,
         "effect_window_s": EFFECT_WINDOW_S,
+        **({"effects_not_judged": not_heard} if not_heard else {}),
         "head": head_turns(session, talk_s=talk_s, limit=limit),
         "stopped_repeating": _stopped_repeating(recorded),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},

@@ -8,6 +8,8 @@ from collections.abc import Mapping
 from typing import Any
 
 from prezence.report.speech import (
+    cue_count_parts,
+    cue_mark,
     measured_share,
     of_time,
     summary_phrase,
@@ -151,20 +153,17 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             f"To get them: {install}<code>prezence report {_e(report.get('session'))}</code>"
             f"{'' if install else ' (or run the talk with <code>--plots</code>)'}.</div>"
         )
-    judged = counts.get("cues_judged", 0)
     out.append('<div class="cards">')
     out.append(_time_card(report))
-    fa = counts.get("false_alarms", 0)
-    fa_html = (
-        f'<div class="fa">{fa} false alarm{"s" if fa != 1 else ""} (cued while in range)</div>'
-        if fa
-        else ""
+    parts = "".join(
+        f'<div class="fa">{_e(p)}</div>'
+        if "false alarm" in p or "stale" in p
+        else f"<div>{_e(p[0].upper() + p[1:])}.</div>"
+        for p in cue_count_parts(report)
     )
     out.append(
         f'<div class="card"><div class="lbl">cues from the robot</div>'
-        f'<div class="big">{counts.get("cues", 0)}</div>'
-        f"<div>after {counts.get('cues_improved', 0)} of {judged} corrections you got "
-        f"better</div>{fa_html}</div>"
+        f'<div class="big">{counts.get("cues", 0)}</div>{parts}</div>'
     )
     tirs = [m.get("time_in_range") for m in report["metrics"].values()]
     tirs_ok = [x for x in tirs if x is not None]
@@ -304,22 +303,21 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         out.append(
             f'<p class="sub">Delay: from the start of the problem to the cue. Before / after: '
             f"how far out of its ideal range the metric was, on average, in the {w:g} s "
-            f"before and the {w:g} s after the cue (0% = in range).</p>"
+            f"before and the {w:g} s after the cue (0% = in range). What followed: what the "
+            f"metric did in those {w:g} s, which the cue may or may not have caused.</p>"
         )
         out.append(
             '<table><tr><th>time</th><th class="l">cue</th><th class="l">why</th>'
-            "<th>delay</th><th>out of range before</th><th>after</th><th>effect</th></tr>"
+            "<th>delay</th><th>out of range before</th><th>after</th><th>what followed</th></tr>"
         )
         for c in cues:
             lat = c.get("latency_s")
+            mark = cue_mark(c)
             eff = c.get("improved")
-            eff_html = {
-                True: '<span class="yes">you got better</span>',
-                False: '<span class="no">no change</span>',
-                None: "–",
-            }[eff]
-            if c.get("false_alarm"):
-                eff_html = '<span class="fa">false alarm: it was in range</span>'
+            eff_html = f'<span class="{"yes" if eff else "no"}">{_e(mark)}</span>' if mark else "–"
+            if c.get("false_alarm") or c.get("stale"):
+                shown = mark.replace("FALSE ALARM", "false alarm").replace("STALE", "stale")
+                eff_html = f'<span class="fa">{_e(shown)}</span>'
             cut = c.get("cut_short")
             cut_html = f'<br><span class="fa">cut short: {_e(cut)}</span>' if cut else ""
 

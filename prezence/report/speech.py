@@ -413,21 +413,109 @@ def format_text(report: Mapping[str, Any]) -> str:
         )
     lines.append("")
     cues = report.get("cues") or []
-    judged = report["counts"].get("cues_judged", 0)
-    fa = report["counts"].get("false_alarms", 0)
     lines.append(
-        f"  {len(cues)} cues; after {report['counts'].get('cues_improved', 0)} of {judged} "
-        "corrections you got better"
-        + (f"; {fa} false alarm{'s' if fa != 1 else ''} (cued while in range)" if fa else "")
+        f"  {len(cues)} cue{'' if len(cues) == 1 else 's'}"
+        + "".join(f"; {p}" for p in cue_count_parts(report))
     )
     for c in cues:
-        eff = c.get("improved")
-        mark = {True: "you got better", False: "no change", None: ""}[eff]
-        if c.get("false_alarm"):
-            mark = "FALSE ALARM: it was in range"
+        mark = cue_mark(c)
         if c.get("cut_short"):
             mark = f"CUT SHORT: {c['cut_short']}" + (f"; {mark}" if mark else "")
         lat = c.get("latency_s")
         lat_s = f" {lat:.0f} s after onset" if lat is not None else ""
         lines.append(f"    {_mmss(c['t']):>5}  {c['command']:<12}{lat_s:<20} {mark}")
     return "\n".join(lines) + "\n"
+
+
+def cue_count_parts(report: Mapping[str, Any]) -> list[str]:
+    """What the cues were and what followed them, for the text and the HTML report alike.
+
+    What followed a correction is what the metric did in the window after it (back in range,
+    closer to it, no closer), never "you got better": the metric may have come back by itself.
+    A synthetic talk's ground truth says whether the presenter reacted. False alarms and stale
+    cues are counted apart, as the evaluation counts them (docs/evaluation.md).
+
+    Example:
+        >>> c = {"cues_judged": 2, "cues_improved": 1, "cues_back_in_range": 1,
+        ...      "cues_reacted": 0, "cues_reaction_known": 2, "false_alarms": 1, "stale": 3}
+        >>> cue_count_parts({"counts": c, "effect_window_s": 30.0})
+        ['in the 30 s after each of 2 corrections: 1 back in range, 1 no closer', 'the presenter reacted to 0 of them (ground truth)', '1 false alarm (cued while in range, not out on that side in the 10 s before)', '3 stale (cued within 10 s after the problem had ended)']
+    """  # noqa: E501 - a doctest output line
+    counts = report.get("counts") or {}
+    w = float(report.get("effect_window_s") or 30.0)
+    parts: list[str] = []
+    judged = int(counts.get("cues_judged") or 0)
+    if judged:
+        back = int(counts.get("cues_back_in_range") or 0)
+        closer = int(counts.get("cues_improved") or 0) - back
+        followed = [
+            f"{n} {what}"
+            for n, what in (
+                (back, "back in range"),
+                (closer, "closer to range"),
+                (judged - back - closer, "no closer"),
+            )
+            if n
+        ]
+        each = "each of " if judged > 1 else ""
+        s = "s" if judged > 1 else ""
+        parts.append(f"in the {w:g} s after {each}{judged} correction{s}: {', '.join(followed)}")
+        if counts.get("cues_reaction_known"):
+            reacted = int(counts.get("cues_reacted") or 0)
+            if int(counts["cues_reaction_known"]) == judged == 1:
+                did = "reacted" if reacted else "did not react"
+                parts.append(f"the presenter {did} to it (ground truth)")
+            elif int(counts["cues_reaction_known"]) == judged:
+                parts.append(f"the presenter reacted to {reacted} of them (ground truth)")
+            else:
+                parts.append(
+                    f"the presenter reacted to {reacted} of {counts['cues_reaction_known']} "
+                    "(ground truth)"
+                )
+    unheard = int(counts.get("cues_not_heard") or 0)
+    if unheard:
+        why = report.get("effects_not_judged") or "the speaker did not hear them"
+        s = "s" if unheard != 1 else ""
+        parts.append(f"what followed {unheard} correction{s} is not judged: {why}")
+    fa = int(counts.get("false_alarms") or 0)
+    if fa:
+        parts.append(
+            f"{fa} false alarm{'s' if fa != 1 else ''} (cued while in range, not out on that "
+            "side in the 10 s before)"
+        )
+    stale = int(counts.get("stale") or 0)
+    if stale:
+        parts.append(f"{stale} stale (cued within 10 s after the problem had ended)")
+    return parts
+
+
+def cue_mark(c: Mapping[str, Any]) -> str:
+    """One cue's outcome: a false alarm, a stale cue, or what followed it (and, where the
+    talk records it, whether the presenter reacted).
+
+    Example:
+        >>> cue_mark({"effect": "back in range after 16 s", "reacted": False,
+        ...           "reaction": "ignored the cue"})
+        'back in range after 16 s; the presenter ignored it'
+        >>> cue_mark({"stale": True, "ended_s_before": 4.2})
+        'STALE: back in range 4 s before'
+    """
+    if c.get("false_alarm"):
+        return "FALSE ALARM: it was in range"
+    if c.get("stale"):
+        return f"STALE: back in range {float(c.get('ended_s_before') or 0.0):.0f} s before"
+    if c.get("heard") is False:
+        return "not heard by the speaker"
+    mark = str(c.get("effect") or "")
+    if "reacted" in c and mark:
+        mark += f"; {_REACTIONS.get(str(c.get('reaction')), 'the presenter did not react')}"
+        if c["reacted"]:
+            mark = mark.rsplit("; ", 1)[0] + "; the presenter reacted"
+    return mark
+
+
+#: The synthetic presenter's reasons for not reacting (its ``reactions`` record), in words.
+_REACTIONS = {
+    "ignored the cue": "the presenter ignored it",
+    "nothing to change": "the presenter had nothing to change",
+}

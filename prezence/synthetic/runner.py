@@ -110,7 +110,13 @@ class SyntheticSource(SourceBase):
         return {"scenario": self.scenario.name, "seed": self.seed, "talk_s": self.talk_s}
 
     def summary_extra(self) -> dict[str, Any]:
-        return {"scenario": self.scenario.name, "seed": self.seed}
+        # the presenter's reaction to each cue (ground truth, as truth.jsonl is): the report
+        # says whether the presenter reacted, not only what the metric did after a cue
+        reactions = [
+            {k: r[k] for k in ("t", "command", "reacted", "why") if k in r}
+            for r in self.presenter.reactions
+        ]
+        return {"scenario": self.scenario.name, "seed": self.seed, "reactions": reactions}
 
 
 @dataclass

@@ -619,7 +619,63 @@ def test_a_cue_cut_short_and_an_unsaid_summary_are_marked_in_the_report(tmp_path
     text = (session.report / "summary.txt").read_text()
     assert "note: 1 cue cut short (0:40 slowDown: robot lost: disconnected)" in text
     assert "note: the robot did not say its summary after the talk (robot is lost)" in text
-    assert "CUT SHORT: robot lost: disconnected; you got better" in text
+    assert "CUT SHORT: robot lost: disconnected; back in range after 20 s" in text
     assert '<span class="fa">cut short: robot lost: disconnected</span>' in page
     assert "What the robot says" not in page
     assert 'What the robot was to say, <b class="fa">not said</b> (robot is lost)' in page
+
+
+# -- session 14: what the report may claim of a cue --------------------------------------------
+
+
+def _cue(
+    t: float, command: str = "slowDown", metric: str | None = "speech_speed"
+) -> dict[str, object]:
+    return {
+        "t": t,
+        "command": command,
+        "metric": metric,
+        "kind": "weighted",
+        "reason": "r",
+        "params": {},
+        "onset": 20.0,
+        "deviation": 20.0,
+        "dropped": False,
+    }
+
+
+def test_the_cues_of_a_recorded_rehearsal_are_not_judged(tmp_path: Path) -> None:
+    # the coach chose them after the recording was made: nobody heard them
+    session = make_session(tmp_path / "t")
+    session.write_meta({"kind": "rehearsal", "recording": "talk.mp4", "talk_s": 110.0})
+    report = build_report(session.root)
+    cue = report["cues"][0]
+    assert cue["heard"] is False and cue["improved"] is None and cue["effect"] is None
+    assert report["counts"]["cues_judged"] == 0 and report["counts"]["cues_not_heard"] == 1
+    text = format_text(report)
+    assert "what followed 1 correction is not judged: a recorded rehearsal" in text
+    assert "back in range" not in text
+
+
+def test_no_correction_judged_says_nothing_of_corrections(tmp_path: Path) -> None:
+    # the walkthrough: 'after 0 of 0 corrections you got better'
+    session = make_session(tmp_path / "t", cues=[_cue(80.0, "timeLeft", None)])
+    text = format_text(build_report(session.root))
+    assert "0 of 0" not in text and "correction" not in text and "got better" not in text
+    assert "  1 cue\n" in text
+
+
+def test_a_cue_just_after_the_problem_ended_is_stale_as_measured(tmp_path: Path) -> None:
+    # no ground truth (a live talk): judged on the recorded values by the evaluation's
+    # definitions; pace is back in range from 60 s, so a slowDown at 65 s is stale, at 100 s
+    # a false alarm, and neither has a delay 'after onset'
+    session = make_session(tmp_path / "t", cues=[_cue(40.0), _cue(65.0), _cue(100.0)])
+    report = build_report(session.root)
+    kinds = [c["cue_class"] for c in report["cues"]]
+    assert kinds == ["relevant", "stale", "false_alarm"]
+    assert report["counts"]["false_alarms"] == 1 and report["counts"]["stale"] == 1
+    assert [c["latency_s"] for c in report["cues"]] == [20.0, None, None]
+    assert report["cues"][1]["ended_s_before"] == pytest.approx(5.0)
+    text = format_text(report)
+    assert "1:05  slowDown                         STALE: back in range 5 s before" in text
+    assert "1:40  slowDown                         FALSE ALARM: it was in range" in text

@@ -109,3 +109,21 @@ def test_the_printed_summary_says_a_module_crashed_and_counts_unreadable_lines()
         "note: 3 unreadable lines of fidget_rate skipped "
         "(e.g. s/streams/fidget_rate.txt:7: t is not finite: 'nan')" in out
     )
+
+
+def test_cues_are_classed_as_the_evaluation_classes_them() -> None:
+    # session 14: the report said '40 false alarms' where evaluation.csv said 3 and 37 stale;
+    # both now use one definition (docs/evaluation.md, "What the columns mean")
+    from prezence import evaluate
+    from prezence.summary import STALE_WINDOW_S, classify_cue
+
+    assert STALE_WINDOW_S == evaluate.STALE_WINDOW_S
+    truth = [
+        {"metric": "m", "start": 10.0, "end": 20.0, "side": "above"},
+        {"metric": "m", "start": 24.0, "end": 26.0, "side": "below"},
+        {"metric": "m", "start": 50.0, "end": 80.0, "side": "above"},
+    ]
+    for t in [x / 2 for x in range(0, 200)]:
+        for side in ("above", "below"):
+            mine, _ = classify_cue(truth, "m", side, t)
+            assert mine == evaluate.classify_cue(truth, "m", side, decided=t, started=t), (t, side)
