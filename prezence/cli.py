@@ -85,11 +85,18 @@ def format_timeline(summary: dict[str, Any]) -> str:
         mean = m.get("mean")
         if not m.get("samples"):  # nothing measured: no figure to show
             tir = None
+        nothing = "no data"
+        if m.get("measured") is False:  # no module writes it (the persona does not play it)
+            tt, nothing = None, "-"
         lines.append(
             f"{name:<18} {(f'{100 * tir:.0f}%' if tir is not None else '-'):>9} "
             f"{(f'{100 * tt:.0f}%' if tt is not None else '-'):>7} "
-            f"{(f'{mean:.2f}' if mean is not None else 'no data'):>9} "
-            f"{m.get('longest_out_of_range_s', 0):>11.1f}s"
+            f"{(f'{mean:.2f}' if mean is not None else nothing):>9} "
+            + (
+                f"{m.get('longest_out_of_range_s', 0):>11.1f}s"
+                if m.get("samples")
+                else f"{'-':>12}"
+            )
         )
     tm = summary["time"]
     if tm.get("allocated_s"):

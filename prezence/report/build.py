@@ -622,6 +622,8 @@ def _rebuild(
         stream_stats=stats,
         backend_stats=backend_stats,
         modules=modules,
+        # no stream file at all: nothing was asked to measure it (as summary.json says)
+        not_measured=[r.metric for r in cfg.rules if r.metric not in paths],
     )
 
     dev_s: dict[str, dict[str, float]] = {}

@@ -266,7 +266,12 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             f"<td>{tir}</td><td>{_num(m.get('mean'))}</td>"
             f"<td>{_num(m.get('p10'))}</td><td>{_num(m.get('p50'))}</td>"
             f"<td>{_num(m.get('p90'))}</td>"
-            f"<td>{m.get('longest_out_of_range_s', 0.0):.0f} s</td><td>{m.get('samples', 0)}</td>"
+            + (
+                f"<td>{m.get('longest_out_of_range_s', 0.0):.0f} s</td>"
+                if m.get("samples")
+                else "<td>–</td>"
+            )
+            + f"<td>{m.get('samples', 0)}</td>"
             "</tr>"
         )
     out.append("</table>")

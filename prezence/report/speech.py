@@ -409,7 +409,11 @@ def format_text(report: Mapping[str, Any]) -> str:
         lines.append(
             f"  {m.get('label', name):<12} {tir:>12} "
             f"{_num(m.get('mean')):>7} {_num(m.get('p10')):>7} {_num(m.get('p90')):>7} "
-            f"{m.get('longest_out_of_range_s', 0.0):>10.0f} s"
+            + (  # nothing measured: no stretch out of range to speak of
+                f"{m.get('longest_out_of_range_s', 0.0):>10.0f} s"
+                if m.get("samples")
+                else f"{'-':>12}"
+            )
         )
     lines.append("")
     cues = report.get("cues") or []

@@ -64,7 +64,12 @@ class SyntheticSource(SourceBase):
         self._session = session
         if not self.files:
             return
-        self._streams = {r.metric: session.stream(r.stream) for r in config.rules}
+        # a file only for what the persona plays: a metric no module writes is "not
+        # measured" in the summary and the report, as in a live talk without that module
+        played = {m.metric for m in self.scenario.metrics}
+        self._streams = {
+            r.metric: session.stream(r.stream) for r in config.rules if r.metric in played
+        }
         self._writers = {m: StreamWriter(p) for m, p in self._streams.items()}
         for w in self._writers.values():
             w.open()

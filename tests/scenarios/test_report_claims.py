@@ -157,3 +157,25 @@ def test_report_counts_false_alarms_and_stale_cues_as_the_evaluation_does(
     wrong = [c for c in report["cues"] if c["false_alarm"] or c["stale"]]
     assert not any("after onset" in line for line in text.splitlines() if "STALE" in line)
     assert len(wrong) == row["false_alarms"] + row["stale"]
+
+
+def test_a_metric_the_persona_does_not_play_is_not_measured(ignorer: Path) -> None:
+    # the walkthrough: 'no data' with 'longest out 0 s' for the metrics no module writes
+    report = build_report(ignorer)
+    for metric in ("speech_accuracy", "cv_headGaze", "cv_gestures"):
+        assert report["metrics"][metric]["data"] == "not measured"
+        assert report["metrics"][metric]["stale_episodes"] == 0
+    text = (ignorer / "report" / "summary.txt").read_text()
+    rows = [ln for ln in text.splitlines() if "not measured" in ln]
+    assert len(rows) == 3 and not any(ln.endswith("0 s") for ln in rows)
+    assert "no data" not in text
+
+
+def test_the_run_timeline_shows_no_truth_for_a_metric_the_persona_does_not_play(
+    ignorer: Path,
+) -> None:
+    from prezence.cli import format_timeline
+
+    text = format_timeline(json.loads((ignorer / "summary.json").read_text()))
+    row = next(ln for ln in text.splitlines() if ln.startswith("cv_headGaze"))
+    assert row.split() == ["cv_headGaze", "-", "-", "-", "-"]
