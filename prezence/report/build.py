@@ -735,6 +735,7 @@ def _rebuild(
         "has_truth": truth is not None,
         "effect_window_s": EFFECT_WINDOW_S,
         **({"effects_not_judged": not_heard} if not_heard else {}),
+        **({"replay_of": meta["source"]} if meta.get("kind") == "replay" else {}),
         "head": head_turns(session, talk_s=talk_s, limit=limit),
         "stopped_repeating": _stopped_repeating(recorded),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},

@@ -126,6 +126,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         sub.append(f"policy {_e(report['policy'])}")
     if report.get("backend"):
         sub.append(f"robot {_e(report['backend'])}")
+    if report.get("replay_of"):
+        sub.append(f"a replay of {_e(report['replay_of'])}")
     out: list[str] = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',

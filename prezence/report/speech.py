@@ -358,8 +358,13 @@ def format_text(report: Mapping[str, Any]) -> str:
     """The terminal summary of a report: time, work-on list, a table per metric, the cues."""
     lines: list[str] = []
     head = f"Post-speech report: {report.get('scenario') or report.get('session')}"
-    if report.get("seed") is not None:
-        head += f" (seed {report['seed']}, policy {report.get('policy')})"
+    about = [f"seed {report['seed']}"] if report.get("seed") is not None else []
+    if report.get("policy"):  # a replay has no seed of its own, but its policy is the point
+        about.append(f"policy {report['policy']}")
+    if report.get("replay_of"):
+        about.append(f"a replay of {report['replay_of']}")
+    if about:
+        head += f" ({', '.join(about)})"
     lines.append(head)
     if not report.get("complete", True):
         lines.append(

@@ -179,3 +179,12 @@ def test_the_run_timeline_shows_no_truth_for_a_metric_the_persona_does_not_play(
     text = format_timeline(json.loads((ignorer / "summary.json").read_text()))
     row = next(ln for ln in text.splitlines() if ln.startswith("cv_headGaze"))
     assert row.split() == ["cv_headGaze", "-", "-", "-", "-"]
+
+
+def test_the_text_summary_of_a_replay_names_its_policy_and_recording(
+    demo: Path, tmp_path: Path
+) -> None:
+    rp = _replay(demo, tmp_path / "rp_recent", "recent")
+    head = (rp / "report" / "summary.txt").read_text().splitlines()[0]
+    assert head == f"Post-speech report: demo (policy recent, a replay of {demo})"
+    assert f"a replay of {demo}" in (rp / "report" / "report.html").read_text()
