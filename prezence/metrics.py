@@ -163,7 +163,9 @@ METRICS: Mapping[str, Metric] = {
         Metric(
             "cv_headGaze",
             "degrees",
-            "eye contact",
+            # the head's pitch to the audience direction, not the eyes: a presenter turned to
+            # the slides with a level head reads in range, so "eye contact" would overclaim
+            "head pitch",
             "vision",
             _VISION,
             advice={

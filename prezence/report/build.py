@@ -56,7 +56,7 @@ def metric_label(metric: str) -> str:
 
     Example:
         >>> metric_label("cv_headGaze"), metric_label("my_module")
-        ('eye contact', 'my_module')
+        ('head pitch', 'my_module')
     """
     rec = METRICS.get(metric)
     return rec.label if rec is not None else metric

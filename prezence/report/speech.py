@@ -195,7 +195,7 @@ def lost_sentences(report: Mapping[str, Any]) -> list[str]:
         >>> n = {"module": "vision", "lost": [{"metric": "cv_gestures", "from": 65.0, "to": 300.0},
         ...      {"metric": "cv_headGaze", "from": 65.0, "to": 300.0}]}
         >>> lost_sentences({"talk_s": 300.0, "modules": [n]})
-        ['I could not follow your gestures and eye contact after 1 minute.']
+        ['I could not follow your gestures and head pitch after 1 minute.']
         >>> n = {"module": "pace", "lost": [{"metric": "speech_speed", "from": 6.0, "to": 46.0}]}
         >>> lost_sentences({"talk_s": 300.0, "modules": [n]})
         ['I could not follow your pace for 40 seconds.']

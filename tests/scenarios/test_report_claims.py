@@ -1,7 +1,8 @@
-"""The report claims only what it measured (session 14's walkthrough).
+"""The report claims only what it measured (session 14's walkthrough, items 6, 8 and 10).
 
 Whole synthetic talks, replays and an evaluated talk, fake backend: what the report says a cue
-was followed by, which cues it judges at all, false alarms against stale cues.
+was followed by, which cues it judges at all, false alarms against stale cues, metrics a persona
+does not play, the replay's head line and the head-pitch label.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from prezence.report import build_report, write_report
+from prezence.report.build import metric_label
 from prezence.synthetic.runner import run_talk
 from prezence.talk import RunOptions
 
@@ -188,3 +190,11 @@ def test_the_text_summary_of_a_replay_names_its_policy_and_recording(
     head = (rp / "report" / "summary.txt").read_text().splitlines()[0]
     assert head == f"Post-speech report: demo (policy recent, a replay of {demo})"
     assert f"a replay of {demo}" in (rp / "report" / "report.html").read_text()
+
+
+def test_head_pitch_is_not_called_eye_contact(demo: Path) -> None:
+    # cv_headGaze is the head's pitch to the audience direction: a presenter turned to the
+    # slides with a level head reads in range, so 'eye contact' would claim what is not measured
+    assert metric_label("cv_headGaze") == "head pitch"
+    for name in ("summary.txt", "report.html", "spoken.txt"):
+        assert "eye contact" not in (demo / "report" / name).read_text()

@@ -122,7 +122,7 @@ def test_metric_figures_come_from_the_stream_files(session: SessionDir) -> None:
 
 def test_priorities_are_what_was_cued_or_off_by_a_cues_worth(session: SessionDir) -> None:
     pri = build_report(session.root)["priorities"]
-    # pace: 40 s out, ~15 % on average, and cued; eye contact: 10 s out at 50 % (500 %·s,
+    # pace: 40 s out, ~15 % on average, and cued; head pitch: 10 s out at 50 % (500 %·s,
     # less than the 600 %·s a cue takes) and never cued: not the first thing to work on.
     assert [p["metric"] for p in pri] == ["speech_speed"]
     assert pri[0]["advice"] == "slow down"
