@@ -428,11 +428,11 @@ def build_summary(
         metric = c.get("metric")
         onset = c.get("onset")
         relevant: bool | None = None
-        rule = rules.get(metric) if metric is not None else None
-        if rule is not None:
-            side = "below" if c["command"] == rule.below else "above"
-            intervals = truth if truth is not None else judged_by.get(rule.metric, [])
-            kind, when = classify_cue(intervals, rule.metric, side, t)
+        cue_rule = rules.get(metric) if metric is not None else None
+        if cue_rule is not None:
+            side = "below" if c["command"] == cue_rule.below else "above"
+            intervals = truth if truth is not None else judged_by.get(cue_rule.metric, [])
+            kind, when = classify_cue(intervals, cue_rule.metric, side, t)
             row["cue_class"] = kind
             relevant = kind == "relevant"
             if kind == "relevant":
