@@ -282,6 +282,7 @@ def _options(args: argparse.Namespace) -> RunOptions:
         report=not args.no_report,
         plots=getattr(args, "plots", True),
         gestures=gestures,
+        speaker=_speaker(args),
     )
 
 
@@ -665,24 +666,33 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
     p.add_argument("--no-report", action="store_true", help="skip the post-talk report")
 
 
-def _speaker_root(args: argparse.Namespace) -> Path:
-    """``sessions/NAME`` with ``--speaker NAME`` (one folder per speaker: progress across
-    rehearsals reads it), else ``sessions``."""
-    from prezence.sessiondir import SESSIONS_ROOT
-
+def _speaker(args: argparse.Namespace) -> str | None:
+    """``--speaker NAME`` checked (a plain name), or None when not given."""
     name = getattr(args, "speaker", None)
     if not name:
-        return SESSIONS_ROOT
+        return None
     if "/" in name or name.startswith(".") or not name.strip():
         raise PrezenceError(f"--speaker {name!r}: want a plain name such as 'ana'")
-    return SESSIONS_ROOT / name.strip()
+    return str(name).strip()
+
+
+def _speaker_root(args: argparse.Namespace) -> Path:
+    """``sessions/NAME`` with ``--speaker NAME`` (one folder per speaker: progress across
+    rehearsals reads it; session.json records the name too), else ``sessions``."""
+    from prezence.sessiondir import SESSIONS_ROOT
+
+    name = _speaker(args)
+    return SESSIONS_ROOT if name is None else SESSIONS_ROOT / name
 
 
 def cmd_progress(args: argparse.Namespace) -> int:
-    from prezence.progress import format_progress, progress
+    from prezence.progress import format_progress, progress, progress_all
 
     folder = Path(args.folder) if args.folder else _speaker_root(args)
-    print(format_progress(progress(folder)))
+    if (folder / "session.json").is_file():  # one session: its speaker's table
+        print(format_progress(progress(folder)))
+    else:  # a folder: one table per speaker (a persona, a --speaker name, the folder)
+        print("\n\n".join(format_progress(p) for p in progress_all(folder)))
     return 0
 
 

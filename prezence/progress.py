@@ -1,12 +1,18 @@
 """Progress across rehearsals: one speaker's sessions side by side, each metric's trend.
 
-A speaker's sessions are the session folders in one folder: ``sessions/NAME/`` when the talks
-were recorded with ``--speaker NAME`` (``prezence up --speaker ana`` writes into
-``sessions/ana/live-<time>``), else the folder that holds the session (its parent). Replays are
-left out: they are the same talk coached again. Each session's ``summary.json`` gives each
-metric's time in the ideal range; sessions are ordered by when they were recorded.
+The sessions compared are session folders in one folder (``sessions/NAME/`` with ``--speaker
+NAME``: ``prezence up --speaker ana`` writes into ``sessions/ana/live-<time>``), grouped by who
+was rehearsing: the speaker ``session.json`` records (``--speaker`` on ``up`` and
+``rehearse``); for a synthetic talk, its scenario (a persona is one speaker; two personas are
+not); else, as before speakers were recorded, the folder (joined to the speaker of that
+folder's name). Replays are left out: they are the same talk coached again. Each session's
+``summary.json`` gives each metric's time in the ideal range; sessions are ordered by when
+they were recorded.
 
-``prezence progress DIR`` prints the table; the report of a session shows the same one.
+A time in range holds only for the band it was judged by (``config.toml``): a metric judged by
+another band than in the newest rehearsal is marked and left out of its trend, with a note.
+
+``prezence progress DIR`` prints one table per speaker; the report of a session shows its own.
 """
 
 from __future__ import annotations
@@ -18,7 +24,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from prezence.errors import ConfigError
+from prezence.config.model import Rule
+from prezence.errors import ConfigError, PrezenceError
 from prezence.session import SessionDir, read_json_object
 
 log = logging.getLogger(__name__)
@@ -41,6 +48,27 @@ def _when(s: SessionDir, meta: dict[str, Any]) -> float:
         return 0.0
 
 
+def speaker_of(folder: Path, meta: dict[str, Any]) -> tuple[str, str]:
+    """Who rehearsed the session in ``folder``: a key that groups sessions, and a name.
+
+    Example:
+        >>> speaker_of(Path("s/x"), {"speaker": "ana", "kind": "live"})
+        ('speaker:ana', 'ana')
+        >>> speaker_of(Path("s/x"), {"kind": "synthetic", "scenario": "fast_talker"})
+        ('scenario:fast_talker', 'fast_talker (a synthetic persona)')
+        >>> speaker_of(Path("sessions/live-1"), {"kind": "live"})
+        ('folder:sessions', 'the talks in sessions with no speaker recorded')
+    """
+    name = meta.get("speaker")
+    if isinstance(name, str) and name:
+        return f"speaker:{name}", name
+    scenario = meta.get("scenario")
+    if meta.get("kind") == "synthetic" and isinstance(scenario, str) and scenario:
+        return f"scenario:{scenario}", f"{scenario} (a synthetic persona)"
+    parent = Path(folder).parent
+    return f"folder:{parent}", f"the talks in {parent} with no speaker recorded"
+
+
 def _left_out(path: Path, why: str, left_out: list[dict[str, str]] | None) -> None:
     log.info("%s: %s; left out of the progress table", path, why)
     if left_out is not None:
@@ -50,15 +78,39 @@ def _left_out(path: Path, why: str, left_out: list[dict[str, str]] | None) -> No
 def find_sessions(
     folder: Path, *, left_out: list[dict[str, str]] | None = None
 ) -> list[tuple[float, SessionDir, dict[str, Any]]]:
-    """The sessions of one speaker: ``folder``'s session sub-folders, or, when ``folder`` is a
-    session itself, its parent's; oldest first, replays and unreadable ones left out.
+    """The sessions of one speaker, oldest first: when ``folder`` is a session, its parent's
+    sessions by the same speaker as it (:func:`speaker_of`; [] when it is itself left out, a
+    replay); else those of the speaker of ``folder``'s newest session. See
+    :func:`find_all_sessions`.
+    """
+    return _group(Path(folder), left_out)[1]
+
+
+def _group(
+    folder: Path, left_out: list[dict[str, str]] | None
+) -> tuple[str, list[tuple[float, SessionDir, dict[str, Any]]]]:
+    """(the speaker's name, their sessions) for :func:`find_sessions`."""
+    if not SessionDir(folder).meta.is_file():
+        groups = find_all_sessions(folder, left_out=left_out)
+        return (groups[-1][0][1], groups[-1][1]) if groups else (folder.name, [])
+    groups = find_all_sessions(folder.parent, left_out=left_out)
+    mine = folder.resolve()
+    for (_key, name), found in groups:
+        if any(s.root.resolve() == mine for _, s, _ in found):
+            return name, found
+    return folder.name, []
+
+
+def find_all_sessions(
+    folder: Path, *, left_out: list[dict[str, str]] | None = None
+) -> list[tuple[tuple[str, str], list[tuple[float, SessionDir, dict[str, Any]]]]]:
+    """``folder``'s session sub-folders grouped by speaker (:func:`speaker_of`), each group
+    oldest first and the groups by their newest session; replays and unreadable ones left out.
 
     Each sub-folder left out is logged (``-v`` shows it) with the reason, and added to
     ``left_out`` as ``{"path", "why"}`` when that list is given.
     """
     folder = Path(folder)
-    if SessionDir(folder).meta.is_file():
-        folder = folder.parent
     if not folder.is_dir():
         raise ConfigError("no such folder", path=folder)
     found = []
@@ -91,9 +143,21 @@ def find_sessions(
             continue
         found.append((_when(s, meta), s, meta))
     found.sort(key=lambda x: x[0])
-    for _when_s, s, _meta in found[:-MAX_SESSIONS]:
-        _left_out(s.root, f"older than the {MAX_SESSIONS} most recent", left_out)
-    return found[-MAX_SESSIONS:]
+    groups: dict[tuple[str, str], list[tuple[float, SessionDir, dict[str, Any]]]] = {}
+    named = {speaker_of(s.root, m)[0] for _, s, m in found}
+    for item in found:
+        who = speaker_of(item[1].root, item[2])
+        if who[0] == f"folder:{folder}" and f"speaker:{folder.name}" in named:
+            # --speaker NAME wrote into sessions/NAME before session.json recorded the name
+            who = (f"speaker:{folder.name}", folder.name)
+        groups.setdefault(who, []).append(item)
+    out = []
+    for who, items in groups.items():
+        for _when_s, s, _meta in items[:-MAX_SESSIONS]:
+            _left_out(s.root, f"older than the {MAX_SESSIONS} most recent", left_out)
+        out.append((who, items[-MAX_SESSIONS:]))
+    out.sort(key=lambda g: g[1][-1][0])
+    return out
 
 
 def time_in_range(path: Path, name: str, entry: Any) -> float | None:
@@ -134,16 +198,80 @@ def _trend(values: Sequence[float | None]) -> str:
     return f"{'better' if d > 0 else 'worse'} ({100 * d:+.0f} pts)"
 
 
+def _bands(s: SessionDir) -> dict[str, str] | None:
+    """Each metric's band as ``config.toml`` judged the talk (``"140–180 wpm"``), None when
+    the file is missing or cannot be read (the band is then unknown)."""
+    if not s.config.is_file():
+        return None
+    from prezence.config.load import load_config
+
+    try:
+        cfg = load_config(s.config)
+    except PrezenceError as e:
+        log.warning("%s; its bands are unknown", e)
+        return None
+    return {r.metric: _band_text(r) for r in cfg.rules}
+
+
+def _band_text(rule: Rule) -> str:
+    """``"140–180 wpm"``, ``"≥ 60 dB"``; an offset is part of the band (``+3``)."""
+    unit = f" {rule.unit}" if rule.unit else ""
+    if rule.low is not None and rule.high is not None:
+        text = f"{rule.low:g}–{rule.high:g}{unit}"
+    elif rule.low is not None:
+        text = f"≥ {rule.low:g}{unit}"
+    else:
+        text = f"≤ {rule.high:g}{unit}"
+    return text + (f" (offset {rule.offset:+g})" if rule.offset else "")
+
+
 def progress(folder: Path) -> dict[str, Any]:
-    """``{"speaker", "sessions": [{"path", "label"}], "rows": [{"metric", "label", "values",
-    "trend"}], "left_out": [{"path", "why"}]}``: each metric's time in range (0..1, None: no
-    data) per session, and the sub-folders left out with the reason."""
+    """One speaker's table: of the session ``folder`` and its parent's sessions by the same
+    speaker, or of the speaker of the newest session in the folder ``folder``.
+
+    Returns:
+        ``{"speaker", "sessions": [{"path", "name", "label"}], "rows": [{"metric", "label",
+        "values", "trend", "other_band"}], "notes", "left_out": [{"path", "why"}]}``: each
+        metric's time in range (0..1, None: no data) per session; ``other_band`` marks the
+        sessions whose band for that metric differs from the newest one's (left out of the
+        trend; ``notes`` says which band); the sub-folders left out with the reason.
+    """
+    left_out: list[dict[str, str]] = []
+    speaker, sessions = _group(Path(folder), left_out)
+    return {**_table(speaker, sessions, left_out), "left_out": left_out}
+
+
+def progress_all(folder: Path) -> list[dict[str, Any]]:
+    """:func:`progress`'s table for every speaker with sessions in ``folder`` (the folders left
+    out are in the last table's ``left_out``)."""
+    left_out: list[dict[str, str]] = []
+    groups = find_all_sessions(Path(folder), left_out=left_out)
+    tables = [{**_table(who[1], sessions, []), "left_out": []} for who, sessions in groups]
+    if tables:
+        tables[-1]["left_out"] = left_out
+    else:
+        tables = [
+            {
+                "speaker": str(folder),
+                "sessions": [],
+                "rows": [],
+                "notes": [],
+                "left_out": left_out,
+            }
+        ]
+    return tables
+
+
+def _table(
+    speaker: str,
+    sessions: Sequence[tuple[float, SessionDir, dict[str, Any]]],
+    left_out: list[dict[str, str]],
+) -> dict[str, Any]:
     from prezence.report.build import metric_label
 
-    left_out: list[dict[str, str]] = []
-    sessions = find_sessions(folder, left_out=left_out)
     cols: list[dict[str, Any]] = []
-    per: list[dict[str, Any]] = []
+    per: list[dict[str, float | None]] = []
+    bands: list[dict[str, str] | None] = []
     for when, s, _meta in sessions:
         try:
             summ = read_json_object(s.summary)
@@ -156,24 +284,51 @@ def progress(folder: Path) -> dict[str, Any]:
             log.warning("%s: metrics: not an object; no figures for this rehearsal", s.summary)
             metrics = {}
         per.append({str(k): time_in_range(s.summary, str(k), v) for k, v in metrics.items()})
-        label = time.strftime("%d %b %H:%M", time.localtime(when))
-        cols.append({"path": str(s.root), "label": label})
+        bands.append(_bands(s))
+        # to the second, with the folder: talks a minute apart are told apart
+        label = time.strftime("%d %b %Y %H:%M:%S", time.localtime(when))
+        cols.append({"path": str(s.root), "name": s.root.name, "label": label})
     names: list[str] = []
     for m in per:
         names += [k for k in m if k not in names]
     rows = []
+    notes: list[str] = []
     for name in names:
         values = [m.get(name) for m in per]
+        # a time in range holds only under its band: compare with the newest rehearsal's
+        newest = bands[-1].get(name) if bands and bands[-1] is not None else None
+        judged = [None if b is None else b.get(name) for b in bands]
+        other = [j != newest and v is not None for j, v in zip(judged, values, strict=True)]
+        label = metric_label(name)
+        if any(other):
+            which = sorted(
+                {
+                    str(j) if j is not None else "not recorded"
+                    for j, o in zip(judged, other, strict=True)
+                    if o
+                }
+            )
+            notes.append(
+                f"† {label}: judged by another band in {sum(other)} rehearsal"
+                f"{'s' if sum(other) != 1 else ''} ({', '.join(which)}; the newest: "
+                f"{newest if newest is not None else 'not recorded'}), so not comparable: "
+                "left out of the trend"
+            )
+        kept = [None if o else v for v, o in zip(values, other, strict=True)]
         rows.append(
-            {"metric": name, "label": metric_label(name), "values": values, "trend": _trend(values)}
+            {
+                "metric": name,
+                "label": label,
+                "values": values,
+                "trend": _trend(kept),
+                "other_band": other,
+            }
         )
-    root = Path(folder)
-    speaker = (root.parent if SessionDir(root).meta.is_file() else root).name
-    return {"speaker": speaker, "sessions": cols, "rows": rows, "left_out": left_out}
+    return {"speaker": speaker, "sessions": cols, "rows": rows, "notes": notes}
 
 
 def progress_for(session_root: Path) -> dict[str, Any] | None:
-    """:func:`progress` of the folder holding ``session_root`` (None when it cannot be read)."""
+    """:func:`progress` of the session ``session_root`` (None when it cannot be read)."""
     try:
         return progress(Path(session_root))
     except (ConfigError, OSError) as e:
@@ -181,21 +336,31 @@ def progress_for(session_root: Path) -> dict[str, Any] | None:
         return None
 
 
+def _cell(v: float | None, other: bool) -> str:
+    return ("-" if v is None else f"{100 * v:.0f}%") + ("†" if other else "")
+
+
 def format_progress(p: dict[str, Any]) -> str:
-    """The progress table as text (``prezence progress DIR``)."""
+    """One speaker's progress table as text (``prezence progress DIR``): columns numbered,
+    each named below by its folder and when it was recorded."""
     cols = p["sessions"]
     # a folder left out is said, with why: a missing rehearsal is not silently dropped
     notes = [f"left out: {Path(x['path']).name}: {x['why']}" for x in p.get("left_out") or []]
     if not cols:
         return "\n".join([f"no sessions with a summary.json in {p['speaker']}", *notes])
-    w = max(12, *(len(c["label"]) for c in cols))
-    head = f"{'metric':<20}" + "".join(f"{c['label']:>{w + 2}}" for c in cols) + "  trend"
-    title = f"{len(cols)} rehearsals of {p['speaker']}, oldest first: time in the ideal range"
+    w = 7
+    head = f"{'metric':<20}" + "".join(f"{i:>{w}}" for i in range(1, len(cols) + 1)) + "  trend"
+    n = len(cols)
+    title = (
+        f"{n} rehearsal{'s' if n != 1 else ''} of {p['speaker']}, oldest first: time in the "
+        "ideal range"
+    )
     lines = [title, head]
     for r in p["rows"]:
-        cells = "".join(
-            f"{('-' if v is None else f'{100 * v:.0f}%'):>{w + 2}}" for v in r["values"]
-        )
+        other = r.get("other_band") or [False] * len(r["values"])
+        cells = "".join(f"{_cell(v, o):>{w}}" for v, o in zip(r["values"], other, strict=True))
         lines.append(f"{r['label']:<20}{cells}  {r['trend']}")
+    lines += [f"{i}: {c['name']}, {c['label']}" for i, c in enumerate(cols, 1)]
+    lines += list(p.get("notes") or ())
     lines += notes
     return "\n".join(lines)

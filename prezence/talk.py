@@ -70,6 +70,8 @@ class RunOptions:
             point) or ``off``.
         gestures: a gesture library file of one's own (its gestures replace the built-in ones
             of the same name; the session records it and keeps a copy); None: the built-in one.
+        speaker: who is rehearsing (``--speaker NAME``), recorded in ``session.json``: progress
+            across rehearsals compares the talks of one speaker; None: not recorded.
     """
 
     policy: str
@@ -80,6 +82,7 @@ class RunOptions:
     plots: bool = True
     decision_log: str = "changes"
     gestures: str | None = None
+    speaker: str | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 < self.speed_fraction <= 1.0:
@@ -412,6 +415,7 @@ class Talk:
                 "backend": self.backend.name,
                 "speed_fraction": self.options.speed_fraction,
                 **({"gestures": self.library.record()} if self.library else {}),
+                **({"speaker": self.options.speaker} if self.options.speaker else {}),
             }
             self.session.write_meta(self._meta)
             self.coach = Coach(

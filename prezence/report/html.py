@@ -378,7 +378,8 @@ def _head_section(head: Mapping[str, Any]) -> str:
 
 
 def _progress_section(progress: Mapping[str, Any] | None) -> str:
-    """Each metric's time in range over the speaker's rehearsals, oldest first."""
+    """Each metric's time in range over the speaker's rehearsals, oldest first; a cell judged
+    by another band than the newest rehearsal's is marked † and left out of the trend."""
     if not progress or len(progress.get("sessions", [])) < 2:
         return ""
     sessions = progress["sessions"]
@@ -387,13 +388,21 @@ def _progress_section(progress: Mapping[str, Any] | None) -> str:
         f'<p class="sub">{len(sessions)} rehearsals of {_e(progress.get("speaker") or "?")}, '
         "oldest first: time in the ideal range.</p>",
         '<table><tr><th class="l">metric</th>'
-        + "".join(f"<th>{_e(s['label'])}</th>" for s in sessions)
+        + "".join(
+            f'<th>{_e(s.get("name") or "")}<br><span class="reason">{_e(s["label"])}</span></th>'
+            for s in sessions
+        )
         + "<th>trend</th></tr>",
     ]
     for row in progress["rows"]:
-        cells = "".join(f"<td>{_pct(v)}</td>" for v in row["values"])
+        other = row.get("other_band") or [False] * len(row["values"])
+        cells = "".join(
+            f"<td>{_pct(v)}{'†' if o else ''}</td>"
+            for v, o in zip(row["values"], other, strict=True)
+        )
         out.append(
             f'<tr><td class="l">{_e(row["label"])}</td>{cells}<td>{_e(row["trend"])}</td></tr>'
         )
     out.append("</table>")
+    out += [f'<p class="sub">{_e(n)}</p>' for n in progress.get("notes") or ()]
     return "\n".join(out)

@@ -58,10 +58,121 @@ def test_folders_left_out_are_named_with_the_reason(
     (r / "session.json").write_text(json.dumps({"format": 1, "kind": "replay"}))
     assert main(["progress", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("1 rehearsals of")
+    assert out.startswith("1 rehearsal of")
     assert (
         f"left out: unfinished: no summary.json (its talk did not finish?); "
         f"`prezence report {unfinished}` still reports on its streams"
     ) in out
     assert "left out: empty: not a session folder (no summary.json, no streams)" in out
     assert "left out: r: a replay, the same talk coached again" in out
+
+
+# -- session 14: who was rehearsing, under which band ------------------------------------------
+
+
+def _talk(root: Path, name: str, t0: float, tir: float, **meta: Any) -> Path:
+    s = _session(root, name, t0, {"speech_speed": {"time_in_range": tir}})
+    (s / "session.json").write_text(
+        json.dumps({"format": 1, "kind": "live", "t0_epoch": t0, **meta})
+    )
+    return s
+
+
+def test_the_readmes_three_talks_are_three_speakers_not_one(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the walkthrough: after demo, quiet_speaker and fast_talker, fast_talker's report showed
+    # '3 rehearsals of sessions … pace 90% 100% 47% worse (-44 pts)'
+    from prezence.synthetic.runner import run_talk
+
+    for name in ("demo", "quiet_speaker", "fast_talker"):
+        run_talk(name, out=tmp_path / name, backend="fake", report=True, plots=False)
+    page = (tmp_path / "fast_talker" / "report" / "report.html").read_text()
+    assert "Progress across rehearsals" not in page
+    assert main(["progress", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    for name in ("demo", "quiet_speaker", "fast_talker"):
+        assert f"1 rehearsal of {name} (a synthetic persona)" in out
+    assert "rehearsals of" not in out
+
+
+def test_the_same_persona_twice_is_one_speaker_with_columns_told_apart(tmp_path: Path) -> None:
+    from prezence.progress import progress
+    from prezence.synthetic.runner import run_talk
+
+    for name in ("fast_talker", "fast_talker-2"):
+        run_talk("fast_talker", out=tmp_path / name, backend="fake")
+    run_talk("demo", out=tmp_path / "demo", backend="fake")
+    p = progress(tmp_path / "fast_talker-2")
+    assert p["speaker"] == "fast_talker (a synthetic persona)"
+    assert [c["name"] for c in p["sessions"]] == ["fast_talker", "fast_talker-2"]
+    assert all(c["label"].count(":") == 2 for c in p["sessions"])  # to the second
+    from prezence.progress import format_progress
+
+    text = format_progress(p)
+    assert "1: fast_talker, " in text and "2: fast_talker-2, " in text
+
+
+def test_a_rehearsal_judged_by_another_band_is_marked_and_left_out_of_the_trend(
+    tmp_path: Path,
+) -> None:
+    # the walkthrough: the fast talker rerun with a pace band of 100-240 showed pace 47% ->
+    # 100% 'steady', with no word of the band
+    from prezence.config.load import load_config
+    from prezence.config.tomlconf import dumps_config
+    from prezence.progress import format_progress, progress
+
+    wide = tmp_path / "wide.txt"
+    wide.write_text("speech_speed inRange 100 240 speedUp slowDown\n")
+    a = _talk(tmp_path, "a", 1e9, 0.47, speaker="ana")
+    b = _talk(tmp_path, "b", 1e9 + 60, 1.0, speaker="ana")
+    c = _talk(tmp_path, "c", 1e9 + 120, 0.50, speaker="ana")
+    for s, cfg in ((a, None), (b, wide), (c, None)):
+        (s / "config.toml").write_text(dumps_config(load_config(cfg)))
+    p = progress(c)
+    (row,) = p["rows"]
+    assert row["other_band"] == [False, True, False]
+    assert row["trend"] == "steady"  # 47 -> 50 %, not 47 -> 100 -> 50
+    text = format_progress(p)
+    assert "100%†" in text
+    assert "† pace: judged by another band in 1 rehearsal (100–240" in text
+    assert "the newest: 140–180 wpm" in text
+
+
+def test_the_speaker_recorded_groups_the_sessions_of_one_folder(tmp_path: Path) -> None:
+    from prezence.progress import progress, progress_all
+
+    _talk(tmp_path, "a1", 1e9, 0.5, speaker="ana")
+    _talk(tmp_path, "b1", 1e9 + 10, 0.9, speaker="ben")
+    a2 = _talk(tmp_path, "a2", 1e9 + 20, 0.7, speaker="ana")
+    p = progress(a2)
+    assert p["speaker"] == "ana" and [c["name"] for c in p["sessions"]] == ["a1", "a2"]
+    assert sorted(t["speaker"] for t in progress_all(tmp_path)) == ["ana", "ben"]
+
+
+def test_sessions_of_a_speaker_folder_from_before_the_name_was_recorded_join_it(
+    tmp_path: Path,
+) -> None:
+    # `--speaker ana` wrote into sessions/ana before session.json recorded the name
+    from prezence.progress import progress
+
+    ana = tmp_path / "ana"
+    ana.mkdir()
+    _talk(ana, "old", 1e9, 0.5)
+    new = _talk(ana, "new", 1e9 + 10, 0.7, speaker="ana")
+    assert [c["name"] for c in progress(new)["sessions"]] == ["old", "new"]
+
+
+def test_speaker_is_recorded_in_session_json(tmp_path: Path) -> None:
+    from prezence.synthetic.runner import run_talk
+
+    run_talk("short_talk", out=tmp_path / "t", backend="fake", speaker="ana")
+    assert json.loads((tmp_path / "t" / "session.json").read_text())["speaker"] == "ana"
+
+
+def test_up_and_rehearse_pass_the_speaker_to_the_talk() -> None:
+    from prezence.cli import _options, build_parser
+
+    for argv in (["up", "--audio", "x.wav"], ["rehearse", "x.mp4"]):
+        args = build_parser().parse_args([*argv, "--speaker", "ana"])
+        assert _options(args).speaker == "ana"
