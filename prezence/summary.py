@@ -7,6 +7,7 @@ summary (and the report built on it) can be rebuilt after a crash from the files
 from __future__ import annotations
 
 import bisect
+import math
 from collections.abc import Collection, Mapping, Sequence
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any
@@ -92,8 +93,50 @@ def _truth_intervals(truth: Sequence[Mapping[str, Any]], metric: str) -> list[tu
 STALE_WINDOW_S = 10.0
 
 
+class Stretches:
+    """Out-of-range stretches indexed for :func:`classify_cue`: per (metric, side), sorted by
+    start, with the running maximum of their ends, so that a cue is classed in O(log n)
+    rather than by a pass over every stretch (a 6-hour replay has thousands per metric).
+    """
+
+    def __init__(self, intervals: Sequence[Mapping[str, Any]]) -> None:
+        groups: dict[tuple[Any, Any], list[tuple[float, float]]] = {}
+        for x in intervals:
+            groups.setdefault((x.get("metric"), x.get("side")), []).append(
+                (float(x["start"]), float(x["end"]))
+            )
+        self._index: dict[tuple[Any, Any], tuple[list[float], list[float], list[float]]] = {}
+        for key, iv in groups.items():
+            iv.sort()
+            peak: list[float] = []
+            top = -math.inf
+            for _, b in iv:
+                top = b if b > top else top
+                peak.append(top)
+            self._index[key] = ([a for a, _ in iv], [b for _, b in iv], peak)
+
+    def classify(
+        self, metric: str, side: str, t: float, *, window_s: float = STALE_WINDOW_S
+    ) -> tuple[str, float | None]:
+        """See :func:`classify_cue`."""
+        found = self._index.get((metric, side))
+        if found is None:
+            return "false_alarm", None
+        starts, ends, peak = found
+        # the first stretch (in start order) that ends at or after t: it holds t if it has
+        # begun by then; if it has not, no later one has either
+        i = bisect.bisect_left(peak, t)
+        if i < len(starts) and starts[i] <= t:
+            return "relevant", starts[i]
+        # none holds t: every stretch begun by t ended before it; the latest end is the peak
+        k = bisect.bisect_right(starts, t)
+        if k and peak[k - 1] >= t - window_s:
+            return "stale", peak[k - 1]
+        return "false_alarm", None
+
+
 def classify_cue(
-    intervals: Sequence[Mapping[str, Any]],
+    intervals: Sequence[Mapping[str, Any]] | Stretches,
     metric: str,
     side: str,
     t: float,
@@ -111,7 +154,8 @@ def classify_cue(
 
     Args:
         intervals: out-of-range stretches ``{"metric", "start", "end", "side"}``: the ground
-            truth of a synthetic talk, or :func:`measured_intervals` of the recorded values.
+            truth of a synthetic talk, or :func:`measured_intervals` of the recorded values
+            (or them indexed once as :class:`Stretches`, for many cues).
 
     Example:
         >>> iv = [{"metric": "m", "start": 10.0, "end": 20.0, "side": "above"}]
@@ -120,18 +164,8 @@ def classify_cue(
         >>> classify_cue(iv, "m", "below", 15.0)
         ('false_alarm', None)
     """
-    iv = sorted(
-        (float(x["start"]), float(x["end"]))
-        for x in intervals
-        if x.get("metric") == metric and x.get("side") == side
-    )
-    for a, b in iv:
-        if a <= t <= b:
-            return "relevant", a
-    ended = [b for a, b in iv if a <= t and t - window_s <= b < t]
-    if ended:
-        return "stale", max(ended)
-    return "false_alarm", None
+    index = intervals if isinstance(intervals, Stretches) else Stretches(intervals)
+    return index.classify(metric, side, t, window_s=window_s)
 
 
 def measured_intervals(
@@ -155,23 +189,36 @@ def measured_intervals(
         [(0.0, 2.0, 'below'), (3.0, 5.0, 'below')]
     """
     ss = sorted(samples, key=attrgetter("t"))
-    ends = hold_ends([s.t for s in ss], cuts) if cuts else None
+    ts = [s.t for s in ss]
+    ends = hold_ends(ts, cuts).tolist() if cuts else None
+    # Rule.side, inlined: this runs once per sample of the talk
+    off = rule.offset
+    lo = -math.inf if rule.low is None else rule.low
+    hi = math.inf if rule.high is None else rule.high
     out: list[dict[str, Any]] = []
-    for i, s in enumerate(ss):
-        if s.t >= talk_s:
+    last: dict[str, Any] | None = None
+    n = len(ss)
+    for i in range(n):
+        t = ts[i]
+        if t >= talk_s:
             break
-        nxt = ss[i + 1].t if i + 1 < len(ss) else talk_s
-        end = min(nxt, s.t + stale_s, talk_s)
-        if ends is not None:
-            end = min(end, float(ends[i]))
-        side = rule.side(s.value)
-        if side is None:
-            continue
-        last = out[-1] if out else None
-        if last is not None and last["side"] == side and last["end"] >= s.t:
-            last["end"] = max(last["end"], end)
+        v = ss[i].value + off
+        if v < lo:
+            side = "below"
+        elif v > hi:
+            side = "above"
         else:
-            out.append({"metric": rule.metric, "start": s.t, "end": end, "side": side})
+            continue
+        nxt = ts[i + 1] if i + 1 < n else talk_s
+        end = min(nxt, t + stale_s, talk_s)
+        if ends is not None:
+            end = min(end, ends[i])
+        if last is not None and last["side"] == side and last["end"] >= t:
+            if end > last["end"]:
+                last["end"] = end
+        else:
+            last = {"metric": rule.metric, "start": t, "end": end, "side": side}
+            out.append(last)
     return out
 
 
@@ -397,17 +444,24 @@ def build_summary(
 
     rules = {r.metric: r for r in config.rules}
     # what each corrective cue is judged by: the ground truth, else the recorded values
-    judged_by: dict[str, list[dict[str, Any]]] = {}
-    if truth is None:
-        for rule in config.rules:
-            stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
-            judged_by[rule.metric] = measured_intervals(
-                rule,
-                streams.get(rule.metric, ()),
-                talk_s,
-                stale_s,
-                [sp["from"] for sp in lost.get(rule.metric, ())],
-            )
+    if truth is not None:
+        judged_by = Stretches(truth)
+    else:  # only the metrics that were cued
+        cued = {c.get("metric") for c in cues}
+        judged_by = Stretches(
+            [
+                x
+                for rule in config.rules
+                if rule.metric in cued
+                for x in measured_intervals(
+                    rule,
+                    streams.get(rule.metric, ()),
+                    talk_s,
+                    rule.stale_after_s if rule.stale_after_s is not None else stale_default,
+                    [sp["from"] for sp in lost.get(rule.metric, ())],
+                )
+            ]
+        )
     cue_rows: list[dict[str, Any]] = []
     for c in cues:
         row = {k: c.get(k) for k in ("t", "command", "metric", "kind", "reason", "params")}
@@ -431,8 +485,7 @@ def build_summary(
         cue_rule = rules.get(metric) if metric is not None else None
         if cue_rule is not None:
             side = "below" if c["command"] == cue_rule.below else "above"
-            intervals = truth if truth is not None else judged_by.get(cue_rule.metric, [])
-            kind, when = classify_cue(intervals, cue_rule.metric, side, t)
+            kind, when = judged_by.classify(cue_rule.metric, side, t)
             row["cue_class"] = kind
             relevant = kind == "relevant"
             if kind == "relevant":
