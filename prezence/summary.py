@@ -189,30 +189,21 @@ def measured_intervals(
         [(0.0, 2.0, 'below'), (3.0, 5.0, 'below')]
     """
     ss = sorted(samples, key=attrgetter("t"))
-    ts = [s.t for s in ss]
-    ends = hold_ends(ts, cuts).tolist() if cuts else None
-    # Rule.side, inlined: this runs once per sample of the talk
-    off = rule.offset
+    n = len(ss)
+    ts = np.fromiter((s.t for s in ss), dtype=float, count=n)
+    vs = np.fromiter((s.value for s in ss), dtype=float, count=n) + rule.offset
+    # each sample holds until the next one, the stale time, the talk's end, its module's death
+    held = np.minimum(np.minimum(np.append(ts[1:], talk_s), ts + stale_s), talk_s)
+    if cuts:
+        held = np.minimum(held, hold_ends(ts, cuts))
     lo = -math.inf if rule.low is None else rule.low
     hi = math.inf if rule.high is None else rule.high
+    below = vs < lo  # Rule.side, for every sample at once
+    off = np.flatnonzero((below | (vs > hi)) & (ts < talk_s))  # in range: no stretch
     out: list[dict[str, Any]] = []
     last: dict[str, Any] | None = None
-    n = len(ss)
-    for i in range(n):
-        t = ts[i]
-        if t >= talk_s:
-            break
-        v = ss[i].value + off
-        if v < lo:
-            side = "below"
-        elif v > hi:
-            side = "above"
-        else:
-            continue
-        nxt = ts[i + 1] if i + 1 < n else talk_s
-        end = min(nxt, t + stale_s, talk_s)
-        if ends is not None:
-            end = min(end, ends[i])
+    for t, end, low in zip(ts[off].tolist(), held[off].tolist(), below[off].tolist(), strict=True):
+        side = "below" if low else "above"
         if last is not None and last["side"] == side and last["end"] >= t:
             if end > last["end"]:
                 last["end"] = end

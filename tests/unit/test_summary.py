@@ -165,3 +165,45 @@ def test_the_indexed_classes_equal_a_pass_over_every_stretch(
     t = t2 / 2
     for side in ("above", "below"):
         assert classify_cue(iv, "m", side, t) == _classify_by_scan(iv, "m", side, t, STALE_WINDOW_S)
+
+
+def _stretches_by_scan(
+    rule: Rule, samples: list[Sample], talk_s: float, stale_s: float, cuts: list[float]
+) -> list[dict[str, Any]]:
+    """What the recorded values' stretches are, read literally sample by sample."""
+    ss = sorted(samples, key=lambda s: s.t)
+    out: list[dict[str, Any]] = []
+    for i, s in enumerate(ss):
+        if s.t >= talk_s:
+            break
+        end = min(ss[i + 1].t if i + 1 < len(ss) else talk_s, s.t + stale_s, talk_s)
+        end = min([end, *(c for c in cuts if c >= s.t)])
+        side = rule.side(s.value)
+        if side is None:
+            continue
+        if out and out[-1]["side"] == side and out[-1]["end"] >= s.t:
+            out[-1]["end"] = max(out[-1]["end"], end)
+        else:
+            out.append({"metric": rule.metric, "start": s.t, "end": end, "side": side})
+    return out
+
+
+@given(
+    st.lists(st.tuples(st.integers(0, 80), st.integers(0, 12)), max_size=30),
+    st.lists(st.integers(0, 80), max_size=3),
+    st.integers(1, 12),
+)
+def test_the_measured_stretches_equal_a_reading_sample_by_sample(
+    raw: list[tuple[int, int]], raw_cuts: list[int], stale: int
+) -> None:
+    # the report judges a live talk's cues by these stretches; they are worked out for all
+    # samples at once (a 6-hour replay has 200k), repeated stamps and module deaths included
+    from prezence.summary import measured_intervals
+
+    rule = Rule("m", Check.IN_RANGE, low=4.0, high=8.0, offset=-0.5)
+    samples = [Sample("m", t / 2, float(v)) for t, v in raw]
+    cuts = sorted(c / 2 for c in raw_cuts)
+    talk_s = 35.0
+    assert measured_intervals(rule, samples, talk_s, stale / 2, cuts) == _stretches_by_scan(
+        rule, samples, talk_s, stale / 2, cuts
+    )
