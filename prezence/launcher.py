@@ -4,9 +4,11 @@ Each input module is a separate process that writes its stream files into the se
 the coach tails those files (waking on file changes, not polling slowly), decides, and has the
 robot perform cues. Modules are supervised: one that exits with an error is reported and
 restarted with exponential backoff while its metrics go stale (the processor excludes them
-meanwhile); the talk goes on. Ctrl-C, or the allocated time plus a grace period, stops
-everything cleanly, writes the summary and (with ``report=True``) the report, and the robot
-says the post-talk summary.
+meanwhile); the talk goes on. One that exits within :data:`QUICK_EXIT_S` of starting
+:data:`MAX_QUICK_EXITS` times in a row is given up (it fails the same way each time), with its
+last error; the talk stops when no module is left. Ctrl-C, or the allocated time plus a grace
+period, stops everything cleanly, writes the summary and (with ``report=True``) the report, and
+the robot says the post-talk summary.
 
 Hang detection is per module and only for a module whose :class:`ModuleSpec` sets
 ``hang_after_s``: it is killed and restarted when, while its process runs, it shows no sign of
@@ -62,6 +64,12 @@ BAD_INPUT_STATUS = 2
 #: A module that ran at least this long before it exited was healthy: its restart backoff
 #: starts again from the first delay.
 HEALTHY_RUN_S = 30.0
+#: A module that exits this soon after it started did not get going (an import error, a bad
+#: option): seconds.
+QUICK_EXIT_S = 2.0
+#: After this many quick exits in a row a module is not restarted again: it fails the same
+#: way each time (a missing library, say), and restarting it for the whole talk cannot help.
+MAX_QUICK_EXITS = 5
 #: Set to ``1`` in every module's environment: open stream files for appending, never
 #: replace them (a restarted module continues the talk's record).
 APPEND_ENV = "PREZENCE_APPEND"
@@ -202,6 +210,11 @@ class ModuleProcess:
     streak: int = 0
     #: Set when it exited with :data:`BAD_INPUT_STATUS`: its own message; it is not restarted.
     fatal: str | None = None
+    #: Exits within :data:`QUICK_EXIT_S` of its start, in a row.
+    quick_exits: int = 0
+    #: Set when it was given up after :data:`MAX_QUICK_EXITS` quick exits: why, with its
+    #: last error; it is not restarted, and the talk goes on with the other modules.
+    gave_up: str | None = None
     next_start: float = 0.0
     finished: bool = False
     started_at: float = 0.0
@@ -320,6 +333,18 @@ class ModuleProcess:
             # it stopped measuring when it went silent, not when the limit ran out
             crash["silent_since"] = round(max(self.last_life, self.started_at), 3)
         self.crashes.append(crash)
+        quick = rc is not None and now - self.started_at < QUICK_EXIT_S
+        self.quick_exits = self.quick_exits + 1 if quick else 0
+        if self.quick_exits >= MAX_QUICK_EXITS:
+            last = self.last_error()
+            self.gave_up = (
+                f"exited within {QUICK_EXIT_S:g} s of starting {self.quick_exits} times in a "
+                f"row; not restarted again" + (f" (its last error: {last})" if last else "")
+            )
+            self.finished = True
+            self.proc = None
+            log.error("module %s %s", self.spec.name, self.gave_up)
+            return f"module {self.spec.name} {self.gave_up}"
         self.restarts += 1
         if now - self.started_at >= self.healthy_after_s:
             self.streak = 0  # it had been running well: not a crash loop
@@ -470,6 +495,18 @@ class LiveSource(SourceBase):
         if fatal is not None:
             self.error = f"module {fatal.spec.name}: {fatal.fatal}"
             return True
+        if self.procs and all(p.gave_up for p in self.procs):
+            # nothing is left to listen to: the talk stops, with the first module's reason
+            p = self.procs[0]
+            self.error = f"module {p.spec.name} {p.gave_up}"
+            return True
+        if (
+            self.procs
+            and all(p.finished for p in self.procs)
+            and any(p.gave_up for p in self.procs)
+        ):
+            log.info("every input has ended or was given up: the talk ends")
+            return True
         if self.procs and all(p.spec.finite and p.finished for p in self.procs):
             log.info("every input has ended: the talk ends")
             return True
@@ -519,6 +556,8 @@ class LiveSource(SourceBase):
         modules: dict[str, Any] = {}
         for p in self.procs:
             rec: dict[str, Any] = {"restarts": p.restarts, "crashes": p.crashes}
+            if p.gave_up:
+                rec["gave_up"] = p.gave_up
             if p.crashes:
                 # which metrics a crash took with it (the report says when they were lost);
                 # none recorded: not known (the report says so)

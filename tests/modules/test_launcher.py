@@ -361,3 +361,51 @@ def test_a_module_command_that_cannot_start_stops_the_talk_with_its_name(tmp_pat
     assert result.error.startswith("module x: cannot start command ")
     assert "nothere" in result.error and "No such file" in result.error
     assert result.summary["modules"]["x"]["restarts"] == 0
+
+
+def test_a_module_that_dies_at_start_every_time_is_given_up_with_its_error(
+    tmp_path: Path,
+) -> None:
+    """A module that fails the same way at every start (an import error) is not restarted for
+    the whole talk: after MAX_QUICK_EXITS quick exits in a row it is given up, and says why."""
+    from prezence.launcher import MAX_QUICK_EXITS, QUICK_EXIT_S
+
+    crash = "import sys; print(\"ModuleNotFoundError: No module named 'cv2'\"); sys.exit(1)"
+    spec = ModuleSpec("vision", [sys.executable, "-c", crash], metrics=("cv_gestures",))
+    (tmp_path / "streams").mkdir()
+    with (tmp_path / "vision.log").open("a") as log:
+        proc = ModuleProcess(spec, tmp_path, 0.0, log)
+        now = 0.0
+        proc.start(now)
+        events: list[str] = []
+        while not proc.finished:
+            assert proc.proc is not None
+            proc.proc.wait()
+            now += QUICK_EXIT_S / 4  # it died well within its first seconds
+            events.append(proc.check(now) or "")
+            if not proc.finished:
+                now = proc.next_start
+                assert "restarted" in (proc.check(now) or "")
+            assert len(events) <= MAX_QUICK_EXITS
+        assert len(proc.crashes) == MAX_QUICK_EXITS and proc.restarts == MAX_QUICK_EXITS - 1
+        assert proc.gave_up is not None and proc.proc is None
+        assert events[-1] == f"module vision {proc.gave_up}"
+        assert f"{MAX_QUICK_EXITS} times in a row; not restarted again" in proc.gave_up
+        assert "No module named 'cv2'" in proc.gave_up
+        assert proc.check(now + 100.0) is None and proc.proc is None  # never started again
+
+
+def test_the_talk_goes_on_while_a_module_is_left_and_stops_when_none_is(tmp_path: Path) -> None:
+    from prezence.launcher import LiveSource
+
+    specs = [ModuleSpec("speech", ["x"]), ModuleSpec("vision", ["y"])]
+    source = LiveSource(specs, end_at=None)
+    with (tmp_path / "a.log").open("a") as log:
+        source.procs = [ModuleProcess(s, tmp_path, 0.0, log) for s in specs]
+        source.procs[1].gave_up = "exited within 2 s of starting 5 times in a row"
+        source.procs[1].finished = True
+        assert not source.ended(20.0)  # speech still listens
+        source.procs[0].gave_up = "exited within 2 s of starting 5 times in a row"
+        source.procs[0].finished = True
+        assert source.ended(30.0)
+        assert source.error == "module speech exited within 2 s of starting 5 times in a row"
