@@ -218,6 +218,8 @@ def rehearse(
         PrezenceError: every module failed (their messages are included).
     """
     recording = Path(recording)
+    if recording.is_dir():
+        raise ConfigError("is a folder; give a media file", path=recording)
     if not recording.is_file():
         raise ConfigError("no such recording", path=recording)
     if recording.stat().st_size == 0:
@@ -259,7 +261,8 @@ def rehearse(
         err = (session.root / f"{name}.log").read_text(errors="replace")
         if p.returncode != 0:
             msg = err.strip().splitlines()[-1] if err.strip() else f"exit status {p.returncode}"
-            failures[name] = msg
+            # the module's own "error: …" line: the CLI says "error:" once, before them all
+            failures[name] = msg.removeprefix("error:").strip()
     if len(failures) == len(procs):
         if not any(f.stat().st_size for f in session.streams.glob("*")):
             # Nothing was measured: leave no half-made folder that a second try, once the

@@ -82,7 +82,12 @@ def decode_file(path: str | Path) -> Iterator[np.ndarray]:
     try:
         container = av.open(str(path), mode="r")
     except (av.error.FFmpegError, UnicodeDecodeError) as e:
-        raise ModuleInputError(path, f"not a readable audio file ({e})") from e
+        # e reads "[Errno 1094995529] Invalid data found …: 'path'": its strerror is the part
+        # that means something to a person
+        why = getattr(e, "strerror", None) or str(e)
+        raise ModuleInputError(
+            path, f"not an audio or video file the decoder can read ({why})"
+        ) from e
     n_out = 0
     try:
         if not container.streams.audio:

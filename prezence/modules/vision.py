@@ -97,7 +97,18 @@ from pathlib import Path
 from types import FrameType, TracebackType
 from typing import Any
 
-import cv2
+try:
+    import cv2
+except ImportError as _e:  # the vision extra is not installed
+    if __name__ == "__main__":
+        # Run as the module: say so in one line, with the status of a module that cannot use
+        # its input (2), so ``prezence up`` stops rather than restart it (a restart cannot help).
+        print(
+            'error: the vision module needs OpenCV (cv2): pip install "prezence[vision]"',
+            file=sys.stderr,
+        )
+        raise SystemExit(2) from _e
+    raise
 import numpy as np
 
 from prezence.errors import PrezenceError

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -165,3 +166,43 @@ def test_a_recording_no_module_can_read_leaves_no_folder_behind(
     empty.write_bytes(b"")
     assert main(["rehearse", str(empty), "--out", str(out)]) == 2
     assert "the recording is empty" in capsys.readouterr().err and not out.exists()
+
+
+def _random_wav(tmp_path: Path) -> Path:
+    bad = tmp_path / "random.wav"
+    bad.write_bytes(bytes(range(256)) * 40)  # not a RIFF header: no decoder reads it
+    return bad
+
+
+def test_rehearse_a_folder_says_it_is_a_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "adir").mkdir()
+    assert main(["rehearse", str(tmp_path / "adir"), "--out", str(tmp_path / "s")]) == 2
+    assert f"error: {tmp_path / 'adir'}: is a folder; give a media file" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
+
+
+def test_rehearse_random_bytes_is_a_plain_message_with_error_said_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = _random_wav(tmp_path)
+    assert main(["rehearse", str(bad), "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert f"error: speech: {bad}: not an audio or video file the decoder can read (" in err
+    assert "Errno" not in err and err.count("error:") == 1
+
+
+def test_rehearse_a_video_without_cv2_names_the_vision_extra(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the modules are other processes: block cv2 there with a sitecustomize on PYTHONPATH
+    blocker = tmp_path / "no_cv2"
+    blocker.mkdir()
+    (blocker / "sitecustomize.py").write_text("import sys\nsys.modules['cv2'] = None\n")
+    path = os.environ.get("PYTHONPATH")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(blocker), *([path] if path else [])]))
+    assert main(["rehearse", str(GESTURES), "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert 'vision: the vision module needs OpenCV (cv2): pip install "prezence[vision]"' in err
+    assert "ModuleNotFoundError" not in err and err.count("error:") == 1
