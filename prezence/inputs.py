@@ -1,13 +1,17 @@
 """Pre-flight checks of a live talk's inputs: ``prezence up`` fails in a second, not mid-talk.
 
 Everything ``up`` is told to listen to, and the robot it is told to use, is looked at before a
-session folder is made or a module started: files exist and are regular, non-empty files; a
-microphone or camera is there; the robot's address is well formed, and something answers on
-its port. Each problem is one :class:`InputError` line that names the option and says what to do.
+session folder is made or a module started: the module that reads each input can be imported
+(its extra is installed); files exist, are regular, non-empty files, and the module's own
+reader opens them (the checks ``prezence rehearse`` meets when its modules start: an audio
+track that decodes, a video with frames); a microphone or camera is there; the robot's address
+is well formed, and something answers on its port. Each problem is one :class:`InputError`
+line that names the option and says what to do.
 """
 
 from __future__ import annotations
 
+import importlib
 import os
 import socket
 import stat
@@ -48,6 +52,68 @@ def check_media_file(option: str, value: str) -> Path:
         raise InputError(f"{option} {value}: the file is empty")
     if not os.access(path, os.R_OK):
         raise InputError(f"{option} {value}: no permission to read it")
+    return path
+
+
+#: Per input module, the libraries it cannot start without, with what each is, and the extra
+#: that installs them.
+MODULE_NEEDS: dict[str, tuple[tuple[str, str], ...]] = {
+    "speech": (("pocketsphinx", "pocketsphinx"), ("av", "PyAV")),
+    "vision": (("cv2", "OpenCV"),),
+}
+
+
+def check_module_extra(option: str, value: str, module: str) -> None:
+    """The libraries the ``module`` input module needs can be imported here.
+
+    Raises:
+        InputError: one is missing (``--video cam: the vision module needs OpenCV (cv2):
+            pip install "prezence[vision]"``).
+    """
+    for name, what in MODULE_NEEDS[module]:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            raise InputError(
+                f"{option} {value}: the {module} module needs {what} ({name}): "
+                f'pip install "prezence[{module}]"'
+            ) from None
+
+
+def check_recording(option: str, value: str, module: str) -> Path:
+    """``value`` is a media file the ``module`` input module can read: the module's own reader
+    opens it and decodes its first audio block (speech) or video frame (vision).
+
+    Raises:
+        InputError: the module's extra is missing, or the file is not one it can read (the
+            module's own message: ``--audio random.wav: random.wav: not an audio or video
+            file the decoder can read (…)``).
+    """
+    path = check_media_file(option, value)
+    check_module_extra(option, value, module)
+    from prezence.modules.common import ModuleInputError
+
+    try:
+        if module == "speech":
+            from prezence.modules.audio_io import decode_file
+
+            blocks = decode_file(path)  # what the module's FileSource reads first
+            try:
+                next(blocks, None)
+            finally:
+                blocks.close()
+        else:
+            from prezence.modules.vision import open_video
+
+            cap = open_video(path)
+            try:
+                ok, _ = cap.read()
+            finally:
+                cap.release()
+            if not ok:
+                raise ModuleInputError(path, "no video frame could be decoded (truncated?)")
+    except ModuleInputError as e:
+        raise InputError(f"{option} {value}: {e.reason}") from None
     return path
 
 
@@ -154,13 +220,15 @@ def check_up_inputs(
         raise InputError("--backend naoqi needs --robot tcp://HOST:9559")
     if audio is not None:
         if audio == "mic":
+            check_module_extra("--audio", audio, "speech")
             check_microphone(device)
         else:
-            check_media_file("--audio", audio)
+            check_recording("--audio", audio, "speech")
     if video is not None:
         if video.startswith("cam"):
+            check_module_extra("--video", video, "vision")
             check_camera(video)
         else:
-            check_media_file("--video", video)
+            check_recording("--video", video, "vision")
     if robot and backend == "naoqi":
         check_robot(robot)

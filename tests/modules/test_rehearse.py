@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -168,10 +169,68 @@ def test_a_recording_no_module_can_read_leaves_no_folder_behind(
     assert "the recording is empty" in capsys.readouterr().err and not out.exists()
 
 
+# -- session 14: up checks its files as rehearse does, before anything starts -----------------
+
+
 def _random_wav(tmp_path: Path) -> Path:
     bad = tmp_path / "random.wav"
     bad.write_bytes(bytes(range(256)) * 40)  # not a RIFF header: no decoder reads it
     return bad
+
+
+@pytest.mark.parametrize(
+    ("option", "module", "extra"),
+    [("--video", "cv2", "vision"), ("--audio", "pocketsphinx", "speech")],
+    ids=["video without cv2", "audio without pocketsphinx"],
+)
+def test_up_without_the_module_extra_is_one_line_before_anything_starts(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    option: str,
+    module: str,
+    extra: str,
+) -> None:
+    monkeypatch.setitem(sys.modules, module, None)  # as if the extra were not installed
+    media = GESTURES if option == "--video" else FAST
+    out = tmp_path / "s"
+    argv = ["-q", "up", option, str(media), "--backend", "fake", "--duration", "3"]
+    assert main([*argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f'pip install "prezence[{extra}]"' in err[0]
+    assert err[0].startswith(f"error: {option} {media}: the {extra} module needs ")
+    assert not out.exists()
+
+
+def test_up_with_a_camera_and_no_cv2_names_the_vision_extra(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "cv2", None)
+    assert main(["-q", "up", "--video", "cam", "--backend", "fake", "--duration", "1"]) == 2
+    assert 'pip install "prezence[vision]"' in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("option", "name", "message"),
+    [
+        ("--audio", "random", "not an audio or video file the decoder can read"),
+        ("--audio", "noaudio", "the file has no audio track"),
+        ("--video", "random", "cannot be read as a video"),
+    ],
+    ids=["random bytes as audio", "a video with no audio track", "random bytes as video"],
+)
+def test_up_refuses_a_file_its_module_cannot_read_and_leaves_no_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str, name: str, message: str
+) -> None:
+    media = _random_wav(tmp_path) if name == "random" else GESTURES
+    out = tmp_path / "s"
+    argv = ["up", option, str(media), "--backend", "fake", "--duration", "3", "--out", str(out)]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert f"error: {option} {media}: {message}" in captured.err
+    assert "Errno" not in captured.err
+    assert "time used" not in captured.out  # no results of a talk that never ran
+    assert not out.exists()
 
 
 def test_rehearse_a_folder_says_it_is_a_folder(
