@@ -74,8 +74,9 @@ def check_module_extra(option: str, value: str, module: str) -> None:
         try:
             importlib.import_module(name)
         except ImportError:
+            lib = what if what == name else f"{what} ({name})"
             raise InputError(
-                f"{option} {value}: the {module} module needs {what} ({name}): "
+                f"{option} {value}: the {module} module needs {lib}: "
                 f'pip install "prezence[{module}]"'
             ) from None
 
