@@ -15,7 +15,7 @@ import logging
 import queue
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -60,7 +60,7 @@ def _av() -> Any:
     return av
 
 
-def decode_file(path: str | Path) -> Iterator[np.ndarray]:
+def decode_file(path: str | Path) -> Generator[np.ndarray, None, None]:
     """Decode an audio or video file to 16 kHz mono int16 blocks of any length.
 
     Args:
