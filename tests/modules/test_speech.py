@@ -359,7 +359,7 @@ def _missing(tmp_path: Path) -> Path:
 
 BAD_FILES = {
     "empty": (_empty, "empty"),
-    "not-audio": (_text, "not a readable audio file"),
+    "not-audio": (_text, "not an audio or video file the decoder can read"),
     "truncated-flac": (_truncated_flac, "damaged or truncated"),
     "truncated-wav": (_truncated_wav, "truncated"),
     "missing": (_missing, "no such file"),
