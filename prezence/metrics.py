@@ -39,6 +39,8 @@ class Metric:
             built-in rules do not judge it (``prezence/config/defaults/default.toml`` holds
             the rules themselves).
         scale: the built-in rule's percent scale (deviation of 100 % at this distance).
+        first_after_s: its module's first value comes this long into the talk (the window it
+            needs: pace after 10 s of talk); a shorter talk is too short to measure it.
     """
 
     name: str
@@ -50,6 +52,7 @@ class Metric:
     physical_range: tuple[float, float] | None = None
     band: tuple[str, float | None, float | None] | None = None
     scale: float | None = None
+    first_after_s: float = 0.0
 
     def stale_after_s(self, floor: float) -> float:
         """Default staleness: ``max(floor, STALE_CADENCES × cadence_s)``."""
@@ -130,6 +133,7 @@ METRICS: Mapping[str, Metric] = {
             advice={"above": "slow down", "below": "pick up the pace"},
             physical_range=(0.0, 400.0),
             band=("inRange", 140.0, 180.0),
+            first_after_s=10.0,  # the speech module's --window: 10 s of talk
         ),
         Metric("speech_speed_syllables", "syllables/min", "syllable rate", "speech", _SPEECH),
         # where pace and articulation came from: 1 recogniser, 2 syllable nuclei, 0 not measured
@@ -156,6 +160,7 @@ METRICS: Mapping[str, Metric] = {
             advice={"below": "articulate more clearly"},
             physical_range=(0.0, 1.0),
             band=("min", 0.5, None),
+            first_after_s=10.0,
         ),
         Metric("speech_confidence", "0..1", "recogniser confidence", "speech", _SPEECH),
         Metric("speech_clarity", "0..100", "clarity score", "speech", _SPEECH),
@@ -187,6 +192,7 @@ METRICS: Mapping[str, Metric] = {
             advice={"below": "use your hands more", "above": "calm your hands"},
             physical_range=(0.0, 60.0),
             band=("inRange", 2.0, 12.0),
+            first_after_s=10.0,  # the vision module's GESTURE_MIN_WINDOW_S
         ),
     )
 }

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from prezence.config.model import Config, Rule
+from prezence.metrics import METRICS
 from prezence.samples import Sample
 from prezence.session import CUE_KEYS, SessionDir, read_jsonl, write_json
 
@@ -86,6 +87,78 @@ def _in_range_time(
 
 def _truth_intervals(truth: Sequence[Mapping[str, Any]], metric: str) -> list[tuple[float, float]]:
     return sorted((float(x["start"]), float(x["end"])) for x in truth if x.get("metric") == metric)
+
+
+#: A metric measured for less than this many seconds (the time its samples held) is not
+#: judged: the report gives no advice on it and no praise for it, and says it was measured
+#: too briefly (a 2 s recording; 3 s of pace before a Ctrl-C). The same figure as a pace
+#: window: a shorter stretch is one or two samples.
+MIN_JUDGED_S = 10.0
+
+#: The vision module's record of what it could not measure and how it measured the rest
+#: (``SESSION/vision.json``: ``{"off": {metric: why}, "gesture_source": "body"|"motion"}``).
+VISION_STATUS = "vision.json"
+
+#: ``cv_gestures_source``'s value for a rate from the frame difference (the fallback).
+GESTURES_FROM_MOTION = 2.0
+
+
+def _failure_text(msg: str) -> str:
+    """A module's last error line without its ``error:`` prefix."""
+    msg = msg.strip()
+    return msg[len("error:") :].strip() if msg.startswith("error:") else msg
+
+
+def measurement_notes(
+    root: Any, recorded: Mapping[str, Any] | None
+) -> tuple[dict[str, str], dict[str, str]]:
+    """Why metrics were not measured, and which were measured in a less reliable way, as far
+    as the session folder records it.
+
+    Args:
+        root: the session folder.
+        recorded: ``summary.json`` (or the ``extra`` about to go into it): its
+            ``module_failures`` (module → its last error line) name modules that could not run.
+
+    Returns:
+        ``(unmeasured, less_reliable)``: per metric, why it was not measured (its module
+        failed; head pose was off) and why its figures are less reliable (the gesture rate
+        from the frame-difference fallback).
+    """
+    from pathlib import Path
+
+    from prezence.session import read_json_object
+    from prezence.streams.tail import read_stream
+
+    folder = Path(root)
+    unmeasured: dict[str, str] = {}
+    failures = (recorded or {}).get("module_failures") or {}
+    if isinstance(failures, Mapping):
+        for name, rec in METRICS.items():
+            msg = failures.get(rec.module)
+            if isinstance(msg, str):
+                unmeasured[name] = f"the {rec.module} module could not run: {_failure_text(msg)}"
+    status_path = folder / VISION_STATUS
+    status: dict[str, Any] = {}
+    if status_path.is_file():
+        try:
+            status = read_json_object(status_path)
+        except (OSError, ValueError):  # a torn record says nothing; the streams still do
+            status = {}
+    off = status.get("off")
+    if isinstance(off, Mapping):
+        for metric, why in off.items():
+            unmeasured.setdefault(str(metric), str(why))
+    less: dict[str, str] = {}
+    src_path = folder / "streams" / "cv_gestures_source.txt"
+    if src_path.is_file():
+        src, _ = read_stream(src_path, "cv_gestures_source")
+        if any(x.value == GESTURES_FROM_MOTION for x in src):
+            less["cv_gestures"] = (
+                "counted from the frame difference, the fallback when the pose model cannot "
+                "run (it misses most gestures and counts other motion)"
+            )
+    return unmeasured, less
 
 
 #: A corrective cue within this many seconds after its problem ended is "stale", not a false
@@ -371,6 +444,8 @@ def build_summary(
     not_measured: Collection[str] = (),
     modules: Mapping[str, Any] | None = None,
     skipped_records: Sequence[str] = (),
+    unmeasured: Mapping[str, str] | None = None,
+    less_reliable: Mapping[str, str] | None = None,
 ) -> dict[str, Any]:
     """The ``summary.json`` of a talk.
 
@@ -392,6 +467,14 @@ def build_summary(
             ``lost`` stretches (:func:`module_outages`) are listed.
         skipped_records: damaged lines of ``cues.jsonl`` left out, as ``file:line: why``
             (``skipped_records`` and ``counts.skipped_records``, only when there is one).
+        unmeasured: per metric, why it was not measured (:func:`measurement_notes`): with no
+            sample it has ``not_measured_why`` and no stale episode. A metric with no sample
+            in a talk shorter than its first value (``Metric.first_after_s``) gets the same:
+            the talk was too short.
+        less_reliable: per metric, why its figures are less reliable (``less_reliable``).
+
+    A metric measured for less than :data:`MIN_JUDGED_S` has ``too_brief``: the report neither
+    advises on it nor praises it.
     """
     metrics: dict[str, Any] = {}
     stale_default = config.processor.stale_after_s
@@ -417,13 +500,24 @@ def build_summary(
                 p90=round(float(p[2]), 4),
             )
         gaps = int(np.count_nonzero(np.diff(ts) > stale_s))
-        if not ss and rule.metric in not_measured:
-            m["stale_episodes"] = 0  # nothing was asked to measure it: nothing went quiet
+        why = (unmeasured or {}).get(rule.metric)
+        rec = METRICS.get(rule.metric)
+        if not ss and why is None and rec is not None and talk_s < rec.first_after_s:
+            first = f"first values after {rec.first_after_s:.0f} s"
+            why = f"the talk was too short to measure it ({first})"
+        if not ss and (rule.metric in not_measured or why is not None):
+            m["stale_episodes"] = 0  # nothing was asked to, or could, measure it
             m["measured"] = False
+            if why is not None:
+                m["not_measured_why"] = why
         else:
             # No sample at all is one stale episode as long as the talk: the module that
             # opened the file never reported.
             m["stale_episodes"] = gaps + (1 if not ss or talk_s - ss[-1].t > stale_s else 0)
+        if ss and m["in_range_s"] + m["out_of_range_s"] < MIN_JUDGED_S:
+            m["too_brief"] = True
+        if ss and less_reliable and rule.metric in less_reliable:
+            m["less_reliable"] = less_reliable[rule.metric]
         if truth is not None:
             m["truth_time_in_range"] = _truth_in_range_fraction(truth, rule.metric, talk_s)
         if stream_stats and rule.metric in stream_stats:
@@ -588,6 +682,7 @@ def summarize_session(
     problems = [str(p) for p in found]
     bad_cues: list[str] = []
     cues = read_jsonl(session.cues, require=CUE_KEYS, skipped=bad_cues)
+    unmeasured, less_reliable = measurement_notes(session.root, extra)
     summary = build_summary(
         config,
         samples,
@@ -597,6 +692,8 @@ def summarize_session(
         stream_stats=stats,
         backend_stats=backend_stats,
         extra=extra,
+        unmeasured=unmeasured,
+        less_reliable=less_reliable,
         processor_counts=processor.counts() if processor is not None else None,
         problems=problems,
         not_measured=absent,

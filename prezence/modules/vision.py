@@ -1009,6 +1009,31 @@ class RunSummary:
     source: SourceStats = field(default_factory=SourceStats)
 
 
+#: The session folder's record of what this module could not measure, and how it measured
+#: the gesture rate (read by :func:`prezence.summary.measurement_notes`).
+STATUS_FILE = "vision.json"
+
+
+def write_status(out: Path, opts: VisionOptions, *, head_on: bool, gesture_source: str) -> None:
+    """Write ``out/vision.json``: the metrics head pose would have given and why it did not
+    (``off``), and where the gesture rate comes from, so the report can say so rather than
+    "the camera saw no face"."""
+    import json
+
+    why = None
+    if not opts.head:
+        why = "head pose was turned off (--no-head)"
+    elif not head_on:
+        why = f"head pose was off: {install_hint()}"
+    status = {
+        "format": 1,
+        "off": {m: why for m in (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE)} if why else {},
+        "gesture_source": gesture_source if opts.gestures else "off",
+    }
+    Path(out).mkdir(parents=True, exist_ok=True)
+    (Path(out) / STATUS_FILE).write_text(json.dumps(status, indent=1) + "\n")
+
+
 def run(
     source: FileSource | CameraSource,
     out: Path,
@@ -1073,6 +1098,7 @@ def run(
                 ", the pose model cannot run here" if opts.gesture_source == "auto" else "",
             )
     source_code = SOURCE_BODY if tracker is not None else SOURCE_MOTION
+    write_status(out, opts, head_on=estimator is not None, gesture_source=summary.gesture_source)
     not_measured_since: float | None = None
     streams = StreamSet(out, STREAMS, fresh=fresh).open()
     heartbeat = Heartbeat()

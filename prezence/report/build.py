@@ -33,7 +33,12 @@ from prezence.session import (
     read_jsonl,
     sample_time_limit,
 )
-from prezence.summary import build_summary, hold_ends, module_notes
+from prezence.summary import (
+    build_summary,
+    hold_ends,
+    measurement_notes,
+    module_notes,
+)
 
 log = logging.getLogger(__name__)
 
@@ -382,7 +387,8 @@ def slightly_off(
     :func:`rank_priorities` leaves out what adds up to less than one cue's worth; such a metric
     may still have been out of its band most of the time (a pace 5 % under the band for the
     whole talk). It must not then be praised as "in the ideal range": it is listed here when
-    out of its band for at least :data:`SLIGHTLY_OFF_SHARE` of the time it was measured.
+    out of its band for at least :data:`SLIGHTLY_OFF_SHARE` of the time it was measured, and
+    when that time may be judged at all (:func:`judged`: 3 s of pace before a Ctrl-C is not).
 
     Args:
         config: the rules.
@@ -395,7 +401,7 @@ def slightly_off(
         m = metrics.get(rule.metric) or {}
         tir = m.get("time_in_range")
         d = dev_s.get(rule.metric) or {}
-        if rule.metric in listed or not isinstance(tir, int | float) or not m.get("samples"):
+        if rule.metric in listed or not isinstance(tir, int | float) or not judged(m):
             continue
         share = 1.0 - float(tir)
         if share < SLIGHTLY_OFF_SHARE:
@@ -613,6 +619,7 @@ def _rebuild(
     backend_stats = {
         "joint_limit_violations": sum(int(c.get("gesture_violations") or 0) for c in cues)
     }
+    unmeasured, less_reliable = measurement_notes(session.root, recorded)
     summary = build_summary(
         cfg,
         streams,
@@ -624,6 +631,8 @@ def _rebuild(
         modules=modules,
         # no stream file at all: nothing was asked to measure it (as summary.json says)
         not_measured=[r.metric for r in cfg.rules if r.metric not in paths],
+        unmeasured=unmeasured,
+        less_reliable=less_reliable,
     )
 
     dev_s: dict[str, dict[str, float]] = {}
@@ -638,7 +647,11 @@ def _rebuild(
         measured = rule.metric in paths
         m.update(
             measured=measured,
-            data="ok" if m.get("samples") else "no data" if measured else "not measured",
+            data="ok"
+            if m.get("samples")
+            else "no data"
+            if measured and "not_measured_why" not in m
+            else "not measured",
             label=metric_label(rule.metric),
             check=rule.check.value,
             low=rule.low,
@@ -701,8 +714,10 @@ def _rebuild(
 
     time_used = dict(summary["time"])
     cued = {str(c["metric"]) for c in cues if c.get("metric")}
-    priorities = rank_priorities(cfg, dev_s, talk_s=talk_s, cued=cued)
-    a_little_off = slightly_off(cfg, dev_s, metrics, listed=[p["metric"] for p in priorities])
+    # advice only on what was measured long enough, and not by a fallback (MIN_JUDGED_S)
+    judged_dev = {k: v for k, v in dev_s.items() if judged(metrics.get(k) or {})}
+    priorities = rank_priorities(cfg, judged_dev, talk_s=talk_s, cued=cued)
+    a_little_off = slightly_off(cfg, judged_dev, metrics, listed=[p["metric"] for p in priorities])
     counts = dict(summary["counts"])
     counts["cues_improved"] = sum(1 for r in helped if r["improved"])
     counts["cues_judged"] = len(helped)
@@ -736,7 +751,10 @@ def _rebuild(
         "effect_window_s": EFFECT_WINDOW_S,
         **({"effects_not_judged": not_heard} if not_heard else {}),
         **({"replay_of": meta["source"]} if meta.get("kind") == "replay" else {}),
-        "head": head_turns(session, talk_s=talk_s, limit=limit),
+        **({"recording": str(meta["recording"])} if meta.get("recording") else {}),
+        **({"logs": logs} if (logs := _module_logs(session)) else {}),
+        "head": head_turns(session, talk_s=talk_s, limit=limit)
+        | ({"not_measured_why": unmeasured[HEAD_YAW]} if HEAD_YAW in unmeasured else {}),
         "stopped_repeating": _stopped_repeating(recorded),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},
     }
@@ -751,6 +769,19 @@ def _rebuild(
     if post.get("ok") is False:  # the robot was lost: its summary was never heard
         report["post_talk"] = post
     return report, streams
+
+
+def judged(m: Mapping[str, Any]) -> bool:
+    """Whether a metric's figures may earn advice or praise: it has samples, held for at least
+    :data:`prezence.summary.MIN_JUDGED_S`, and not from a less reliable fallback."""
+    return bool(m.get("samples")) and not m.get("too_brief") and not m.get("less_reliable")
+
+
+def _module_logs(session: SessionDir) -> list[str]:
+    """The input modules' log files in the session folder that say something."""
+    return sorted(
+        p.name for p in session.root.glob("*.log") if p.is_file() and p.stat().st_size > 0
+    )
 
 
 def _shown_path(path: Path, root: Path) -> str:

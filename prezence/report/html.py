@@ -11,6 +11,7 @@ from prezence.report.speech import (
     cue_count_parts,
     cue_mark,
     measured_share,
+    metric_notes,
     of_time,
     summary_phrase,
     time_sentence,
@@ -142,7 +143,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             f"{_mmss(report.get('planned_s'))} (the coach stopped early). The figures cover "
             "what was recorded.</div>"
         )
-    for sentence in trouble_sentences(report):
+    for sentence in trouble_sentences(report) + metric_notes(report):
         out.append(f'<div class="note">{_e(sentence[0].upper() + sentence[1:])}.</div>')
     if report.get("plots_missing"):
         install = (
@@ -199,10 +200,18 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     elif not report.get("slightly_off"):
         out.append(
             {
-                "none": "<p><b>Nothing was measured</b>: no metric has a sample. The input "
-                "modules' logs in the session folder say why (no sound, no face, no audio "
-                "track…).</p>",
-                "some": "<p>Every measured metric stayed in its ideal range. Well done.</p>",
+                "none": (
+                    "<p><b>Nothing was judged</b>: no metric was measured long enough.</p>"
+                    if any(m.get("samples") for m in report["metrics"].values())
+                    else "<p><b>Nothing was measured</b>: no metric has a sample.</p>"
+                )
+                + (
+                    ""
+                    if metric_notes(report) or not report.get("logs")
+                    else f"<p>{_e(', '.join(report['logs']))} in the session folder may say "
+                    "why.</p>"
+                ),
+                "some": "<p>Every judged metric stayed in its ideal range. Well done.</p>",
                 "all": "<p>Every metric stayed in its ideal range. Well done.</p>",
             }[measured_share(report)]
         )
@@ -289,11 +298,16 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             m = report["metrics"][k]
             if png:
                 out.append(_img(png, f"{m.get('label')} over the talk"))
+            elif not m.get("samples") and m.get("not_measured_why"):
+                out.append(
+                    f'<p class="nodata"><b>{_e(m.get("label"))}</b>: not measured: '
+                    f"{_e(m['not_measured_why'])}</p>"
+                )
             elif not m.get("samples") and m.get("data") == "not measured":
                 out.append(
                     f'<p class="nodata"><b>{_e(m.get("label"))}</b>: not measured (no module '
                     "wrote it in this session: its module was not started, or could not "
-                    "measure it; the modules' logs in the session folder say which)</p>"
+                    "measure it)</p>"
                 )
             elif not m.get("samples"):
                 out.append(
@@ -368,6 +382,9 @@ def _head_section(head: Mapping[str, Any]) -> str:
         rows.append((f"head turned to your right (more than {deg:g}°)", _pct(head["right_share"])))
         rows.append(("times you turned away", str(head.get("turns_away", 0))))
         rows.append(("typical turn (median)", f"{head['median_abs_yaw_deg']:.0f}°"))
+    if not rows and head.get("not_measured_why"):
+        out.append(f'<p class="nodata">Not measured: {_e(head["not_measured_why"])}.</p>')
+        return "\n".join(out)
     if not rows:
         out.append('<p class="nodata">No data: the camera module saw no face.</p>')
         return "\n".join(out)

@@ -72,18 +72,103 @@ def was(label: str) -> str:
     return "were" if label.endswith("s") else "was"
 
 
+def _judged(m: Mapping[str, Any]) -> bool:
+    from prezence.report.build import judged
+
+    return judged(m)
+
+
 def measured_share(report: Mapping[str, Any]) -> str:
-    """Which of the report's metrics have samples: ``"all"``, ``"some"`` or ``"none"``.
+    """Which of the report's metrics were judged: ``"all"``, ``"some"`` or ``"none"``.
 
     Praise needs something measured: a talk whose microphone gave nothing is not a talk
-    whose delivery stayed in range. A metric whose module died mid-talk (``lost``) was
-    measured only in part: ``"some"`` at most.
+    whose delivery stayed in range. A metric counts when it was measured long enough
+    (:data:`prezence.summary.MIN_JUDGED_S`) and not by a less reliable fallback: one volume
+    sample of a 2 s recording, or gestures from the frame difference alone, earn no praise. A
+    metric whose module died mid-talk (``lost``) was measured only in part: ``"some"`` at most.
     """
     metrics = [m for m in (report.get("metrics") or {}).values() if isinstance(m, Mapping)]
-    n = sum(1 for m in metrics if m.get("samples"))
+    n = sum(1 for m in metrics if _judged(m))
     if n == 0:
         return "none"
     return "all" if n == len(metrics) and not any(m.get("lost") for m in metrics) else "some"
+
+
+def _and(words: Sequence[str]) -> str:
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
+
+
+def unjudged_labels(report: Mapping[str, Any]) -> list[str]:
+    """The metrics something was known about but that were not judged: measured too briefly,
+    by a fallback, or not measured for a recorded reason (a module that could not run)."""
+    return [
+        str(m.get("label") or k)
+        for k, m in (report.get("metrics") or {}).items()
+        if isinstance(m, Mapping)
+        and not _judged(m)
+        and (m.get("samples") or m.get("not_measured_why"))
+    ]
+
+
+def metric_notes(report: Mapping[str, Any]) -> list[str]:
+    """One line per metric not measured for a known reason, measured too briefly to judge, or
+    measured in a less reliable way, for the text and the HTML report alike.
+
+    Example:
+        >>> metric_notes({"metrics": {"speech_speed": {"label": "pace", "samples": 3,
+        ...     "in_range_s": 0.0, "out_of_range_s": 2.9, "too_brief": True}}})
+        ['pace: measured for only 3 s, under the 10 s needed to judge it: no advice on it']
+    """
+    from prezence.summary import MIN_JUDGED_S
+
+    out = []
+    for k, m in (report.get("metrics") or {}).items():
+        if not isinstance(m, Mapping):
+            continue
+        label = str(m.get("label") or k)
+        if not m.get("samples") and m.get("not_measured_why"):
+            out.append(f"{label}: not measured: {m['not_measured_why']}")
+        elif m.get("samples") and m.get("less_reliable"):
+            out.append(f"{label}: {m['less_reliable']}; less reliable, so no advice on it")
+        elif m.get("samples") and m.get("too_brief"):
+            s = float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
+            out.append(
+                f"{label}: measured for only {s:.0f} s, under the {MIN_JUDGED_S:.0f} s needed "
+                "to judge it: no advice on it"
+            )
+    return out
+
+
+def _inputs_used(report: Mapping[str, Any]) -> str:
+    """What to check when nothing could be judged: the recording, or the live inputs used."""
+    if report.get("recording"):
+        return "the recording"
+    from prezence.metrics import METRICS
+
+    used = {
+        METRICS[k].module
+        for k, m in (report.get("metrics") or {}).items()
+        if k in METRICS and isinstance(m, Mapping) and m.get("measured")
+    }
+    devices = [
+        d for mod, d in (("speech", "the microphone"), ("vision", "the camera")) if mod in used
+    ]
+    return _and(devices or ["the microphone", "the camera"])
+
+
+def nothing_judged_sentence(report: Mapping[str, Any]) -> str:
+    """What the robot says when no metric was judged: why, as far as the record says."""
+    from prezence.summary import MIN_JUDGED_S
+
+    metrics = [m for m in (report.get("metrics") or {}).values() if isinstance(m, Mapping)]
+    whys = " ".join(str(m.get("not_measured_why") or "") for m in metrics)
+    if 0.0 < _talk_s(report) < MIN_JUDGED_S:
+        return "The talk was too short for me to judge your delivery."
+    if "no audio track" in whys:
+        return "I could not judge your delivery: the recording has no audio track."
+    if any(m.get("too_brief") for m in metrics):
+        return "I measured too little of your delivery to judge it."
+    return f"I could not measure enough of your delivery to judge it: check {_inputs_used(report)}."
 
 
 def of_time(row: Mapping[str, Any], measured: str = "it was measured") -> str:
@@ -322,14 +407,13 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
             f"{o['advice']}."
         )
     elif not pri:
-        parts.append(
-            {
-                "none": "I could not measure your delivery this time: check the microphone "
-                "and the camera.",
-                "some": "Everything I could measure stayed in the ideal range. Well done!",
-                "all": "Your delivery stayed in the ideal range. Well done!",
-            }[measured_share(report)]
-        )
+        share = measured_share(report)
+        if share == "none":
+            parts.append(nothing_judged_sentence(report))
+        elif share == "some":
+            parts.append(_some_praise(report))
+        else:
+            parts.append("Your delivery stayed in the ideal range. Well done!")
     else:
         parts.append(f"Work first on this: {pri[0]['advice']}.")
         if len(pri) > 1:
@@ -342,6 +426,29 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
     if len(words) > MAX_SPOKEN_WORDS:  # custom advice texts could be long: never ramble
         text = " ".join(words[:MAX_SPOKEN_WORDS]).rstrip(",.;:") + "."
     return text
+
+
+def _why_pointer(report: Mapping[str, Any]) -> str:
+    """Where the reader learns why nothing was judged: the notes below, the modules' logs when
+    they say something, else nothing."""
+    if metric_notes(report):
+        return " (see the notes under the table)"
+    if report.get("logs"):
+        return f" (see {_and(list(report['logs']))} in the session folder)"
+    return ""
+
+
+def _some_praise(report: Mapping[str, Any]) -> str:
+    """Praise for the metrics judged, naming them when others were measured but not judged."""
+    rest = unjudged_labels(report)
+    if not rest:
+        return "Everything I could measure stayed in the ideal range. Well done!"
+    good = [
+        str(m.get("label") or k)
+        for k, m in (report.get("metrics") or {}).items()
+        if isinstance(m, Mapping) and _judged(m)
+    ]
+    return f"Your {_and(good)} stayed in the ideal range; I could not judge your {_and(rest)}."
 
 
 def _pct(x: float | None) -> str:
@@ -388,9 +495,14 @@ def format_text(report: Mapping[str, Any]) -> str:
     elif not report.get("slightly_off"):
         lines.append(
             {
-                "none": "  Nothing was measured: no metric has a sample (see the modules' logs "
-                "in the session folder).",
-                "some": "  Every measured metric stayed in its ideal range.",
+                "none": (
+                    "  Nothing was judged: no metric was measured long enough"
+                    if any(m.get("samples") for m in report["metrics"].values())
+                    else "  Nothing was measured: no metric has a sample"
+                )
+                + _why_pointer(report)
+                + ".",
+                "some": "  Every judged metric stayed in its ideal range.",
                 "all": "  Every metric stayed in its ideal range.",
             }[measured_share(report)]
         )
@@ -420,6 +532,7 @@ def format_text(report: Mapping[str, Any]) -> str:
                 else f"{'-':>12}"
             )
         )
+    lines += [f"  note: {n}" for n in metric_notes(report)]
     lines.append("")
     cues = report.get("cues") or []
     lines.append(

@@ -1,0 +1,174 @@
+"""What the report says of metrics that were not measured, measured too briefly, or measured by
+a fallback (walkthrough 2 of session 14, items 4-7 and 9), from hand-made session folders."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from prezence.config.model import Check, Config, Rule, TimeSettings
+from prezence.config.tomlconf import dumps_config
+from prezence.report import build_report, summary_phrase, write_report
+from prezence.session import SessionDir
+
+SPEED = Rule(
+    "speech_speed", Check.IN_RANGE, low=140, high=180, below="speedUp", above="slowDown", unit="wpm"
+)
+VOLUME = Rule("speech_volume", Check.MIN, low=60, scale=6, below="louder", unit="dB")
+GAZE = Rule("cv_headGaze", Check.MIN, low=-15, scale=10, below="lookUp", unit="deg")
+GESTURES = Rule(
+    "cv_gestures", Check.IN_RANGE, low=2, high=12, below="gestureMore", above="gestureLess"
+)
+CONFIG = Config(rules=(SPEED, VOLUME, GAZE, GESTURES), time=TimeSettings(allocated_s=600.0))
+HEAD_OFF = "head pose was off: create it once with: python -m prezence.modules.vision_env install"
+
+
+def rehearsal(
+    root: Path,
+    streams: dict[str, list[tuple[float, float]]],
+    *,
+    talk_s: float,
+    failures: dict[str, str] | None = None,
+    recording: str | None = "talk.mp4",
+) -> SessionDir:
+    """A finished rehearsal's folder: the given stream files (others absent), its record."""
+    session = SessionDir(root).create()
+    session.config.write_text(dumps_config(CONFIG))
+    meta: dict[str, object] = {"kind": "rehearsal", "talk_s": talk_s}
+    if recording:
+        meta["recording"] = recording
+    session.write_meta(meta)
+    for metric, rows in streams.items():
+        session.stream(f"{metric}.txt").write_text("".join(f"{t} {v}\n" for t, v in rows))
+    session.cues.write_text("")
+    summary = {"ended_at_s": talk_s, "module_failures": failures or {}}
+    session.summary.write_text(json.dumps(summary))
+    return session
+
+
+def vision_without_head_pose(session: SessionDir, talk_s: int) -> None:
+    """The vision module with no vision env: empty head files, gestures from the fallback."""
+    for m in ("cv_headGaze", "cv_headYaw", "cv_facingAudience"):
+        session.stream(f"{m}.txt").write_text("")
+    off = {m: HEAD_OFF for m in ("cv_headGaze", "cv_headYaw", "cv_facingAudience")}
+    (session.root / "vision.json").write_text(
+        json.dumps({"format": 1, "off": off, "gesture_source": "motion"})
+    )
+    rows = range(10, talk_s)
+    session.stream("cv_gestures.txt").write_text("".join(f"{t} 6.0\n" for t in rows))
+    session.stream("cv_gestures_source.txt").write_text("".join(f"{t} 2\n" for t in rows))
+
+
+def test_head_pose_off_is_not_a_face_the_camera_missed_and_fallback_gestures_are_said(
+    tmp_path: Path,
+) -> None:
+    # walk 2, item 4: 'head pitch: no data (its module ran but wrote no sample)', 'the camera
+    # module saw no face', 'stale episodes 1', and 'gestures 100%' with no word of the fallback
+    speech = {
+        "speech_speed": [(float(t), 160.0) for t in range(10, 48)],
+        "speech_volume": [(float(t), 66.0) for t in range(1, 48)],
+    }
+    session = rehearsal(tmp_path / "s", speech, talk_s=48.0)
+    vision_without_head_pose(session, 48)
+    report = build_report(session.root)
+    gaze = report["metrics"]["cv_headGaze"]
+    assert gaze["data"] == "not measured" and gaze["stale_episodes"] == 0
+    assert "vision_env install" in gaze["not_measured_why"]
+    assert report["counts"]["stale_episodes"] == 0
+    assert "less_reliable" in report["metrics"]["cv_gestures"]
+    write_report(session.root)
+    page = (session.report / "report.html").read_text()
+    text = (session.report / "summary.txt").read_text()
+    assert "saw no face" not in page and "wrote no sample" not in page
+    assert "head pitch: not measured: head pose was off" in text
+    assert "gestures: counted from the frame difference" in text
+    # praise covers what was judged and names what was not
+    said = summary_phrase(report)
+    assert "Your pace and volume stayed in the ideal range; I could not judge your" in said
+    assert "gestures" in said.split("could not judge")[1]
+
+
+def test_a_video_without_audio_gets_no_praise_for_fallback_gestures(tmp_path: Path) -> None:
+    # walk 2, item 5: 'Everything I could measure stayed in the ideal range. Well done!' when
+    # only the fallback's gesture rate was measured and the speech module failed
+    failure = "error: noaudio.mp4: the file has no audio track"
+    session = rehearsal(tmp_path / "s", {}, talk_s=48.0, failures={"speech": failure})
+    vision_without_head_pose(session, 48)
+    report = build_report(session.root)
+    for m in ("speech_speed", "speech_volume"):
+        assert report["metrics"][m]["not_measured_why"] == (
+            "the speech module could not run: noaudio.mp4: the file has no audio track"
+        )
+    said = summary_phrase(report)
+    assert "Well done" not in said and "ideal range" not in said
+    assert "the recording has no audio track" in said
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert (
+        "pace: not measured: the speech module could not run: noaudio.mp4: the file has no" in text
+    )
+    assert "Every measured metric" not in text and "Every judged metric" not in text
+
+
+def test_a_two_second_recording_is_too_short_to_judge(tmp_path: Path) -> None:
+    # walk 2, item 6: pace and clarity 'no data', one volume sample, 'stale episodes 2', and
+    # 'Everything I could measure stayed in the ideal range. Well done!'
+    session = rehearsal(
+        tmp_path / "s", {"speech_speed": [], "speech_volume": [(2.0, 68.8)]}, talk_s=2.0
+    )
+    report = build_report(session.root)
+    pace = report["metrics"]["speech_speed"]
+    assert pace["not_measured_why"] == (
+        "the talk was too short to measure it (first values after 10 s)"
+    )
+    assert report["counts"]["stale_episodes"] == 0
+    assert report["metrics"]["speech_volume"]["too_brief"] is True
+    said = summary_phrase(report)
+    assert "Well done" not in said
+    assert said.endswith("The talk was too short for me to judge your delivery.")
+
+
+def test_no_advice_on_a_metric_measured_for_three_seconds(tmp_path: Path) -> None:
+    # walk 2, item 9: Ctrl-C 15 s in, 2.9 s of pace samples, and 'your pace was a little
+    # under the ideal range 100% of the time: pick up the pace.'
+    streams = {
+        "speech_speed": [(12.1, 110.0), (13.1, 112.0), (14.1, 111.0)],
+        "speech_volume": [(float(t), 66.0) for t in range(1, 15)],
+    }
+    session = rehearsal(tmp_path / "s", streams, talk_s=15.0, recording=None)
+    report = build_report(session.root)
+    assert report["priorities"] == [] and report["slightly_off"] == []
+    said = summary_phrase(report)
+    assert "pick up the pace" not in said and "Well done" not in said
+    assert "Your volume stayed in the ideal range; I could not judge your pace." in said
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert "pace: measured for only 3 s, under the 10 s needed to judge it" in text
+
+
+def test_a_recording_with_nothing_measured_points_to_the_recording_not_empty_logs(
+    tmp_path: Path,
+) -> None:
+    # walk 2, item 7: 'check the microphone and the camera' for an audio file, and 'see the
+    # modules' logs' when speech.log was empty
+    session = rehearsal(
+        tmp_path / "s", {m: [] for m in ("speech_speed", "speech_volume")}, talk_s=30.0
+    )
+    (session.root / "speech.log").write_text("")
+    report = build_report(session.root)
+    said = summary_phrase(report)
+    assert "microphone" not in said and "camera" not in said
+    assert said.endswith("check the recording.")
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert "Nothing was measured" in text and "logs" not in text
+    (session.root / "speech.log").write_text("speech: WARNING: no voice heard\n")
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert "(see speech.log in the session folder)" in text
+    # a live talk with the microphone alone: check the microphone, not the camera
+    live = rehearsal(
+        tmp_path / "live", {"speech_speed": [], "speech_volume": []}, talk_s=30.0, recording=None
+    )
+    said = summary_phrase(build_report(live.root))
+    assert said.endswith("check the microphone.")
