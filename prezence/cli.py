@@ -88,8 +88,10 @@ def format_timeline(summary: dict[str, Any]) -> str:
         nothing = "no data"
         if m.get("measured") is False:  # no module writes it (the persona does not play it)
             tt, nothing = None, "-"
+        # * : counted, but by a fallback (less reliable) or for too little time to judge
+        mark = "*" if (m.get("less_reliable") or m.get("too_brief")) and tir is not None else ""
         lines.append(
-            f"{name:<18} {(f'{100 * tir:.0f}%' if tir is not None else '-'):>9} "
+            f"{name:<18} {(f'{100 * tir:.0f}%{mark}' if tir is not None else '-'):>9} "
             f"{(f'{100 * tt:.0f}%' if tt is not None else '-'):>7} "
             f"{(f'{mean:.2f}' if mean is not None else nothing):>9} "
             + (
@@ -98,6 +100,9 @@ def format_timeline(summary: dict[str, Any]) -> str:
                 else f"{'-':>12}"
             )
         )
+    from prezence.report.speech import metric_notes
+
+    lines += [f"  {n}" for n in metric_notes(summary)]  # the dashes and stars, in words
     tm = summary["time"]
     if tm.get("allocated_s"):
         lines.append(

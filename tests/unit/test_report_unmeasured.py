@@ -172,3 +172,42 @@ def test_a_recording_with_nothing_measured_points_to_the_recording_not_empty_log
     )
     said = summary_phrase(build_report(live.root))
     assert said.endswith("check the microphone.")
+
+
+def test_the_printed_table_marks_a_fallback_and_says_what_was_not_measured() -> None:
+    # walk 2: the table printed after 'rehearse noaudio.mp4' read 'cv_gestures 100%' and a
+    # dash for each speech metric, with no word of the fallback or of the missing audio
+    from prezence.cli import format_timeline
+
+    fallback = "counted from the frame difference, the fallback when the pose model cannot run"
+    summary = {
+        "recording": "noaudio.mp4",
+        "cues": [],
+        "metrics": {
+            "cv_gestures": {
+                "samples": 38,
+                "time_in_range": 1.0,
+                "mean": 6.0,
+                "longest_out_of_range_s": 0.0,
+                "less_reliable": fallback,
+            },
+            "speech_speed": {
+                "samples": 0,
+                "not_measured_why": "the speech module could not run: no audio track",
+            },
+        },
+        "time": {"used_s": 48.0, "allocated_s": 600.0, "over_under_pct": -92.0},
+        "counts": {
+            "cues": 0,
+            "cues_dropped": 0,
+            "false_alarms": 0,
+            "malformed_samples": 0,
+            "stale_episodes": 0,
+            "joint_limit_violations": 0,
+        },
+    }
+    text = format_timeline(summary)
+    row = next(line for line in text.splitlines() if line.startswith("cv_gestures"))
+    assert "100%*" in row
+    assert f"cv_gestures: {fallback}; less reliable, so no advice on it" in text
+    assert "speech_speed: not measured: the speech module could not run: no audio track" in text
