@@ -272,7 +272,8 @@ def _table(
     cols: list[dict[str, Any]] = []
     per: list[dict[str, float | None]] = []
     bands: list[dict[str, str] | None] = []
-    for when, s, _meta in sessions:
+    recordings: set[str] = set()
+    for when, s, meta in sessions:
         try:
             summ = read_json_object(s.summary)
         except ConfigError as e:
@@ -287,6 +288,10 @@ def _table(
         bands.append(_bands(s))
         # to the second, with the folder: talks a minute apart are told apart
         label = time.strftime("%d %b %Y %H:%M:%S", time.localtime(when))
+        rec = meta.get("recording")
+        if isinstance(rec, str) and rec:  # a rehearsal: which recording it coached
+            label += f", {Path(rec).name}"
+            recordings.add(rec)
         cols.append({"path": str(s.root), "name": s.root.name, "label": label})
     names: list[str] = []
     for m in per:
@@ -323,6 +328,14 @@ def _table(
                 "trend": _trend(kept),
                 "other_band": other,
             }
+        )
+    named = any(isinstance(m.get("speaker"), str) and m.get("speaker") for _, _, m in sessions)
+    if len(recordings) > 1 and not named:
+        # grouped by folder only: nothing says these are one speaker's rehearsals of one talk
+        notes.append(
+            f"these {len(cols)} rehearsals name no speaker and coach {len(recordings)} "
+            "different recordings: the trend is across them, not one speaker's progress "
+            "(give --speaker NAME to prezence rehearse and up to compare a speaker's own)"
         )
     return {"speaker": speaker, "sessions": cols, "rows": rows, "notes": notes}
 

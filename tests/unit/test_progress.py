@@ -176,3 +176,22 @@ def test_up_and_rehearse_pass_the_speaker_to_the_talk() -> None:
     for argv in (["up", "--audio", "x.wav"], ["rehearse", "x.mp4"]):
         args = build_parser().parse_args([*argv, "--speaker", "ana"])
         assert _options(args).speaker == "ana"
+
+
+def test_rehearsals_of_different_recordings_without_a_speaker_say_so(tmp_path: Path) -> None:
+    # walkthrough 2: a rehearsal's report trended three unrelated recordings as 'steady'
+    # under 'the talks in sessions with no speaker recorded'; each column now names its
+    # recording, and a note says the trend is across recordings, not one speaker's progress
+    from prezence.progress import format_progress, progress
+
+    for i, rec in enumerate(["short2s.wav", "noaudio.mp4", "talk.wav"]):
+        last = _talk(tmp_path, f"r{i}", 1e9 + i, 0.8, kind="rehearsal", recording=f"/x/{rec}")
+    text = format_progress(progress(last))
+    assert "1: r0, " in text and text.splitlines()[-4].endswith(", short2s.wav")
+    assert "coach 3 different recordings" in text and "--speaker NAME" in text
+    # one speaker's rehearsals of new takes are theirs to compare: no such note
+    for i in range(2):
+        last = _talk(
+            tmp_path / "ana", f"a{i}", 1e9 + i, 0.8, recording=f"/x/t{i}.wav", speaker="ana"
+        )
+    assert "different recordings" not in format_progress(progress(last))
