@@ -90,38 +90,59 @@ def _split_key(s: str) -> tuple[str, ...]:
     return tuple(p.strip().strip("\"'") for p in s.split("."))
 
 
+class KeyLines:
+    r"""Where each key path of a TOML text is defined (tomllib keeps no positions), from one
+    scan of the text: looking up many keys (every keyframe of a gesture library) costs one
+    pass, not one pass per key.
+
+    Example:
+        >>> kl = KeyLines("format = 1\n[gestures.wave]\nhold = 2\n")
+        >>> kl.line(("gestures", "wave", "hold")), kl.line(("gestures", "wave", "x"))
+        (3, 2)
+        >>> kl.line(("nothing",)) is None
+        True
+    """
+
+    def __init__(self, text: str) -> None:
+        #: each prefix of each defined key path → the first line whose path starts with it
+        self._first: dict[KeyPath, int] = {}
+        counts: dict[tuple[str, ...], int] = {}
+        ctx: KeyPath = ()
+        for lineno, line in enumerate(text.split("\n"), start=1):
+            m = _HEADER.match(line)
+            if m:
+                name = _split_key(m.group(2))
+                if m.group(1) == "[[":
+                    counts[name] = counts.get(name, -1) + 1
+                    ctx = (*name, counts[name])
+                else:
+                    ctx = name
+                full = ctx
+            else:
+                k = _KEYLINE.match(line)
+                if not k:
+                    continue
+                full = (*ctx, *_split_key(k.group(1)))
+            for n in range(len(full) + 1):
+                self._first.setdefault(full[:n], lineno)
+
+    def line(self, kp: KeyPath) -> int | None:
+        """The line that defines ``kp``, else the line of its nearest enclosing table or key
+        (the first line sharing the longest prefix with it), else None."""
+        for n in range(len(kp), 0, -1):
+            found = self._first.get(tuple(kp[:n]))
+            if found is not None:
+                return found
+        return None if kp else self._first.get(())
+
+
 def locate(text: str, kp: KeyPath) -> int | None:
     """Best-effort line of a key path in TOML text (tomllib keeps no positions).
 
     Returns the line that defines the key, else the line of its nearest enclosing table or key,
-    else None.
+    else None. For many keys of one text, build :class:`KeyLines` once.
     """
-    counts: dict[tuple[str, ...], int] = {}
-    ctx: KeyPath = ()
-    best, best_n = None, 0
-    for lineno, line in enumerate(text.split("\n"), start=1):
-        m = _HEADER.match(line)
-        if m:
-            name = _split_key(m.group(2))
-            if m.group(1) == "[[":
-                counts[name] = counts.get(name, -1) + 1
-                ctx = (*name, counts[name])
-            else:
-                ctx = name
-            full = ctx
-        else:
-            k = _KEYLINE.match(line)
-            if not k:
-                continue
-            full = (*ctx, *_split_key(k.group(1)))
-        n = 0
-        while n < min(len(full), len(kp)) and full[n] == kp[n]:
-            n += 1
-        if n == len(kp):
-            return lineno
-        if n > best_n:
-            best, best_n = lineno, n
-    return best
+    return KeyLines(text).line(kp)
 
 
 _PART = re.compile(r"([^.\[\]]+)|\[(\d+)\]")

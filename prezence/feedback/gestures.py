@@ -50,7 +50,7 @@ from prezence.feedback.trajectory import (
     profile_time,
     segment_duration,
 )
-from prezence.tomlio import loads_toml, locate, parse_keypath, read_text
+from prezence.tomlio import KeyLines, loads_toml, parse_keypath, read_text
 
 log = logging.getLogger(__name__)
 
@@ -225,9 +225,14 @@ class _Doc:
     def __init__(self, path: str, text: str) -> None:
         self.path = path
         self.text = text
+        self._lines: KeyLines | None = None
 
     def line(self, key: str) -> int | None:
-        return locate(self.text, parse_keypath(key)) if self.text and key else None
+        if not (self.text and key):
+            return None
+        if self._lines is None:  # one scan of the text for all the keys asked about
+            self._lines = KeyLines(self.text)
+        return self._lines.line(parse_keypath(key))
 
     def error(self, message: str, key: str = "") -> ConfigError:
         return ConfigError(message, path=self.path, line=self.line(key), key=key or None)
