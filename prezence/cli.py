@@ -135,13 +135,11 @@ def post_talk_line(post: dict[str, Any]) -> str:
     return f'robot: "{post["phrase"]}"'
 
 
-def robot_shortfall(
-    summary: dict[str, Any], cues: Sequence[dict[str, Any]] | None = None
-) -> str | None:
+def robot_shortfall(summary: dict[str, Any]) -> str | None:
     """What the robot did not give of what the coach chose (None: it gave everything).
 
     Counts the cues cut short and dropped and a post-talk summary not said, with the first
-    reason (``cues``: the cue records, for a dropped cue's reason).
+    reason (the summary's cue rows keep why each was cut short or dropped).
 
     Example:
         >>> robot_shortfall({"counts": {"cues_dropped": 0}}) is None
@@ -164,8 +162,9 @@ def robot_shortfall(
         parts.append("the post-talk summary not said")
     if not parts:
         return None
-    reasons = [c.get("cut_short") for c in summary.get("cues") or ()]
-    reasons += [c.get("drop_reason") for c in cues or () if c.get("dropped")]
+    rows = summary.get("cues") or ()
+    reasons = [c.get("cut_short") for c in rows]
+    reasons += [c.get("drop_reason") for c in rows if c.get("dropped")]
     reasons.append(post.get("drop_reason"))
     why = next((str(r) for r in reasons if r), "")
     return ", ".join(parts) + (f" ({why})" if why else "")
@@ -308,7 +307,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         progress=None if args.quiet else _progress_printer(),
     )
     problems = check_expectations(result.scenario, result.cues)
-    shortfall = robot_shortfall(result.summary, result.cues)
+    shortfall = robot_shortfall(result.summary)
     if args.json:
         print(json.dumps(result.summary, indent=2, sort_keys=True))
     else:
@@ -508,9 +507,7 @@ def _finish_session(
     Returns:
         0, or :data:`EXIT_ROBOT` when the robot did not give every cue or its summary.
     """
-    from prezence.session import read_jsonl
-
-    shortfall = robot_shortfall(summary, read_jsonl(root / "cues.jsonl"))
+    shortfall = robot_shortfall(summary)
     if getattr(args, "json", False):
         print(json.dumps(summary, indent=2, sort_keys=True))
         return EXIT_ROBOT if shortfall else 0

@@ -563,6 +563,8 @@ def build_summary(
         ):
             if k in c:
                 row[k] = c[k]
+        if c.get("dropped") and "drop_reason" in c:  # why the robot did not give it
+            row["drop_reason"] = c["drop_reason"]
         t = float(c["t"])
         metric = c.get("metric")
         onset = c.get("onset")

@@ -101,15 +101,18 @@ def test_cueing_an_in_range_metric_costs_cue_and_penalty() -> None:
     assert cued == pytest.approx(quiet - 0.03)
 
 
+class Silent:
+    """An agent that never cues."""
+
+    def reset(self, env: CoachEnv, seed: int) -> None:
+        pass
+
+    def act(self, obs: object, info: object) -> int:
+        return 0
+
+
 def test_rule_baseline_and_tuned_policy_beat_silence_on_the_demo_talk() -> None:
     env = CoachEnv("demo")
-
-    class Silent:
-        def reset(self, env: CoachEnv, seed: int) -> None:
-            pass
-
-        def act(self, obs: object, info: object) -> int:
-            return 0
 
     seeds = [0, 1]
     silent = mean_return(env, Silent(), seeds)
@@ -300,13 +303,6 @@ def test_the_first_observation_is_what_the_docstring_says() -> None:
 
 def test_run_episode_splits_the_return_into_time_in_range_and_cue_costs() -> None:
     env = CoachEnv("demo")
-
-    class Silent:
-        def reset(self, env: CoachEnv, seed: int) -> None:
-            pass
-
-        def act(self, obs: object, info: object) -> int:
-            return 0
 
     quiet = run_episode(env, Silent(), 0)
     assert quiet["return"] == pytest.approx(quiet["time_in_range"], abs=1e-12)

@@ -153,7 +153,7 @@ def test_a_cue_cut_off_by_a_lost_robot_and_an_unsaid_summary_are_shown_as_such(
     post = result.summary["post_talk"]
     assert post_talk_line(post).startswith("robot did NOT say its summary (")
     # what makes `prezence run` exit 4 (EXIT_ROBOT), not 0 with "expectations met"
-    shortfall = robot_shortfall(result.summary, result.cues)
+    shortfall = robot_shortfall(result.summary)
     assert shortfall is not None and shortfall.startswith("1 cue cut short")
     assert "the post-talk summary not said" in shortfall
     text = (tmp_path / "s" / "report" / "summary.txt").read_text()
