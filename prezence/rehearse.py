@@ -101,7 +101,9 @@ def module_commands(
     realtime: bool = False,
     extra: Mapping[str, Sequence[str]] | None = None,
 ) -> dict[str, list[str]]:
-    """The module command lines for a recording: speech for audio, speech and vision for video.
+    """The module command lines for a recording: every input module that reads audio (speech)
+    for an audio file, and those that read video too (vision) for a video file, from the input
+    module records (:data:`prezence.metrics.INPUT_MODULES`): a module added there runs here.
 
     Args:
         recording: the audio or video file.
@@ -119,7 +121,8 @@ def module_commands(
         raise ConfigError(
             f"not an audio or video file I know (extensions: {known})", path=recording
         )
-    names = ["speech", "vision"] if ext in VIDEO_EXT else ["speech"]
+    reads = {"--audio", "--video"} if ext in VIDEO_EXT else {"--audio"}
+    names = [n for n, m in INPUT_MODULES.items() if m.input_option in reads]
     cmds = {
         n: INPUT_MODULES[n].offline_argv(str(recording), str(session), realtime=realtime)
         for n in names

@@ -17,7 +17,7 @@ from prezence.config.lines import SLOTS, parse_lines
 from prezence.config.model import Config, RoomProfile, Rule
 from prezence.config.tomlconf import loads_config, loads_room
 from prezence.errors import ConfigError
-from prezence.samples import KNOWN_METRICS
+from prezence.metrics import METRICS
 from prezence.tomlio import read_text
 
 log = logging.getLogger(__name__)
@@ -74,6 +74,8 @@ def complete_rules(rules: Sequence[Rule]) -> tuple[tuple[Rule, ...], list[str]]:
     has). A rule on such a metric that gives no deviation scale takes the built-in rule's scale
     too (``speech_volume min 60`` judges 54 dB as 100 % below, as the built-in 6 dB scale says,
     not as 10 % of 60), since the scale belongs to the metric's unit, not to the bound.
+    A rule that names no unit takes the built-in rule's, else its metric record's
+    (:data:`prezence.metrics.METRICS`).
     A rule on a metric no shipped module writes is kept (your own module may write it) but
     noted with a "did you mean", as is a rule that has no command at all (it can never cue).
 
@@ -96,8 +98,12 @@ def complete_rules(rules: Sequence[Rule]) -> tuple[tuple[Rule, ...], list[str]]:
         d_scale = defaults[r.metric].scale if r.metric in defaults else None
         if r.scale is None and d_scale is not None:
             r = dataclasses.replace(r, scale=d_scale)
-        if r.metric not in KNOWN_METRICS:
-            close = difflib.get_close_matches(r.metric, KNOWN_METRICS, n=1, cutoff=0.6)
+        record = METRICS.get(r.metric)  # read now: a record added at run time counts too
+        if not r.unit:  # the seed's lines give no unit: the built-in rule's, or the record's
+            unit = defaults[r.metric].unit if r.metric in defaults else ""
+            r = dataclasses.replace(r, unit=unit or (record.unit if record else ""))
+        if record is None:
+            close = difflib.get_close_matches(r.metric, list(METRICS), n=1, cutoff=0.6)
             hint = f"; did you mean '{close[0]}'?" if close else ""
             notes.append(
                 f"{where}no shipped module writes '{r.metric}' (fine if your own module does){hint}"

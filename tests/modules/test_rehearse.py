@@ -71,6 +71,64 @@ def test_rehearse_checks_module_settings_before_running(tmp_path: Path) -> None:
         )
 
 
+_FILLERS_MODULE = """
+import argparse
+
+from prezence.modules.audio_io import read_file
+from prezence.modules.common import StreamSet, add_common_arguments
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--audio", required=True)
+add_common_arguments(ap)
+args = ap.parse_args()
+seconds = len(read_file(args.audio)) // 16000
+with StreamSet(args.out, ["speech_fillers"], fresh=True) as streams:
+    for t in range(1, seconds + 1):
+        streams.write("speech_fillers", float(t), 9.0)
+"""
+
+
+def test_a_metric_added_as_its_module_and_its_record_is_measured_coached_and_reported(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 12: adding a metric is its module plus its record; nothing else is edited."""
+    from prezence import metrics
+
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "fillers_stub.py").write_text(_FILLERS_MODULE)
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(pkg), *sys.path]))
+    monkeypatch.setitem(
+        metrics.INPUT_MODULES,
+        "fillers",
+        metrics.InputModule("fillers", "fillers_stub", "--audio", (), metrics.DEFAULT_HANG_S),
+    )
+    monkeypatch.setitem(
+        metrics.METRICS,
+        "speech_fillers",
+        metrics.Metric(
+            "speech_fillers",
+            "fillers/min",
+            "filler words",
+            "fillers",
+            1.0,
+            advice={"above": "pause instead of saying 'um'"},
+            physical_range=(0.0, 60.0),
+        ),
+    )
+    rules = tmp_path / "rules.txt"  # the user's rules judge it: configuration, not code
+    rules.write_text("speech_fillers max 6 above=slowDown\n")
+    out = tmp_path / "s"
+    argv = ["rehearse", str(FAST), "--out", str(out), "--config", str(rules), "--allocated", "20"]
+    assert main(argv) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    m = summary["metrics"]["speech_fillers"]
+    assert m["samples"] >= 15 and m["unit"] == "fillers/min" and m["time_in_range"] == 0.0
+    text = (out / "report" / "summary.txt").read_text()
+    assert "filler words" in text  # the record's label
+    assert "pause instead of saying 'um'" in (out / "report" / "spoken.txt").read_text()
+
+
 def test_rehearse_refuses_what_is_not_a_recording(tmp_path: Path) -> None:
     notes = tmp_path / "notes.txt"
     notes.write_text("hello")
