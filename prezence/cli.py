@@ -431,22 +431,26 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
 
 def cmd_up(args: argparse.Namespace) -> int:
     from prezence.backends.registry import make_backend
-    from prezence.launcher import ModuleSpec, speech_module, up, vision_module
+    from prezence.launcher import ModuleSpec, modules_on, up
     from prezence.rehearse import module_args
 
     config = _config_or_default(args)
     if args.allocated is not None:
         config = config.with_allocated(args.allocated)
     specs: list[ModuleSpec] = []
-    if args.audio:
-        specs.append(
-            speech_module(args.audio, module_args("--speech-args", "speech", args.speech_args))
+    if args.audio:  # the speech module, and any module whose record reads audio
+        specs += modules_on(
+            "--audio",
+            args.audio,
+            {"speech": module_args("--speech-args", "speech", args.speech_args)},
         )
     elif args.speech_args:
         raise PrezenceError("--speech-args without --audio: the speech module is not started")
     if args.video:
-        specs.append(
-            vision_module(args.video, module_args("--vision-args", "vision", args.vision_args))
+        specs += modules_on(
+            "--video",
+            args.video,
+            {"vision": module_args("--vision-args", "vision", args.vision_args)},
         )
     elif args.vision_args:
         raise PrezenceError("--vision-args without --video: the vision module is not started")

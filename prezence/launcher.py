@@ -38,7 +38,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -189,6 +189,30 @@ def speech_module(audio: str, extra: Sequence[str] = ()) -> ModuleSpec:
 def vision_module(video: str, extra: Sequence[str] = ()) -> ModuleSpec:
     """The vision module on ``video`` (``cam``, ``cam:N`` or a file played as if live)."""
     return _module("vision", video, extra, VISION_METRICS)
+
+
+def modules_on(
+    option: str, source: str, extra: Mapping[str, Sequence[str]] | None = None
+) -> list[ModuleSpec]:
+    """Every input module whose record reads ``option`` (``--audio``, ``--video``), on
+    ``source``: the speech module for ``--audio``, and any module added to
+    :data:`prezence.metrics.INPUT_MODULES` that reads the same input.
+
+    Args:
+        extra: per module name, words appended to its command line.
+    """
+    extra = extra or {}
+    out = []
+    for name, rec in INPUT_MODULES.items():
+        if rec.input_option != option:
+            continue
+        words = extra.get(name, ())
+        out.append(
+            speech_module(source, words)
+            if name == "speech"
+            else _module(name, source, words, rec.metrics)
+        )
+    return out
 
 
 @dataclass

@@ -129,6 +129,40 @@ def test_a_metric_added_as_its_module_and_its_record_is_measured_coached_and_rep
     assert "pause instead of saying 'um'" in (out / "report" / "spoken.txt").read_text()
 
 
+def test_up_starts_a_module_added_to_the_records_on_its_input(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``up --audio`` starts every module whose record reads audio, not the speech module only."""
+    from prezence import launcher, metrics
+
+    monkeypatch.setitem(
+        metrics.INPUT_MODULES,
+        "fillers",
+        metrics.InputModule("fillers", "fillers_stub", "--audio", (), metrics.DEFAULT_HANG_S),
+    )
+    monkeypatch.setitem(
+        metrics.METRICS,
+        "speech_fillers",
+        metrics.Metric("speech_fillers", "fillers/min", "filler words", "fillers", 1.0),
+    )
+    started: dict[str, launcher.ModuleSpec] = {}
+
+    class Started(Exception):
+        pass
+
+    def fake_up(config: object, *, modules: list[launcher.ModuleSpec], **kw: object) -> None:
+        started.update({m.name: m for m in modules})
+        raise Started
+
+    monkeypatch.setattr(launcher, "up", fake_up)
+    with pytest.raises(Started):
+        main(["up", "--audio", str(FAST), "--out", str(tmp_path / "live"), "-q"])
+    assert list(started) == ["speech", "fillers"]
+    fillers = started["fillers"]
+    assert fillers.metrics == ("speech_fillers",) and fillers.finite
+    assert fillers.argv[1:5] == ["-m", "fillers_stub", "--audio", str(FAST)]
+
+
 def test_rehearse_refuses_what_is_not_a_recording(tmp_path: Path) -> None:
     notes = tmp_path / "notes.txt"
     notes.write_text("hello")
