@@ -246,6 +246,30 @@ def test_cli_without_mediapipe_still_writes_the_gesture_rate(tmp_path: Path) -> 
     source = read_stream(tmp_path / "streams" / "cv_gestures_source.txt")
     assert source == [(10.0, 2.0), (11.0, 2.0), (12.0, 2.0)]  # 2: frame difference
     assert read_stream(tmp_path / "streams" / "cv_headGaze.txt") == []
+    # the session folder says why head pose is missing and where the gesture rate came from,
+    # so the report does not take the empty head streams for a camera that saw no face
+    status = json.loads((tmp_path / "vision.json").read_text())
+    assert status["gesture_source"] == "motion"
+    assert set(status["off"]) == {"cv_headGaze", "cv_headYaw", "cv_facingAudience"}
+    assert all("vision_env install" in why for why in status["off"].values())
+
+
+def test_cli_no_head_records_that_head_pose_was_turned_off(tmp_path: Path) -> None:
+    proc = run_module(
+        sys.executable,
+        *("--video", str(MATERIAL / GEST["file"]), "--out", str(tmp_path)),
+        *("--no-reexec", "--duration", "11", "--no-head", "--gesture-source", "motion"),
+    )
+    assert proc.returncode == 0, proc.stderr
+    status = json.loads((tmp_path / "vision.json").read_text())
+    assert status == {
+        "format": 1,
+        "off": dict.fromkeys(
+            ("cv_headGaze", "cv_headYaw", "cv_facingAudience"),
+            "head pose was turned off (--no-head)",
+        ),
+        "gesture_source": "motion",
+    }
 
 
 # --------------------------------------------------------------------------------------------
