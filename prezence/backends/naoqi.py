@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from prezence.backends.base import Backend, Motion, MotionKind
-from prezence.errors import BackendUnavailable, UnknownName
+from prezence.errors import BackendUnavailable, ConfigError, UnknownName
 from prezence.feedback.trajectory import Trajectory
 
 log = logging.getLogger(__name__)
@@ -95,7 +95,59 @@ def _import_qi() -> Any:
         import qi
     except ImportError as e:
         raise BackendUnavailable('naoqi needs qi: pip install "prezence[naoqi]"') from e
+    # libqi logs to stdout, where a talk prints its timeline or its --json summary: its
+    # warnings ("[W] … qi.path.sdklayout: No Application was created …" at every connect) only
+    # with -vv, its errors always
+    qi.logging.setLevel(qi.logging.WARNING if log.isEnabledFor(logging.DEBUG) else qi.logging.ERROR)
     return qi
+
+
+def robot_url(url: str) -> str:
+    """The NAOqi address ``url`` as ``tcp://HOST:PORT``; ``HOST``, ``HOST:PORT`` and
+    ``tcp://HOST`` are completed with NAOqi's port 9559.
+
+    libqi itself reads a port it cannot parse (``tcp://nao:99999``, ``tcp://nao:9559/x``) as no
+    port and connects to 9559, i.e. to whatever else listens there, so such an address is
+    refused here, as are other schemes and ``tcps://`` (NAOqi 2.9+, not supported yet).
+
+    Raises:
+        ConfigError: not such an address, naming what is wrong.
+
+    Example:
+        >>> robot_url("192.168.1.12"), robot_url("tcp://nao.local:9600")
+        ('tcp://192.168.1.12:9559', 'tcp://nao.local:9600')
+    """
+    text = url.strip() if isinstance(url, str) else ""
+    want = "want a NAOqi address like tcp://HOST:9559"
+    if not text:
+        raise ConfigError(f"robot URL {url!r}: {want}")
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    if scheme.lower() == "tcps":
+        raise ConfigError(
+            f"robot URL {text}: tcps:// (NAOqi 2.9+, with an authenticator) is not supported by "
+            "this backend yet; NAO6 on NAOqi 2.8 and older NAOs use tcp://HOST:9559"
+        )
+    if scheme.lower() != "tcp":
+        raise ConfigError(f"robot URL {text}: the scheme must be tcp://, not {scheme}://; {want}")
+    if rest.startswith("["):  # [IPv6]:PORT
+        close = rest.find("]")
+        host, port = rest[: close + 1], rest[close + 1 :]
+        if close < 0 or (port and not port.startswith(":")):
+            raise ConfigError(f"robot URL {text}: {want}")
+        port = port[1:] if port else ""
+    else:
+        host, colon, port = rest.partition(":")
+    if not host or any(c in host for c in "/?#@ \t"):
+        raise ConfigError(f"robot URL {text}: no host name or address before the port; {want}")
+    given = port or (":" in rest.rpartition("]")[2])
+    if given and not (port.isascii() and port.isdigit() and 1 <= int(port) <= 65535):
+        misread = "" if port == "0" else " (libqi would ignore it and connect to port 9559)"
+        raise ConfigError(
+            f"robot URL {text}: the port must be a number from 1 to 65535, got {port!r}{misread}"
+        )
+    return f"tcp://{host}:{int(port) if port else 9559}"
 
 
 def _looks_lost(error: str) -> bool:
@@ -143,7 +195,8 @@ class NaoqiBackend(Backend):
     """Drives a NAO over NAOqi (``qi``).
 
     Args:
-        url: the robot, ``tcp://HOST:9559`` (``HOST`` or ``HOST:PORT`` work too).
+        url: the robot, ``tcp://HOST:9559`` (``HOST`` or ``HOST:PORT`` work too; checked and
+            completed by :func:`robot_url`, which raises ConfigError for a bad one).
         connect_timeout_s: how long connecting may take before the robot counts as unreachable.
         call_timeout_s: deadline for short calls (set-up, heartbeat, kills).
         wake_timeout_s: deadline for ``wakeUp`` (the robot may stand up first) and for the move
@@ -177,8 +230,7 @@ class NaoqiBackend(Backend):
         rest_on_close: bool = False,
     ) -> None:
         super().__init__()
-        if not isinstance(url, str) or not url.strip():
-            raise ValueError(f"url must be a NAOqi address like tcp://HOST:9559, got {url!r}")
+        url = robot_url(url)
         for key, value in (
             ("connect_timeout_s", connect_timeout_s),
             ("call_timeout_s", call_timeout_s),
@@ -196,7 +248,7 @@ class NaoqiBackend(Backend):
             )
         if not reconnect_max_s >= reconnect_initial_s:
             raise ValueError("reconnect_max_s must be >= reconnect_initial_s")
-        self.url = url.strip()
+        self.url = url
         self.connect_timeout_s = float(connect_timeout_s)
         self.call_timeout_s = float(call_timeout_s)
         self.wake_timeout_s = float(wake_timeout_s)

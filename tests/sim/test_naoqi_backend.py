@@ -20,8 +20,9 @@ qi = pytest.importorskip("qi")
 
 from prezence.backends.naoqi import TOO_FAST_TOLERANCE, NaoqiBackend, neutral_targets  # noqa: E402
 from prezence.backends.registry import make_backend  # noqa: E402
+from prezence.cli import main  # noqa: E402
 from prezence.clock import MonotonicClock  # noqa: E402
-from prezence.errors import BackendUnavailable, UnknownName  # noqa: E402
+from prezence.errors import BackendUnavailable, ConfigError, UnknownName  # noqa: E402
 from prezence.feedback.gestures import build_trajectory  # noqa: E402
 from prezence.feedback.limits import load_limits  # noqa: E402
 from prezence.feedback.trajectory import Trajectory  # noqa: E402
@@ -222,3 +223,54 @@ def test_plain_naoqi_client_runs_unchanged(server: tuple[subprocess.Popen[str], 
     assert values["angleInterpolation HeadYaw"] == pytest.approx(0.0, abs=TOL)
     assert values["angleInterpolation HeadPitch"] == pytest.approx(0.1, abs=TOL)
     assert "said: Hello, I am NAO." in done.stdout
+
+
+@pytest.mark.parametrize(
+    ("url", "said"),
+    [
+        ("tcp://127.0.0.1:99999", "the port must be a number from 1 to 65535, got '99999'"),
+        ("tcp://127.0.0.1:9559/x", "the port must be a number from 1 to 65535, got '9559/x'"),
+        ("http://127.0.0.1:9559", "the scheme must be tcp://, not http://"),
+        ("tcps://127.0.0.1:9503", "tcps:// (NAOqi 2.9+, with an authenticator) is not supported"),
+        ("tcp://:9559", "no host name or address"),
+    ],
+)
+def test_a_robot_url_libqi_would_misread_is_refused_before_connecting(url: str, said: str) -> None:
+    # libqi reads a port it cannot parse as none and connects to 9559: another robot, or
+    # Choregraphe's virtual one, would have been coached
+    with pytest.raises(ConfigError) as e:
+        NaoqiBackend(url=url)
+    assert said in str(e.value) and url in str(e.value)
+
+
+def test_a_host_or_host_port_url_is_completed_with_naoqis_port() -> None:
+    assert NaoqiBackend(url="192.168.1.12").url == "tcp://192.168.1.12:9559"
+    assert NaoqiBackend(url=" 192.168.1.12:9600 ").url == "tcp://192.168.1.12:9600"
+    assert NaoqiBackend(url="tcp://[::1]").url == "tcp://[::1]:9559"
+
+
+def test_a_talk_with_a_misread_robot_url_exits_2_and_leaves_no_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "s"
+    argv = ["run", "short_talk", "--backend", "naoqi", "--robot", "tcp://127.0.0.1:99999"]
+    assert main([*argv, "--out", str(out)]) == 2
+    assert "error: robot URL tcp://127.0.0.1:99999: the port must be" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_connecting_prints_nothing_on_stdout(server: tuple[subprocess.Popen[str], str]) -> None:
+    # libqi logs to stdout; a talk's --json summary or timeline must be all that is there
+    script = (
+        "import sys; from prezence.backends.naoqi import NaoqiBackend\n"
+        "with NaoqiBackend(url=sys.argv[1]) as b: pass\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script, server[1]],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == ""
