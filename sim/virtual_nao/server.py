@@ -101,7 +101,10 @@ def serve(
     robot.start()
     session = qi.Session()
     try:
-        session.listenStandalone(f"tcp://{host}:{port}")
+        try:
+            session.listenStandalone(f"tcp://{host}:{port}")
+        except RuntimeError as e:
+            raise RuntimeError(_listen_error(host, port, str(e))) from e
         motion = ALMotion(robot)
         session.registerService("ALMotion", motion)
         session.registerService("ALTextToSpeech", ALTextToSpeech(robot))
@@ -115,6 +118,21 @@ def serve(
     url = next((e for e in session.endpoints() if e.startswith("tcp://")), session.endpoints()[0])
     log.info("virtual NAO listening on %s (model %s)", url, model)
     return VirtualNaoServer(session, robot, url)
+
+
+def _listen_error(host: str, port: int, error: str) -> str:
+    """libqi's two-line "error when listening" (with a boost source path) as one plain line."""
+    where = f"cannot listen on tcp://{host}:{port}"
+    if "already in use" in error:
+        return (
+            f"{where}: the port is in use (Address already in use: another virtual NAO, NAOqi "
+            "or Choregraphe?); choose another port, or 0 for a free one"
+        )
+    if "assign requested address" in error:
+        return f"{where}: {host} is not an address of this machine"
+    lines = [x.strip() for x in error.splitlines() if x.strip()]
+    detail = lines[-1] if lines else "unknown error"  # the cause, after libqi's heading
+    return f"{where}: {detail.split(' [')[0]}"
 
 
 def spawn(*args: str, timeout_s: float = 60.0) -> tuple[subprocess.Popen[str], str]:
@@ -214,7 +232,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             model=args.model,
             rate_hz=args.rate,
         )
-    except (RuntimeError, OSError) as e:  # port taken; speech log not writable
+    except (RuntimeError, OSError, ValueError) as e:  # port taken or out of range; log unwritable
         print(f"error: {e}", file=sys.stderr)
         return 2
     try:

@@ -234,6 +234,32 @@ def test_a_taken_port_is_an_error(robot: dict[str, Any]) -> None:
     assert "Address already in use" in done.stderr
 
 
+@pytest.mark.parametrize(
+    ("port", "said"),
+    [
+        ("taken", "the port is in use (Address already in use: another virtual NAO, NAOqi or "),
+        ("70000", "port must be in 0..65535, got 70000"),
+    ],
+)
+def test_sim_serve_on_a_taken_or_impossible_port_says_so_in_one_line(
+    robot: dict[str, Any], port: str, said: str
+) -> None:
+    if port == "taken":
+        port = robot["url"].rsplit(":", 1)[1]
+    done = subprocess.run(
+        [sys.executable, "-m", "prezence", "sim", "serve", "--model", "kinematic", "--port", port],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2, done.stderr
+    lines = [x for x in done.stderr.splitlines() if x.strip() and "pybullet build" not in x]
+    assert len(lines) == 1, done.stderr  # no traceback, no boost source path
+    assert lines[0].startswith("error: ") and said in lines[0]
+    assert ".hpp" not in lines[0]
+
+
 def test_angle_interpolation_clips_keyframes_like_set_angles(robot: dict[str, Any]) -> None:
     motion = robot["motion"]
     lim = load_limits()
