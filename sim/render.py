@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
+from prezence.errors import ConfigError
 from prezence.feedback.gestures import (
     DEFAULT_SPEED_FRACTION,
     GestureLibrary,
@@ -216,19 +217,41 @@ def render_gesture(
         Figures of the run: planned and measured duration, frames written, the video codec.
 
     Raises:
-        ConfigError: an unsupported video suffix (before anything is rendered).
+        ConfigError: a contact sheet suffix OpenCV cannot write or an unsupported video suffix
+            (before anything is rendered).
         BackendUnavailable: OpenCV missing, or Pillow for a GIF.
     """
     cv2 = _cv2()
+    out_png = Path(out_png)
+    if not cv2.haveImageWriter(str(out_png)):
+        kind = f"'{out_png.suffix}'" if out_png.suffix else "a file without a suffix"
+        raise ConfigError(f"{out_png}: cannot write the contact sheet as {kind}: use .png or .jpg")
     if out_video is not None:
         out_video = check_video_path(out_video)
     limits = load_limits()
     lib = library if library is not None else load_library(limits)
-    lib[name]  # unknown gesture raises before any work
+    gesture = lib[name]  # unknown gesture raises before any work
+    if params is not None:
+        # values are clamped to the parameter's range: show and say what is played
+        played = gesture.resolve_params(params)
+        for key, value in params.items():
+            if key not in played:
+                log.warning("%s has no parameter %s: ignored", name, key)
+            elif played[key] != value:
+                p_ = gesture.params[key]
+                log.warning(
+                    "%s: %s = %s is outside %d..%d: rendered at %d, as a talk would play it",
+                    name,
+                    key,
+                    value,
+                    p_.low,
+                    p_.high,
+                    played[key],
+                )
+        params = played
     traj = build_trajectory(
         name, params=params, speed_fraction=speed_fraction, limits=limits, library=lib
     )
-    out_png = Path(out_png)
     sheet_at = sheet_times(traj, frames)
     video_at = [k / fps for k in range(int(math.ceil((traj.duration + 0.3) * fps)) + 1)]
     wanted = sorted({*sheet_at, *(video_at if out_video is not None else [])})

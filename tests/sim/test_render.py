@@ -121,3 +121,41 @@ def test_render_plays_a_gesture_of_a_library_of_your_own(
     assert out.stat().st_size > 0 and (tmp_path / "w.gif").stat().st_size > 0
     assert main(argv) == 2  # the built-in library has no 'wave'
     assert "unknown gesture 'wave'" in capsys.readouterr().err
+
+
+def test_a_contact_sheet_opencv_cannot_write_fails_before_rendering_with_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from prezence.cli import main
+
+    def no_sim(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("rendering started")
+
+    monkeypatch.setattr(render, "NaoSim", no_sim)
+    for out, said in (("sheet", "as a file without a suffix"), ("sheet.txt", "as '.txt'")):
+        assert main(["gestures", "render", "look_up", "--out", str(tmp_path / out)]) == 2
+        err = capsys.readouterr().err
+        assert f"error: {tmp_path / out}: cannot write the contact sheet {said}" in err
+        assert "use .png or .jpg" in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_parameter_out_of_range_is_rendered_and_titled_as_played(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    titles: list[str] = []
+    sheet = render.contact_sheet
+
+    def spy(images: Any, labels: Any, title: str) -> Any:
+        titles.append(title)
+        return sheet(images, labels, title)
+
+    monkeypatch.setattr(render, "contact_sheet", spy)
+    with caplog.at_level("WARNING", logger="sim.render"):
+        result = render.render_gesture(
+            "time_left", tmp_path / "t.png", None, params={"minutes": 20}, size=(64, 64)
+        )
+    assert "minutes = 20 is outside 1..5: rendered at 5" in caplog.text
+    assert titles == [
+        f"time_left {{'minutes': 5}}: {result['planned_s']:.2f} s planned at 60% speed"
+    ]
