@@ -196,7 +196,8 @@ def check_gestures(
     Args:
         speed_fraction: fraction of the URDF velocity limits, in (0, 1].
         as_json: JSON (one object with the settings and a row per gesture) instead of a table.
-        collisions: check self-collision (needs PyBullet); None: when PyBullet is installed.
+        collisions: check self-collision (needs PyBullet); None: when PyBullet is installed;
+            False: not checked, and said so without blaming a missing PyBullet.
         library: a library file of one's own: its gestures are checked (None: the built-in
             library's).
 
@@ -210,6 +211,7 @@ def check_gestures(
     """
     if not 0.0 < speed_fraction <= 1.0:
         return f"error: --speed must be in (0, 1], got {speed_fraction}", 2
+    skipped = "not checked (--no-collisions)" if collisions is False else ""
     if collisions is None:
         collisions = pybullet_available()
     try:
@@ -233,7 +235,7 @@ def check_gestures(
         "self_collision": (
             f"URDF collision shapes, non-adjacent links, >= {1000 * MIN_CLEARANCE_M:.0f} mm"
             if collisions
-            else 'not checked (needs pybullet: pip install "prezence[sim]")'
+            else skipped or 'not checked (needs pybullet: pip install "prezence[sim]")'
         ),
     }
     if lib is not None:

@@ -570,3 +570,17 @@ def test_gestures_check_of_a_file_that_is_no_library_fails_naming_file_and_line(
     assert main(["gestures", "check", str(path), "--no-collisions"]) == 1
     err = capsys.readouterr().err
     assert err.startswith(f"{path}{where}"), err
+
+
+def test_no_collisions_asked_for_is_not_blamed_on_a_missing_pybullet(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import prezence.feedback.gesture_check as gc
+
+    monkeypatch.setattr(gc, "pybullet_available", lambda: True)  # as after pip install [sim]
+    text, status = check_gestures(0.6, as_json=False, collisions=False)
+    assert status == 0
+    assert "self-collision not checked (--no-collisions)" in text
+    assert "needs pybullet" not in text
+    report = json.loads(check_gestures(0.6, as_json=True, collisions=False)[0])
+    assert report["settings"]["self_collision"] == "not checked (--no-collisions)"
