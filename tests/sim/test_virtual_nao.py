@@ -430,6 +430,9 @@ def test_each_phrase_said_is_logged(tmp_path: Path, caplog: pytest.LogCaptureFix
     said = [r.getMessage() for r in caplog.records if r.name == SPEECH_LOGGER]
     assert len(said) == 2
     assert said[0].endswith("Good pace.") and said[1].endswith("Look up at your audience.")
+    # docs/naoqi.md shows the second line as the server prints it
+    docs = (REPO / "docs" / "naoqi.md").read_text()
+    assert f"INFO {SPEECH_LOGGER}: {said[1]}\n" in docs
     recs = [r for r in records(tmp_path / "said.jsonl") if r["call"] == "say"]
     assert [(r["event"], r["text"]) for r in recs] == [
         ("start", "Good pace."),
