@@ -277,7 +277,8 @@ def check_gestures(
     measured = [r for r in rows if "ratio" in r]
     worst = max(measured, key=lambda r: r["ratio"]) if measured else None
     names = {str(r["gesture"]).partition("[")[0] for r in rows}
-    summary = f"{sum(r['ok'] for r in rows)}/{len(rows)} timings ok ({len(names)} gestures"
+    gestures = "gesture" if len(names) == 1 else "gestures"
+    summary = f"{sum(r['ok'] for r in rows)}/{len(rows)} timings ok ({len(names)} {gestures}"
     if lib is not None:
         summary += f" of {library}"
     summary += ", some at several parameter values)" if len(names) < len(rows) else ")"

@@ -526,7 +526,7 @@ def test_gestures_check_takes_a_library_file_of_your_own(
     assert f"gestures of {path} at 60%" in out
     rows = [ln.split()[0] for ln in out.splitlines()[3:-2]]
     assert rows == ["slow_down"]  # its own gestures only: the built-in ones are checked alone
-    assert "1/1 timings ok (1 gestures of" in out
+    assert "1/1 timings ok (1 gesture of" in out  # not "1 gestures"
     assert "the other 11 gestures a talk with --gestures" in out
     assert main(["gestures", "check", str(path), "--no-collisions", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
