@@ -673,7 +673,9 @@ def _rebuild(
             row["value"] = _value_at(streams[cue_rule.metric], float(row["t"]))
             row["why"] = _why(cue_rule, row)
             row.update(cue_effect(cue_rule, streams[cue_rule.metric], float(row["t"])))
-            if heard_in is None:  # the speaker never heard it: nothing followed from it
+            if rec.get("dropped"):  # the robot never gave it: nothing followed from it
+                row.update(improved=None, back_in_range_s=None)
+            elif heard_in is None:  # the speaker never heard it: nothing followed from it
                 row.update(heard=False, improved=None, back_in_range_s=None)
             else:
                 reaction = _reaction(heard_in, rec)

@@ -336,11 +336,15 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             mark = cue_mark(c)
             eff = c.get("improved")
             eff_html = f'<span class="{"yes" if eff else "no"}">{_e(mark)}</span>' if mark else "–"
-            if c.get("false_alarm") or c.get("stale"):
+            if c.get("false_alarm") or c.get("stale") or c.get("dropped"):
                 shown = mark.replace("FALSE ALARM", "false alarm").replace("STALE", "stale")
+                shown = shown.replace("DROPPED", "dropped")
                 eff_html = f'<span class="fa">{_e(shown)}</span>'
             cut = c.get("cut_short")
             cut_html = f'<br><span class="fa">cut short: {_e(cut)}</span>' if cut else ""
+            if c.get("dropped"):  # the robot never said the phrase
+                why = c.get("drop_reason") or "dropped"
+                cut_html = f'<br><span class="fa">not given: {_e(why)}</span>'
 
             before, after = c.get("deviation_before"), c.get("deviation_after")
             out.append(

@@ -318,8 +318,20 @@ def lost_sentences(report: Mapping[str, Any]) -> list[str]:
 
 
 def cut_sentences(report: Mapping[str, Any]) -> list[str]:
-    """Cues the robot did not give in full, and a post-talk summary it did not say."""
+    """Cues the robot did not give (dropped) or did not give in full, and a post-talk summary
+    it did not say."""
     out = []
+    dropped = [c for c in report.get("cues") or () if c.get("dropped")]
+    if dropped:
+        which = "; ".join(
+            f"{_mmss(c['t'])} {c['command']}: {c.get('drop_reason') or 'dropped'}" for c in dropped
+        )
+        n = len(dropped)
+        out.append(
+            f"the robot did not give {n} cue{'s' if n != 1 else ''} the coach chose ({which}): "
+            f"{'they are' if n != 1 else 'it is'} listed, but the speaker never heard "
+            f"{'them' if n != 1 else 'it'}"
+        )
     cut = [c for c in report.get("cues") or () if c.get("cut_short")]
     if cut:
         which = "; ".join(f"{_mmss(c['t'])} {c['command']}: {c['cut_short']}" for c in cut)
@@ -599,6 +611,9 @@ def cue_count_parts(report: Mapping[str, Any]) -> list[str]:
         why = report.get("effects_not_judged") or "the speaker did not hear them"
         s = "s" if unheard != 1 else ""
         parts.append(f"what followed {unheard} correction{s} is not judged: {why}")
+    dropped = int(counts.get("cues_dropped") or 0)
+    if dropped:
+        parts.append(f"{dropped} not given: the robot dropped {'them' if dropped != 1 else 'it'}")
     fa = int(counts.get("false_alarms") or 0)
     if fa:
         parts.append(
@@ -622,6 +637,8 @@ def cue_mark(c: Mapping[str, Any]) -> str:
         >>> cue_mark({"stale": True, "ended_s_before": 4.2})
         'STALE: back in range 4 s before'
     """
+    if c.get("dropped"):
+        return f"DROPPED, not given: {c.get('drop_reason') or 'the robot did not give it'}"
     if c.get("false_alarm"):
         return "FALSE ALARM: it was in range"
     if c.get("stale"):

@@ -626,6 +626,30 @@ def test_a_cue_cut_short_and_an_unsaid_summary_are_marked_in_the_report(tmp_path
     assert 'What the robot was to say, <b class="fa">not said</b> (robot is lost)' in page
 
 
+def test_a_dropped_cue_is_marked_as_not_given_and_not_judged(tmp_path: Path) -> None:
+    # session 15, analysis walkthrough: a cue the robot dropped (robot lost) was listed as
+    # given, "back in range after 20 s; the presenter reacted", and counted as a correction
+    session = make_session(tmp_path / "t")
+    lines = session.cues.read_text().splitlines()
+    cue = json.loads(lines[0])
+    for k in ("planned_s", "measured_s"):
+        del cue[k]
+    cue.update(dropped=True, drop_reason="robot lost: disconnected", ok=False)
+    session.cues.write_text("\n".join([json.dumps(cue), *lines[1:]]) + "\n")
+    report = build_report(session.root)
+    row = report["cues"][0]
+    assert row["dropped"] is True and row["improved"] is None and row["effect"] is None
+    assert report["counts"]["cues_judged"] == 0 and report["counts"]["cues_dropped"] == 1
+    text = format_text(report)
+    assert "0:40  slowDown" in text and "DROPPED, not given: robot lost: disconnected" in text
+    assert "back in range" not in text and "correction" not in text
+    assert "1 not given: the robot dropped it" in text
+    assert "note: the robot did not give 1 cue the coach chose (0:40 slowDown: robot lost" in text
+    page = write_report(session.root).read_text()
+    assert '<span class="fa">not given: robot lost: disconnected</span>' in page
+    assert '<span class="fa">dropped, not given: robot lost: disconnected</span>' in page
+
+
 # -- session 14: what the report may claim of a cue --------------------------------------------
 
 
