@@ -630,6 +630,26 @@ def build_summary(
     return out
 
 
+def in_folder(path: Any, root: Any) -> str:
+    """``path`` as ``summary.json`` names it: relative to the session folder when it is inside
+    it (``streams/x.txt``), so that the record holds wherever the folder is copied and from
+    whatever folder the command was run; else as given.
+
+    Example:
+        >>> in_folder("/data/s1/streams/x.txt", "/data/s1"), in_folder("/elsewhere/x.txt", "/data/s1")
+        ('streams/x.txt', '/elsewhere/x.txt')
+    """  # noqa: E501 - a doctest line
+    from pathlib import Path
+
+    p, r = Path(path), Path(root)
+    for a, b in ((p, r), (p.absolute(), r.absolute())):
+        try:
+            return a.relative_to(b).as_posix()
+        except ValueError:
+            pass
+    return str(path)
+
+
 def summarize_session(
     session: SessionDir,
     config: Config,
@@ -681,9 +701,23 @@ def summarize_session(
         for metric, lst in live.stats().items():
             stats[metric] = lst.to_dict()
         found = live.problems()
-    problems = [str(p) for p in found]
+    # a replay read the recording's files; the session holds byte-identical copies of them
+    copies = {
+        str(p.path): f"streams/{rule.stream}"
+        for rule in config.rules
+        if readings is not None and rule.metric in readings
+        for p in readings[rule.metric][2]
+    }
+    problems = [
+        f"{copies.get(str(p.path)) or in_folder(p.path, session.root)}:{p.line}: {p.reason}"
+        for p in found
+    ]
     bad_cues: list[str] = []
     cues = read_jsonl(session.cues, require=CUE_KEYS, skipped=bad_cues)
+    prefix = f"{session.cues}:"
+    bad_cues = [
+        f"{session.cues.name}:{b[len(prefix) :]}" if b.startswith(prefix) else b for b in bad_cues
+    ]
     unmeasured, less_reliable = measurement_notes(session.root, extra)
     summary = build_summary(
         config,

@@ -98,11 +98,12 @@ def test_replay_and_report_skip_values_outside_the_physical_range(
     summary = json.loads((out / "summary.json").read_text())
     problems = summary["stream_problems"]
     assert (
-        f"{src}/speech_speed.txt:1: value 5000 is outside speech_speed's physical range 0..400"
+        # the replay's byte-identical copy, inside its folder (session 15)
+        "streams/speech_speed.txt:1: value 5000 is outside speech_speed's physical range 0..400"
         in problems
     )
     assert (
-        f"{src}/speech_accuracy.txt:1: value 7.5 is outside speech_accuracy's physical range 0..1"
+        "streams/speech_accuracy.txt:1: value 7.5 is outside speech_accuracy's physical range 0..1"
         in problems
     )
     assert summary["metrics"]["speech_speed"]["stream"]["malformed"] == 31  # 0-4, 10-14, … 60
@@ -132,8 +133,8 @@ def test_a_metric_of_your_own_gets_a_physical_range_from_its_rule(
     assert float(row.split()[3]) == pytest.approx((36 * 6.0 + 24 * 1.0) / 60, abs=0.01)
     problems = json.loads((out / "summary.json").read_text())["stream_problems"]
     assert problems == [
-        f"{src}/fidget_rate.txt:11: value -1e+30 is outside fidget_rate's physical range 0..60",
-        f"{src}/fidget_rate.txt:12: value 1e+08 is outside fidget_rate's physical range 0..60",
+        "streams/fidget_rate.txt:11: value -1e+30 is outside fidget_rate's physical range 0..60",
+        "streams/fidget_rate.txt:12: value 1e+08 is outside fidget_rate's physical range 0..60",
     ]
 
 
