@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -33,3 +35,163 @@ def test_a_session_folder_copied_elsewhere_still_names_its_bad_lines(
             # the line named is the line skipped: not a '<t> <value>' pair of finite numbers
             fields = bad.split()
             assert len(fields) != 2 or "nan" in bad or "?" in bad or "garbage" in bad, (p, bad)
+
+
+# -- docs/session_folder.md against what the talks write --------------------------------------
+
+ROOT = Path(__file__).resolve().parents[2]
+DOC = ROOT / "docs" / "session_folder.md"
+#: The doc's section for each JSON file.
+SECTIONS = {
+    "session.json": "session.json",
+    "cues.jsonl": "cues.jsonl",
+    "decisions.jsonl": "decisions.jsonl",
+    "truth.jsonl": "truth.jsonl",
+    "summary.json": "summary.json",
+    "report/report.json": "report/report.json",
+}
+
+
+def documented() -> dict[str, dict[str, str]]:
+    """Per file, each field the doc's tables name (first column) → its row, with the
+    shorthand ``.x`` after a field read as a sibling of it, and the fields an object's row
+    names in its text (``cue.t``)."""
+    out: dict[str, dict[str, str]] = {}
+    section = None
+    for line in DOC.read_text().splitlines():
+        if line.startswith("## "):
+            title = line[3:].strip()
+            section = next((f for f, t in SECTIONS.items() if t == title), None)
+            out.setdefault(section or "", {})
+            continue
+        if section is None or not line.startswith("| `"):
+            continue
+        first, rest = line[1:].split("|", 1)
+        names = re.findall(r"`([^`]+)`", first)
+        fields: list[str] = []
+        for n in names:
+            if n.startswith(".") and fields:  # `a.b.c`, `.d`: a.b.d
+                fields.append(fields[0].rsplit(".", 1)[0] + n)
+            else:
+                fields.append(n)
+        for n in list(fields):  # an object's row naming its fields; not a file's name
+            fields += [
+                x
+                for x in re.findall(r"`([^`]+)`", rest)
+                if x.startswith(n + ".") and not re.search(r"\.(jsonl?|txt|toml|md)$", x)
+            ]
+        for f in fields:
+            out[section][f] = line
+    return out
+
+
+def _norm(key: str, metrics: set[str]) -> str:
+    parts = key.split(".")
+    for i, p in enumerate(parts):
+        bare = p.removesuffix("[]")
+        if bare in metrics:
+            parts[i] = "<metric>" + p[len(bare) :]
+        elif i and parts[i - 1] in ("modules", "module_failures"):
+            parts[i] = "<module>" + p[len(bare) :]
+    return ".".join(parts)
+
+
+def _walk(x: Any, pre: str, acc: set[str]) -> None:
+    if isinstance(x, dict):
+        for k, v in x.items():
+            _walk(v, f"{pre}.{k}" if pre else k, acc)
+    elif isinstance(x, list) and x and all(isinstance(v, dict) for v in x):
+        for v in x:
+            _walk(v, pre + "[]", acc)
+    else:
+        acc.add(pre)
+
+
+def written(folders: list[Path]) -> dict[str, set[str]]:
+    from prezence.metrics import METRICS
+
+    out: dict[str, set[str]] = {f: set() for f in SECTIONS}
+    for folder in folders:
+        metrics = set(METRICS) | {p.stem for p in (folder / "streams").glob("*.txt")}
+        for f in SECTIONS:
+            path = folder / f
+            if not path.is_file():
+                continue
+            text = path.read_text()
+            docs = (
+                [json.loads(x) for x in text.splitlines() if x.strip()]
+                if f.endswith(".jsonl")
+                else [json.loads(text)]
+            )
+            acc: set[str] = set()
+            for d in docs:
+                _walk(d, "", acc)
+            out[f] |= {_norm(k, metrics) for k in acc}
+    return out
+
+
+def covered(f: str, key: str, doc: dict[str, dict[str, str]]) -> bool:
+    """Whether the doc describes ``key`` of file ``f``: its own table (an empty list of
+    objects is its ``X[].y`` rows), or the table it says the file shares fields with."""
+    own = doc[f]
+    if key in own or any(k.startswith(key + "[].") for k in own):
+        return True
+    if f == "summary.json" and key.startswith("cues[]."):
+        return key[len("cues[].") :] in doc["cues.jsonl"]  # copied from cues.jsonl
+    if f == "report/report.json":
+        return covered("summary.json", key, doc)  # the summary's fields, recomputed
+    return False
+
+
+@pytest.fixture(scope="module")
+def talks(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """Talks of every kind that runs without devices: synthetic (fake, and sim when PyBullet
+    is there), a replay under another policy, and one with bad stream lines and overtime."""
+    import importlib.util
+
+    root = tmp_path_factory.mktemp("talks")
+    out = []
+    for name, scenario, backend in [
+        ("demo", "demo", "fake"),
+        ("dropout", "camera_dropout", "fake"),
+        ("over", "overrunning", "fake"),
+        ("fast", "fast_talker", "fake"),
+        *([("sim", "short_talk", "sim")] if importlib.util.find_spec("pybullet") else []),
+    ]:
+        runner.run_talk(scenario, out=root / name, seed=0, backend=backend, report=True)
+        out.append(root / name)
+    assert main(["replay", str(root / "demo"), "--policy", "rhema", "--out", str(root / "rp")]) == 0
+    return [*out, root / "rp"]
+
+
+def test_every_field_a_talk_writes_is_in_the_session_folder_doc(talks: list[Path]) -> None:
+    doc = documented()
+    for f, keys in written(talks).items():
+        missing = sorted(k for k in keys if not covered(f, k, doc))
+        assert not missing, f"{f}: written but not in docs/session_folder.md: {missing}"
+
+
+def test_every_field_in_the_session_folder_doc_is_written_or_said_to_be_conditional(
+    talks: list[Path],
+) -> None:
+    doc = documented()
+    seen = written(talks)
+    source = "\n".join(p.read_text() for p in (ROOT / "prezence").rglob("*.py"))
+    source += "\n".join(p.read_text() for p in (ROOT / "sim").rglob("*.py"))
+    wrong = []
+    for f, fields in doc.items():
+        if f not in SECTIONS:
+            continue
+        for key, row in fields.items():
+            if key in seen[f] or any(k.startswith((key + ".", key + "[]")) for k in seen[f]):
+                continue
+            if f == "report/report.json" and key in doc["summary.json"]:
+                continue
+            # not written by these talks: the doc must say when it is (only …), and the
+            # name must be one the code writes
+            if "only" not in row and "sim backend" not in row:
+                wrong.append(f"{f}: {key} is documented as always written; no talk wrote it")
+            last = [p for p in re.split(r"[.\[\]]+", key) if p and not p.startswith("<")][-1]
+            if not re.search(rf"\b{re.escape(last)}\b", source):
+                wrong.append(f"{f}: {key}: the code writes no such name")
+    assert not wrong, "\n".join(wrong)
