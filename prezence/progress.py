@@ -39,9 +39,13 @@ SKIPPED_KINDS = ("replay",)
 
 
 def _when(s: SessionDir, meta: dict[str, Any]) -> float:
-    t0 = meta.get("t0_epoch")
-    if isinstance(t0, int | float) and not isinstance(t0, bool) and math.isfinite(t0):
-        return float(t0)
+    """When the talk was run: ``session.json``'s ``t0_epoch`` (live) or ``started_at`` (every
+    talk since session 15), else, for an older folder, ``session.json``'s modification time
+    (which a copy without its times resets)."""
+    for key in ("t0_epoch", "started_at"):
+        t0 = meta.get(key)
+        if isinstance(t0, int | float) and not isinstance(t0, bool) and math.isfinite(t0):
+            return float(t0)
     try:
         return s.meta.stat().st_mtime
     except OSError:

@@ -410,6 +410,8 @@ class Talk:
             self.source.start(self.session, self.config)
             self._meta = {  # after start: a live source's meta holds its start time
                 "kind": self.source.kind,
+                # when it was run (Unix time), so the order of rehearsals outlives a copy
+                "started_at": round(time.time(), 3),
                 **self.source.meta(),
                 "policy": self.options.policy,
                 "backend": self.backend.name,

@@ -195,3 +195,28 @@ def test_rehearsals_of_different_recordings_without_a_speaker_say_so(tmp_path: P
             tmp_path / "ana", f"a{i}", 1e9 + i, 0.8, recording=f"/x/t{i}.wav", speaker="ana"
         )
     assert "different recordings" not in format_progress(progress(last))
+
+
+def test_the_order_of_rehearsals_outlives_a_copy_of_their_folders(tmp_path: Path) -> None:
+    # session 15, analysis walkthrough: two rehearsals copied with `cp -r` in the other order
+    # (or unzipped, cloned) were dated by session.json's modification time: the copy's, so
+    # 'pace worse (-81 pts)' became 'better (+81 pts)'
+    import os
+    import shutil
+
+    from prezence.progress import progress
+    from prezence.synthetic.runner import run_talk
+
+    first, second = tmp_path / "a" / "first", tmp_path / "a" / "second"
+    run_talk("short_talk", out=first, backend="fake", speaker="ana")
+    run_talk("short_talk", out=second, backend="fake", speaker="ana")
+    started = [json.loads((f / "session.json").read_text())["started_at"] for f in (first, second)]
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for f in (second, first):  # copied in the other order, without their times
+        shutil.copytree(f, copy / f.name, copy_function=shutil.copyfile)
+    newer_than_all = max(started) + 3600.0
+    os.utime(copy / "second" / "session.json", (newer_than_all - 60.0,) * 2)
+    os.utime(copy / "first" / "session.json", (newer_than_all,) * 2)
+    p = progress(copy / "second")
+    assert [c["name"] for c in p["sessions"]] == ["first", "second"]
