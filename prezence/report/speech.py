@@ -12,7 +12,8 @@ MAX_SPOKEN_WORDS = 40
 def _mmss(t: float | None) -> str:
     if t is None:
         return "-"
-    total = int(round(max(0.0, float(t))))
+    # halves up: round() takes them to even, so 325.5 s read "5:26" but 522.5 s "8:42"
+    total = int(max(0.0, float(t)) + 0.5)
     return f"{total // 60}:{total % 60:02d}"
 
 

@@ -704,3 +704,16 @@ def test_a_cue_just_after_the_problem_ended_is_stale_as_measured(tmp_path: Path)
     text = format_text(report)
     assert "1:05  slowDown                         STALE: back in range 5 s before" in text
     assert "1:40  slowDown                         FALSE ALARM: it was in range" in text
+
+
+def test_cue_times_round_halves_alike(tmp_path: Path) -> None:
+    # session 15, analysis walkthrough: the printed timeline's 5:25.5 and 8:42.5 were "5:26"
+    # and "8:42" in the report (halves rounded to even): one rounded up, the other down
+    session = make_session(
+        tmp_path / "t", cues=[_cue(25.5), _cue(42.5, "lookUp", "cv_headGaze"), _cue(58.5)]
+    )
+    text = format_text(build_report(session.root))
+    rows = [line.split()[0] for line in text.splitlines() if line.startswith("     0:")]
+    assert rows == ["0:26", "0:43", "0:59"]
+    page = write_report(session.root).read_text()
+    assert all(f"<tr><td>{t}</td>" in page for t in rows)
