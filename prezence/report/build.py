@@ -557,6 +557,21 @@ def _recorded_modules(summary: Mapping[str, Any]) -> dict[str, Any]:
     return {str(k): v for k, v in mods.items() if isinstance(v, dict)}
 
 
+def _recorded_drops(summary: Mapping[str, Any]) -> dict[str, dict[str, int]]:
+    """Per metric, the samples the coach's processor left out (``summary.json``'s
+    ``metrics.<metric>.dropped``: ``late``, ``ahead``): only the coach knew them, so a rebuild
+    takes them from its record ({} when there is none)."""
+    out: dict[str, dict[str, int]] = {}
+    for metric, m in _recorded(summary, "metrics").items():
+        d = m.get("dropped") if isinstance(m, dict) else None
+        if isinstance(d, dict) and all(
+            isinstance(d.get(k, 0), int) and not isinstance(d.get(k, 0), bool) and d.get(k, 0) >= 0
+            for k in ("late", "ahead")
+        ):
+            out[str(metric)] = {"late": int(d.get("late", 0)), "ahead": int(d.get("ahead", 0))}
+    return out
+
+
 def _rebuild(
     session_dir: str | Path,
     config: Config | None,
@@ -633,6 +648,7 @@ def _rebuild(
         not_measured=[r.metric for r in cfg.rules if r.metric not in paths],
         unmeasured=unmeasured,
         less_reliable=less_reliable,
+        processor_counts=_recorded_drops(recorded),
     )
 
     dev_s: dict[str, dict[str, float]] = {}

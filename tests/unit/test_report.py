@@ -717,3 +717,20 @@ def test_cue_times_round_halves_alike(tmp_path: Path) -> None:
     assert rows == ["0:26", "0:43", "0:59"]
     page = write_report(session.root).read_text()
     assert all(f"<tr><td>{t}</td>" in page for t in rows)
+
+
+def test_samples_the_coach_left_out_are_counted_in_the_report_as_in_the_summary(
+    tmp_path: Path,
+) -> None:
+    # session 15, analysis walkthrough: summary.json counted the samples the processor left
+    # out (late, ahead of its clock), report.json's counts said 0 and had no per-metric figure
+    session = make_session(tmp_path / "t")
+    drops = {"speech_speed": {"dropped": {"late": 3, "ahead": 2}}}
+    session.summary.write_text(json.dumps({"ended_at_s": 110.0, "metrics": drops}))
+    report = build_report(session.root)
+    assert report["counts"]["dropped_samples"] == 5
+    assert report["metrics"]["speech_speed"]["dropped"] == {"late": 3, "ahead": 2}
+    # a damaged record is not believed
+    drops["speech_speed"]["dropped"]["late"] = "many"  # type: ignore[index]
+    session.summary.write_text(json.dumps({"ended_at_s": 110.0, "metrics": drops}))
+    assert build_report(session.root)["counts"]["dropped_samples"] == 0
