@@ -333,7 +333,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             "<th>delay</th><th>out of range before</th><th>after</th><th>what followed</th></tr>"
         )
         for c in cues:
-            lat = c.get("latency_s")
+            lat = c.get("latency_s") if c.get("metric") else None  # a time warning: none
             mark = cue_mark(c)
             eff = c.get("improved")
             eff_html = f'<span class="{"yes" if eff else "no"}">{_e(mark)}</span>' if mark else "–"

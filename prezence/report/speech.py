@@ -556,7 +556,8 @@ def format_text(report: Mapping[str, Any]) -> str:
         mark = cue_mark(c)
         if c.get("cut_short"):
             mark = f"CUT SHORT: {c['cut_short']}" + (f"; {mark}" if mark else "")
-        lat = c.get("latency_s")
+        # a time warning has no problem whose onset it follows (its "latency" is 0 by design)
+        lat = c.get("latency_s") if c.get("metric") else None
         lat_s = f" {lat:.0f} s after onset" if lat is not None else ""
         lines.append(f"    {_mmss(c['t']):>5}  {c['command']:<12}{lat_s:<20} {mark}")
     return "\n".join(lines) + "\n"

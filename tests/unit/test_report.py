@@ -734,3 +734,16 @@ def test_samples_the_coach_left_out_are_counted_in_the_report_as_in_the_summary(
     drops["speech_speed"]["dropped"]["late"] = "many"  # type: ignore[index]
     session.summary.write_text(json.dumps({"ended_at_s": 110.0, "metrics": drops}))
     assert build_report(session.root)["counts"]["dropped_samples"] == 0
+
+
+def test_a_time_warning_is_not_shown_as_coming_after_an_onset(tmp_path: Path) -> None:
+    # session 15, analysis walkthrough: "8:00  timeLeft  0 s after onset" (a time warning
+    # follows no problem; its latency is 0 by design) next to the corrections' real delays
+    session = make_session(tmp_path / "t")
+    text = format_text(build_report(session.root))
+    (warning,) = [line for line in text.splitlines() if "timeLeft" in line]
+    assert "after onset" not in warning
+    assert "20 s after onset" in next(line for line in text.splitlines() if "slowDown" in line)
+    page = write_report(session.root).read_text()
+    row = page[page.index("<td>1:20</td>") :].split("</tr>")[0]
+    assert "<td>0 s</td>" not in row and "<td>–</td>" in row
