@@ -29,6 +29,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from operator import attrgetter
 from pathlib import Path
+from time import time as unix_time
 from typing import Any, Protocol
 
 from prezence.backends.base import Backend
@@ -411,7 +412,7 @@ class Talk:
             self._meta = {  # after start: a live source's meta holds its start time
                 "kind": self.source.kind,
                 # when it was run (Unix time), so the order of rehearsals outlives a copy
-                "started_at": round(time.time(), 3),
+                "started_at": round(unix_time(), 3),
                 **self.source.meta(),
                 "policy": self.options.policy,
                 "backend": self.backend.name,
