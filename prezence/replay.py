@@ -150,8 +150,11 @@ def replay(
     truth = (
         read_jsonl(src_session.truth, require=TRUTH_KEYS) if src_session.truth.exists() else None
     )
+    # absolute: a relative path means nothing once the command's folder is gone (a report
+    # rebuilt from elsewhere could not find the recording its cues were heard in)
+    source = str(src.absolute())
     extra: dict[str, Any] = {
-        "replay_of": str(src),
+        "replay_of": source,
         **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
     }
     if truth is not None and (recorded is None or not same_bands(config, recorded)):
@@ -181,7 +184,7 @@ def replay(
         copy_streams=paths,
         readings=readings,
         meta={
-            "source": str(src),
+            "source": source,
             **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
         },
         extra=extra,

@@ -283,12 +283,12 @@ def heard_cues(
 
 def _replay_source(session: SessionDir, meta: Mapping[str, Any]) -> SessionDir | None:
     """The recording a replay coached (``session.json``'s ``source``), if it is still there:
-    the path as recorded, or relative to the replay's own folder's parent."""
+    the path as recorded, or a folder of that name next to the replay's (both copied)."""
     source = meta.get("source")
     if not isinstance(source, str) or not source:
         return None
     path = Path(source)
-    tries = [path] if path.is_absolute() else [path, session.root.parent / path.name]
+    tries = [path, session.root.parent / path.name]
     for p in tries:
         s = SessionDir(p)
         if s.meta.is_file() or (p.name == "streams" and SessionDir(p.parent).meta.is_file()):

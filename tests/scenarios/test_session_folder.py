@@ -195,3 +195,23 @@ def test_every_field_in_the_session_folder_doc_is_written_or_said_to_be_conditio
             if not re.search(rf"\b{re.escape(last)}\b", source):
                 wrong.append(f"{f}: {key}: the code writes no such name")
     assert not wrong, "\n".join(wrong)
+
+
+def test_a_replays_report_rebuilt_from_elsewhere_is_the_one_written_after_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the replay recorded its recording as given ('s/demo', relative to where it ran): a
+    # report rebuilt from another folder found no recording and judged none of its cues
+    # ('what followed 5 corrections is not judged … the recording's folder is not found')
+    from prezence.report import write_report
+
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    monkeypatch.chdir(tmp_path / "a")
+    runner.run_talk("demo", out=Path("s/demo"), seed=0, backend="fake", report=False)
+    assert main(["replay", "s/demo", "--out", str(tmp_path / "x" / "rp")]) == 0
+    written = (tmp_path / "x" / "rp" / "report" / "summary.txt").read_text()
+    assert "not judged" not in written and "5 corrections: 3 back in range" in written
+    monkeypatch.chdir(tmp_path / "b")
+    write_report(tmp_path / "x" / "rp")
+    assert (tmp_path / "x" / "rp" / "report" / "summary.txt").read_text() == written
