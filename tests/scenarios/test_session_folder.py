@@ -215,3 +215,29 @@ def test_a_replays_report_rebuilt_from_elsewhere_is_the_one_written_after_it(
     monkeypatch.chdir(tmp_path / "b")
     write_report(tmp_path / "x" / "rp")
     assert (tmp_path / "x" / "rp" / "report" / "summary.txt").read_text() == written
+
+
+def test_a_talk_judged_by_rules_in_the_seeds_format_keeps_its_units(tmp_path: Path) -> None:
+    # the seed's line format names no unit: summary.json's units were "" and the report said
+    # "your volume was below the lowest good value, 60, for 12 s in all"
+    runner.run_talk("demo", out=tmp_path / "demo", seed=0, backend="fake", report=False)
+    rules = tmp_path / "rules.txt"
+    rules.write_text(
+        "speech_speed inRange 140 180\nspeech_volume min 60 scale=6\n"
+        "speech_accuracy min 0.5\ncv_headGaze min ANGLE\n"
+    )
+    out = tmp_path / "rp"
+    assert main(["replay", str(tmp_path / "demo"), "--config", str(rules), "--out", str(out)]) == 0
+    units = {
+        k: m["unit"] for k, m in json.loads((out / "summary.json").read_text())["metrics"].items()
+    }
+    # prezence/metrics.py's units; clarity is a 0..1 score, not a unit
+    assert units == {
+        "speech_speed": "wpm",
+        "speech_volume": "dB SPL",
+        "speech_accuracy": "",
+        "cv_headGaze": "degrees",
+    }
+    text = (out / "report" / "summary.txt").read_text()
+    assert "below the lowest good value, 60 dB SPL, for" in text
+    assert "below the lowest good value, -15 degrees, for" in text
