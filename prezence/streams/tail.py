@@ -524,8 +524,8 @@ class StreamTailer:
                     value = float(fields[1])
                 except ValueError:
                     break
-                # x - x == 0.0 is false for inf and nan
-                if not (lo <= tf <= hi and tf >= 0.0 and value - value == 0.0):
+                # x - x == 0.0 is false for inf and nan (a t of inf passes lo <= tf <= inf)
+                if not (lo <= tf <= hi and tf - tf == 0.0 and tf >= 0.0 and value - value == 0.0):
                     break
                 if not vlo <= value <= vhi:
                     break

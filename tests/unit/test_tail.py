@@ -583,3 +583,14 @@ def test_multi_tailer_applies_each_metrics_range_only_to_it(tmp_path: Path) -> N
         assert [str(p) for p in tails.problems()] == [
             f"{speed}:1: value 5000 is outside speech_speed's physical range 0..400"
         ]
+
+
+def test_a_time_of_inf_is_a_bad_line_not_a_sample(tmp_path: Path) -> None:
+    # session 15 (found by the stream property test): 'inf 0' was read as a sample at
+    # t = inf by the fast path for well-formed lines, and counted in summary.json's samples
+    path = tmp_path / "m.txt"
+    path.write_text("1 5\ninf 0\n2 6\n")
+    problems: list[StreamProblem] = []
+    samples, stats = read_stream(path, "m", problems=problems)
+    assert [(s.t, s.value) for s in samples] == [(1.0, 5.0), (2.0, 6.0)]
+    assert stats.malformed == 1 and problems[0].line == 2
