@@ -354,7 +354,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
                 # the coach's technical reason (weights, percentages) only on hover
                 f'<td class="l" title="{_e(c.get("reason") or "")}">{_e(c.get("why") or "")}'
                 "</td>"
-                f"<td>{'–' if lat is None else f'{lat:.0f} s'}</td>"
+                f"<td>{'–' if lat is None else f'{int(lat + 0.5)} s'}</td>"  # halves up
                 f"<td>{'–' if before is None else f'{before:.0f}%'}</td>"
                 f"<td>{'–' if after is None else f'{after:.0f}%'}</td><td>{eff_html}</td></tr>"
             )

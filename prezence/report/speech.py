@@ -558,7 +558,7 @@ def format_text(report: Mapping[str, Any]) -> str:
             mark = f"CUT SHORT: {c['cut_short']}" + (f"; {mark}" if mark else "")
         # a time warning has no problem whose onset it follows (its "latency" is 0 by design)
         lat = c.get("latency_s") if c.get("metric") else None
-        lat_s = f" {lat:.0f} s after onset" if lat is not None else ""
+        lat_s = f" {int(lat + 0.5)} s after onset" if lat is not None else ""  # halves up
         lines.append(f"    {_mmss(c['t']):>5}  {c['command']:<12}{lat_s:<20} {mark}")
     return "\n".join(lines) + "\n"
 

@@ -715,6 +715,8 @@ def test_cue_times_round_halves_alike(tmp_path: Path) -> None:
     text = format_text(build_report(session.root))
     rows = [line.split()[0] for line in text.splitlines() if line.startswith("     0:")]
     assert rows == ["0:26", "0:43", "0:59"]
+    # and the delays alike: 58.5 s after the onset at 20 s is 39 s (':.0f' gave 38)
+    assert "0:59  slowDown     39 s after onset" in text
     page = write_report(session.root).read_text()
     assert all(f"<tr><td>{t}</td>" in page for t in rows)
 
