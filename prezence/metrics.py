@@ -54,6 +54,12 @@ class Metric:
     scale: float | None = None
     first_after_s: float = 0.0
 
+    @property
+    def shown_unit(self) -> str:
+        """The unit figures are shown in: :attr:`unit`, or "" when that is a scale (``0..1``)
+        or a code, which "0.5 0..1" would only muddle."""
+        return "" if ".." in self.unit or self.unit == "code" else self.unit
+
     def stale_after_s(self, floor: float) -> float:
         """Default staleness: ``max(floor, STALE_CADENCES × cadence_s)``."""
         return max(floor, STALE_CADENCES * self.cadence_s)

@@ -39,9 +39,7 @@ def display_unit(rule: Rule) -> str:
     if rule.unit:
         return rule.unit
     rec = METRICS.get(rule.metric)
-    if rec is None or ".." in rec.unit or rec.unit == "code":
-        return ""
-    return rec.unit
+    return rec.shown_unit if rec is not None else ""
 
 
 def hold_ends(ts: Sequence[float] | np.ndarray, cuts: Sequence[float] | np.ndarray) -> np.ndarray:

@@ -74,8 +74,8 @@ def complete_rules(rules: Sequence[Rule]) -> tuple[tuple[Rule, ...], list[str]]:
     has). A rule on such a metric that gives no deviation scale takes the built-in rule's scale
     too (``speech_volume min 60`` judges 54 dB as 100 % below, as the built-in 6 dB scale says,
     not as 10 % of 60), since the scale belongs to the metric's unit, not to the bound.
-    A rule that names no unit takes the built-in rule's, else its metric record's
-    (:data:`prezence.metrics.METRICS`).
+    A rule that names no unit takes its metric record's
+    (:attr:`prezence.metrics.Metric.shown_unit`).
     A rule on a metric no shipped module writes is kept (your own module may write it) but
     noted with a "did you mean", as is a rule that has no command at all (it can never cue).
 
@@ -99,9 +99,8 @@ def complete_rules(rules: Sequence[Rule]) -> tuple[tuple[Rule, ...], list[str]]:
         if r.scale is None and d_scale is not None:
             r = dataclasses.replace(r, scale=d_scale)
         record = METRICS.get(r.metric)  # read now: a record added at run time counts too
-        if not r.unit:  # the seed's lines give no unit: the built-in rule's, or the record's
-            unit = defaults[r.metric].unit if r.metric in defaults else ""
-            r = dataclasses.replace(r, unit=unit or (record.unit if record else ""))
+        if not r.unit and record is not None:  # the seed's lines give no unit
+            r = dataclasses.replace(r, unit=record.shown_unit)
         if record is None:
             close = difflib.get_close_matches(r.metric, list(METRICS), n=1, cutoff=0.6)
             hint = f"; did you mean '{close[0]}'?" if close else ""

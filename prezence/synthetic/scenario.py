@@ -491,7 +491,7 @@ class _Parser:
         assert rec.physical_range is not None  # SYNTHETIC_METRICS have one
         lo, hi = rec.physical_range
         if not lo <= value <= hi:
-            unit = f" {rec.unit}" if ".." not in rec.unit else ""
+            unit = f" {rec.shown_unit}" if rec.shown_unit else ""
             raise self.error(
                 key,
                 f"{metric} is {lo:g}..{hi:g}{unit} (physical range); {value:g} is outside it "

@@ -160,7 +160,10 @@ def test_known_metrics_are_the_ones_the_modules_write() -> None:
 def test_a_seed_line_rule_takes_its_metrics_unit_from_the_record(tmp_path: Path) -> None:
     """The seed's lines name no unit; the summary and report then showed none ('' for wpm)."""
     rules = tmp_path / "rules.txt"
-    rules.write_text("speech_speed inRange 140 180\nmy_metric max 3 above=slowDown\n")
+    rules.write_text(
+        "speech_speed inRange 140 180\nspeech_accuracy min 0.5\nmy_metric max 3 above=slowDown\n"
+    )
     by_metric = {r.metric: r for r in load_config(rules).rules}
     assert by_metric["speech_speed"].unit == "wpm"
+    assert by_metric["speech_accuracy"].unit == ""  # a 0..1 score: "0.5 0..1" would muddle
     assert by_metric["my_metric"].unit == ""  # no record: nothing to take
