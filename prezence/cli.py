@@ -10,7 +10,9 @@ import argparse
 import contextlib
 import json
 import logging
+import signal
 import sys
+import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -19,7 +21,7 @@ from prezence import __version__
 from prezence.argtypes import non_negative_int, speed_fraction
 from prezence.errors import PrezenceError
 from prezence.sessiondir import drop_if_left_empty
-from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION
+from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION, Terminated
 
 if TYPE_CHECKING:
     from prezence.config.model import Config
@@ -35,6 +37,10 @@ EXIT_EXPECTATIONS = 3
 #: the coach chose, or its post-talk summary: cut short (a robot lost mid-cue, a motion that
 #: never ended) or dropped (the robot was gone). A scenario missed is 3 all the same.
 EXIT_ROBOT = 4
+#: Stopped by Ctrl-C (128 + SIGINT) or by SIGTERM (128 + SIGTERM), as a shell reports a process
+#: the signal killed; the talk's folder is written up to where it stopped.
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 
 def _mmss(t: float | None) -> str:
@@ -306,6 +312,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         config=config,
         progress=None if args.quiet else _progress_printer(),
     )
+    if result.interrupted:  # a talk cut short: its expectations cannot be judged
+        return _interrupted_run(result.summary, result.session.root, args)
     problems = check_expectations(result.scenario, result.cues)
     shortfall = robot_shortfall(result.summary)
     if args.json:
@@ -342,6 +350,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     if problems:
         return EXIT_EXPECTATIONS
     return EXIT_ROBOT if shortfall else 0
+
+
+def _interrupted_run(summary: dict[str, Any], root: Path, args: argparse.Namespace) -> int:
+    """``run``/``demo`` stopped by Ctrl-C or SIGTERM: what was written, and exit 130 or 143
+    (never 0 or 3: the expectations of a talk cut short are not judged)."""
+    if args.json:
+        print(json.dumps(summary, indent=2, sort_keys=True))
+    else:
+        print(format_timeline(summary))
+        post = summary.get("post_talk")
+        if post:
+            print(post_talk_line(post))
+        print(f"session folder: {root}  (summary.json, cues.jsonl, decisions.jsonl)")
+    status = _interrupt_status()
+    how = "SIGTERM" if status == EXIT_TERMINATED else "Ctrl-C"
+    length = summary.get("time", {}).get("allocated_s")
+    print(
+        f"talk stopped by {how} at {_mmss(summary.get('talk_s')).strip()}"
+        + (f" of {_mmss(length).strip()}" if length else "")
+        + f": scenario expectations not checked; {root} holds the talk up to there",
+        file=sys.stderr,
+    )
+    return status
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -987,16 +1018,50 @@ def main(argv: Sequence[str] | None = None) -> int:
         level=max(logging.DEBUG, level), format="%(levelname)s %(name)s: %(message)s"
     )
     try:
-        return int(args.func(args))
+        with _sigterm_as_interrupt():
+            return int(args.func(args))
     except PrezenceError as e:
         if args.debug:
             raise
         print(f"error: {e}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as e:
+        status = EXIT_TERMINATED if isinstance(e, Terminated) else EXIT_INTERRUPTED
+        print(f"stopped by {'SIGTERM' if status == EXIT_TERMINATED else 'Ctrl-C'}", file=sys.stderr)
+        return status
     except BrokenPipeError:
         return _broken_pipe()
+
+
+#: The signals that stopped the running command (SIGTERM is recorded here; Ctrl-C is not).
+_SIGNALLED: list[int] = []
+
+
+def _interrupt_status() -> int:
+    """The exit status of a command a signal stopped: 143 after SIGTERM, else 130 (Ctrl-C)."""
+    return EXIT_TERMINATED if signal.SIGTERM in _SIGNALLED else EXIT_INTERRUPTED
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Any:
+    """Within, SIGTERM (what a CI runner sends at its time limit) stops the command as Ctrl-C
+    does, with :class:`Terminated`: the talk's folder is finished, evaluate's workers are ended,
+    and the exit status is 143. Python's default is to die at once: a folder without
+    summary.json, a session.json giving the whole talk's length, orphaned worker processes."""
+    _SIGNALLED.clear()
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_sigterm(signum: int, frame: Any) -> None:
+        _SIGNALLED.append(signum)
+        raise Terminated()
+
+    previous = signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 #: Exit status after the reader of our output went away (``prezence … | head``): 128 + SIGPIPE.

@@ -46,6 +46,13 @@ from prezence.summary import summarize_session
 
 log = logging.getLogger(__name__)
 
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a CI runner's time limit, ``kill``), raised by the command line's handler: a
+    talk stops as at Ctrl-C (its folder, summary and report written up to there) but the robot
+    says no post-talk summary, so the process ends within moments, as the sender expects."""
+
+
 #: The defaults of the command line, in one place (``prezence run --policy`` etc.).
 DEFAULT_POLICY = "weighted"
 DEFAULT_SPEED_FRACTION = 0.6
@@ -386,6 +393,8 @@ class Talk:
         # a library of one's own is read and planned before the robot opens
         self.library = library_for_talk(options.gestures) if options.gestures else None
         self.coach: Coach | None = None
+        #: SIGTERM stopped the talk: no post-talk summary (:class:`Terminated`).
+        self.terminated = False
         self.wall0 = 0.0
         self._meta: dict[str, Any] = {}
         #: The samples the last :meth:`step` gave the processor.
@@ -488,7 +497,7 @@ class Talk:
             if self.source.talk_s is None or truncated or interrupted:
                 # the talk's length is where it stopped
                 self.session.write_meta({**self._meta, "talk_s": round(talk_s, 3)})
-            if self.options.report and completed:
+            if self.options.report and completed and not self.terminated:
                 post = self._post_talk(coach, end, notes, step_s=clock.drain_step_s, pace=pace)
             backend_stats = self.backend.stats()
         finally:
@@ -515,7 +524,9 @@ class Talk:
         }
         if clock.live:
             extra["interrupted"] = interrupted
-        elif wall > 0:
+        elif interrupted:  # Ctrl-C or SIGTERM cut a synthetic talk short: say so, as live
+            extra["interrupted"] = True
+        if not clock.live and wall > 0:
             extra["realtime_factor"] = round(talk_s / wall, 1)
         summary = summarize_session(
             self.session,
@@ -663,10 +674,11 @@ def run_talk(
                         if view is not None:
                             view.event(now, ev)
             completed = source.error is None  # a module's bad input: no post-talk summary
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as e:
             completed = interrupted = True
+            talk.terminated = isinstance(e, Terminated)
             talk_s = now
-            log.info("stopped by Ctrl-C")
+            log.info("stopped by %s", "SIGTERM" if talk.terminated else "Ctrl-C")
         except BaseException:
             # the robot and the source are released; the error goes on
             _abandon(talk)

@@ -134,6 +134,8 @@ class TalkResult:
     summary: dict[str, Any]
     decisions: int
     wall_s: float
+    #: Ctrl-C or SIGTERM stopped the talk before its end (its folder is written up to there).
+    interrupted: bool = False
 
 
 def run_talk(
@@ -185,4 +187,6 @@ def run_talk(
         on_decision=on_decision,
         progress=progress,
     )
-    return TalkResult(run.session, sc, run.cues, run.summary, run.decisions, run.wall_s)
+    return TalkResult(
+        run.session, sc, run.cues, run.summary, run.decisions, run.wall_s, run.interrupted
+    )

@@ -1,0 +1,91 @@
+"""Session 15's walkthrough as a CI integrator: whole talks headless, gated on exit codes.
+
+A CI runner stops a job at its time limit with SIGTERM; Python's default was to die at once:
+``run`` left a folder without ``summary.json`` whose ``session.json`` gave the whole talk's
+length, ``evaluate --jobs 2`` left its workers running. Ctrl-C on ``run`` said "scenario
+expectations NOT met" (exit 3) for a talk cut short; on ``evaluate --jobs 1`` it cut one talk
+short, scored it as a whole talk and went on (exit 0). ``--out`` under a file or without
+permission was a traceback; two talks into one folder at once deleted each other's files with
+exit 0; ``run --json`` exited 3 saying nowhere why.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from prezence.cli import EXIT_EXPECTATIONS, EXIT_INTERRUPTED, EXIT_TERMINATED
+
+
+def _default_signals() -> None:
+    """The child takes Ctrl-C and SIGTERM as a terminal's process does (not ignored)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _start(args: list[str], cwd: Path, **env: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "prezence.cli", *args],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_signals,
+        env={**os.environ, **env},
+    )
+
+
+def _wait_for(ok: Callable[[], bool], proc: subprocess.Popen[str], what: str) -> None:
+    """Poll until ``ok()`` (the process must still run); a timeout only so that no test hangs."""
+    deadline = time.monotonic() + 120
+    while not ok():
+        if proc.poll() is not None:
+            pytest.fail(f"the process ended before {what}: {proc.communicate()}")
+        if time.monotonic() > deadline:
+            proc.kill()
+            pytest.fail(f"no {what} within 120 s")
+        time.sleep(0.05)
+
+
+def _talking(folder: Path) -> Callable[[], bool]:
+    """The talk's loop runs: its presenter has written samples."""
+    return lambda: any(p.stat().st_size > 0 for p in folder.glob("streams/*.txt"))
+
+
+def _realtime_run(tmp_path: Path, out: str, *extra: str) -> subprocess.Popen[str]:
+    proc = _start(["run", "fast_talker", "--realtime", "--out", out, *extra], tmp_path)
+    _wait_for(_talking(tmp_path / out), proc, "talk")
+    return proc
+
+
+def test_sigterm_ends_a_run_with_its_folder_written_and_exit_143(tmp_path: Path) -> None:
+    proc = _realtime_run(tmp_path, "t")
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == EXIT_TERMINATED, (out, err)
+    assert "talk stopped by SIGTERM" in err and "scenario expectations not checked" in err
+    assert "expectations NOT met" not in out and "expectations met" not in out
+    summary = json.loads((tmp_path / "t/summary.json").read_text())
+    assert summary["interrupted"] is True
+    assert "post_talk" not in summary  # the robot says nothing more once told to stop
+    meta = json.loads((tmp_path / "t/session.json").read_text())
+    assert meta["talk_s"] == summary["talk_s"] < 600  # where it stopped, not the script's end
+    assert (tmp_path / "t/report/report.html").is_file()
+
+
+def test_ctrl_c_on_a_run_is_not_a_missed_expectation(tmp_path: Path) -> None:
+    proc = _realtime_run(tmp_path, "c", "--no-report")
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == EXIT_INTERRUPTED != EXIT_EXPECTATIONS, (out, err)
+    assert "talk stopped by Ctrl-C" in err
+    assert "NOT met" not in out
+    assert json.loads((tmp_path / "c/summary.json").read_text())["interrupted"] is True
