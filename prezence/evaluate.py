@@ -38,17 +38,19 @@ from __future__ import annotations
 
 import argparse
 import bisect
+import contextlib
 import csv
 import importlib
 import io
 import json
 import logging
 import math
+import signal
 import statistics
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
@@ -269,6 +271,10 @@ def run_task(task: Task) -> dict[str, Any]:
                 policy=task.policy,
                 on_decision=on_decision,
             )
+        if result.interrupted:
+            # the talk caught Ctrl-C (or SIGTERM) to finish its folder; the evaluation stops
+            # too: a talk cut short is no row to score as if it ran to its end
+            raise KeyboardInterrupt
         truth = read_jsonl(result.session.truth)
         sides: dict[str, str] = {}
         from prezence.config.load import load_config
@@ -288,9 +294,53 @@ def _worker_init(level: int, modules: Sequence[str] = ()) -> None:
     """Workers log at the parent's level, but no lower than ERROR unless it is verbose: the
     tailer's per-line warnings about deliberately garbled streams would flood the terminal.
     They import ``modules``, which register policies of one's own (``register_policy``)."""
-    logging.getLogger().setLevel(level if level < logging.WARNING else logging.ERROR)
+    logging.getLogger().setLevel(_talk_log_level(level))
+    # Ctrl-C reaches every process of the terminal's group: the parent alone stops the
+    # evaluation, and ends the workers (SIGTERM, sent to the parent alone, ends them the same way)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
     for m in modules:
         importlib.import_module(m)
+
+
+def _exit_on_sigterm(signum: int, frame: Any) -> None:
+    """A worker ended by the parent (:func:`_end_workers`) unwinds: its talk's temporary
+    folder is removed on the way out, not left in the temp dir."""
+    raise SystemExit(128 + signum)
+
+
+def _talk_log_level(level: int) -> int:
+    """The log level while the evaluation's talks run (see :func:`_worker_init`)."""
+    return level if level < logging.WARNING else logging.ERROR
+
+
+@contextlib.contextmanager
+def _talk_logging() -> Iterator[None]:
+    """Within, the root logger is at :func:`_talk_log_level`: ``--jobs 1`` (talks in this
+    process) logs as the workers of ``--jobs 2`` do, not a warning per garbled line of a
+    temporary folder that is gone when it is read."""
+    root = logging.getLogger()
+    before = root.level
+    root.setLevel(_talk_log_level(root.getEffectiveLevel()))
+    try:
+        yield
+    finally:
+        root.setLevel(before)
+
+
+def _end_workers(pool: ProcessPoolExecutor) -> None:
+    """Stop the pool at once: queued talks cancelled, running ones ended (their temporary
+    folders removed: :func:`_exit_on_sigterm`), no worker left behind (killed after 5 s)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(timeout=5)
+            if proc.is_alive():
+                proc.kill()
 
 
 def _grid(
@@ -423,22 +473,28 @@ def evaluate(
     if ray is not None:
         rows = _run_ray(tasks, ray, jobs)
     elif jobs == 1:
-        for i, t in enumerate(tasks):
-            rows.append(run_task(t))
-            if progress is not None:
-                progress(i + 1, len(tasks))
+        with _talk_logging():
+            for i, t in enumerate(tasks):
+                rows.append(run_task(t))
+                if progress is not None:
+                    progress(i + 1, len(tasks))
     else:
         # spawn: workers start clean (no inherited threads or open files), on every platform.
-        with ProcessPoolExecutor(
+        pool = ProcessPoolExecutor(
             max_workers=jobs,
             mp_context=get_context("spawn"),
             initializer=_worker_init,
             initargs=(logging.getLogger().getEffectiveLevel(), imports),
-        ) as pool:
+        )
+        try:
             for i, row in enumerate(pool.map(run_task, tasks, chunksize=1)):
                 rows.append(row)
                 if progress is not None:
                     progress(i + 1, len(tasks))
+        except BaseException:
+            _end_workers(pool)  # Ctrl-C, SIGTERM or an error: no talk goes on without us
+            raise
+        pool.shutdown()
     return sorted(
         rows, key=lambda r: (r.get("presenter", ""), r["scenario"], r["policy"], r["seed"])
     )
@@ -810,18 +866,33 @@ def _evaluate_into(
 
     from prezence.bars import progress_bar
 
+    done = [0, 0]  # talks done, talks in all
+
     with progress_bar("talks") as show:  # ended before the table is printed
-        rows = evaluate(
-            scenarios,
-            policies,
-            range(args.first_seed, args.first_seed + args.seeds),
-            jobs=args.jobs,
-            backend=args.backend,
-            ray=args.ray,
-            keep_sessions=out / "sessions" if args.keep_sessions else None,
-            progress=show,
-            presenters=args.presenters,
-        )
+
+        def counted(n: int, total: int) -> None:
+            done[:] = [n, total]
+            if show is not None:
+                show(n, total)
+
+        try:
+            rows = evaluate(
+                scenarios,
+                policies,
+                range(args.first_seed, args.first_seed + args.seeds),
+                jobs=args.jobs,
+                backend=args.backend,
+                ray=args.ray,
+                keep_sessions=out / "sessions" if args.keep_sessions else None,
+                progress=counted,
+                presenters=args.presenters,
+            )
+        except KeyboardInterrupt:
+            # the tables need every talk of the grid (a mean over part of it misleads)
+            kept = " (the talks' folders kept under --keep-sessions)" if args.keep_sessions else ""
+            when = f"after {done[0]} of {done[1]} talks" if done[1] else "before a talk ended"
+            print(f"evaluation stopped {when}: no tables written{kept}", file=sys.stderr)
+            raise
     wall = time.perf_counter() - t0
     c, m = write_tables(rows, out)
     print(markdown_table(rows), end="")

@@ -12,6 +12,7 @@ exit 0; ``run --json`` exited 3 saying nowhere why.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 import subprocess
@@ -23,6 +24,7 @@ from pathlib import Path
 import pytest
 
 from prezence.cli import EXIT_EXPECTATIONS, EXIT_INTERRUPTED, EXIT_TERMINATED
+from prezence.evaluate import evaluate
 
 
 def _default_signals() -> None:
@@ -89,3 +91,75 @@ def test_ctrl_c_on_a_run_is_not_a_missed_expectation(tmp_path: Path) -> None:
     assert "talk stopped by Ctrl-C" in err
     assert "NOT met" not in out
     assert json.loads((tmp_path / "c/summary.json").read_text())["interrupted"] is True
+
+
+def _workers(pid: int) -> list[int]:
+    """The pool's worker processes of ``pid`` (not multiprocessing's resource tracker, which
+    ends by itself when its parent has gone)."""
+    kids = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            cmdline = (stat.parent / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if int(fields[1]) == pid and b"spawn_main" in cmdline:
+            kids.append(int(stat.parent.name))
+    return kids
+
+
+def _running(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_sigterm_ends_evaluate_with_its_workers_and_leaves_nothing(tmp_path: Path) -> None:
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    proc = _start(
+        ["evaluate", "--seeds", "3", "--jobs", "2", "--scenarios", "fast_talker", "--out", "ev"],
+        tmp_path,
+        TMPDIR=str(tmp),
+    )
+    # both workers run a talk (each has its temporary session folder)
+    _wait_for(lambda: len(list(tmp.glob("prezence-eval-*"))) >= 2, proc, "two talks")
+    workers = _workers(proc.pid)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == EXIT_TERMINATED, (out, err)
+    assert "evaluation stopped" in err and "no tables written" in err
+    assert not (tmp_path / "ev").exists()
+    assert len(workers) == 2 and not [w for w in workers if _running(w)]
+    assert not list(tmp.glob("prezence-eval-*"))  # the workers' talk folders went with them
+
+
+def test_ctrl_c_in_a_one_process_evaluation_stops_it_not_one_talk(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from prezence.synthetic.runner import SyntheticSource
+
+    poll = SyntheticSource.poll
+    talks: list[int] = []
+
+    def ctrl_c_in_the_second_talk(self: SyntheticSource, now: float) -> object:
+        if id(self) not in talks:
+            talks.append(id(self))
+        if len(talks) == 2 and now >= 20.0:
+            raise KeyboardInterrupt
+        return poll(self, now)
+
+    monkeypatch.setattr(SyntheticSource, "poll", ctrl_c_in_the_second_talk)
+    with pytest.raises(KeyboardInterrupt):
+        evaluate(["short_talk"], ["none"], 3, jobs=1)
+    assert len(talks) == 2  # no third talk after the Ctrl-C
+
+
+def test_a_one_process_evaluation_logs_as_its_workers_do(caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.WARNING)
+    evaluate(["camera_dropout"], ["none"], 1, jobs=1)
+    # the scenario's garbled lines were warned about per line, naming temporary files gone
+    assert not [r for r in caplog.records if r.name == "prezence.streams.tail"]
