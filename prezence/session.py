@@ -21,6 +21,7 @@ so a crash loses nothing that was written.
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
 import math
@@ -164,14 +165,35 @@ class SessionDir:
                 "holds a recorded talk; it is never overwritten: use another folder",
                 path=self.root,
             )
-        self.streams.mkdir(parents=True, exist_ok=True)
-        for p in (self.decisions, self.cues, self.truth, self.summary, self.gestures):
-            if p.exists():
-                p.unlink()
-        if not keep_streams:
-            for p in self.streams.glob("*.txt"):
-                p.unlink()
+        try:
+            self.streams.mkdir(parents=True, exist_ok=True)
+            for p in (self.decisions, self.cues, self.truth, self.summary, self.gestures):
+                if p.exists():
+                    p.unlink()
+            if not keep_streams:
+                for p in self.streams.glob("*.txt"):
+                    p.unlink()
+        except OSError as e:
+            raise folder_error(self.root, e) from None
         return self
+
+    def claim(self) -> FolderLock:
+        """Make the folder and hold it for one talk: a second talk into the same folder at
+        the same time (another process, a CI job beside this one) is refused instead of
+        deleting this one's files under it and mixing both talks in one folder.
+
+        The hold is a lock on the folder itself (no file is added to it); it ends with
+        :meth:`FolderLock.release`, or with the process.
+
+        Raises:
+            ConfigError: the folder cannot be made (a file in the way, no permission) or
+                another talk holds it.
+        """
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise folder_error(self.root, e) from None
+        return FolderLock.take(self.root)
 
     def write_meta(self, meta: dict[str, Any]) -> None:
         data = {"format": SESSION_FORMAT, **meta}
@@ -190,6 +212,62 @@ class SessionDir:
         data = read_json_object(self.meta)
         check_format(data, self.meta)
         return data
+
+
+def folder_error(root: Path, e: OSError, *, what: str = "session folder") -> ConfigError:
+    """A session folder (or ``what``) that cannot be made or written, as one line naming it
+    and why."""
+    why = {
+        errno.ENOTDIR: "a file is in the way (it, or a folder above it, is a file)",
+        errno.EEXIST: "a file is in the way (it, or a folder above it, is a file)",
+        errno.EACCES: "no permission to write there",
+        errno.EPERM: "no permission to write there",
+        errno.EROFS: "the disk is read-only",
+        errno.ENOSPC: "the disk is full",
+    }.get(e.errno or 0, e.strerror or str(e))
+    where = f" ({e.filename})" if e.filename and Path(e.filename) != root else ""
+    return ConfigError(f"cannot write the {what} here: {why}{where}; give another --out", path=root)
+
+
+class FolderLock:
+    """A session folder held by one talk (an exclusive ``flock`` on the folder)."""
+
+    def __init__(self, root: Path, fd: int | None) -> None:
+        self.root = root
+        self._fd = fd
+
+    @classmethod
+    def take(cls, root: Path) -> FolderLock:
+        """Hold ``root``, or raise :class:`ConfigError` when another talk holds it."""
+        try:
+            import fcntl
+        except ImportError:  # no flock (Windows): not held
+            return cls(root, None)
+        try:
+            fd = os.open(root, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        except OSError as e:
+            raise folder_error(root, e) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as e:
+            os.close(fd)
+            if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                raise ConfigError(
+                    "another talk is being written into this folder right now (a second "
+                    "prezence process); each talk needs a folder of its own: give another --out",
+                    path=root,
+                ) from None
+            return cls(root, None)  # a file system without locks: not held
+        return cls(root, fd)
+
+    def release(self) -> None:
+        """Let the folder go (again: nothing)."""
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            os.close(fd)  # closing the last descriptor drops the flock
+
+    def __del__(self) -> None:
+        self.release()
 
 
 def check_format(data: dict[str, Any], path: Path) -> None:

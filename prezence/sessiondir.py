@@ -67,8 +67,7 @@ def claim_session_dir(
         while path.exists() and not _is_empty_dir(path):
             n += 1
             path = path.with_name(f"{(default or path).name}-{n}")
-        path.mkdir(parents=True, exist_ok=True)
-        return path
+        return _mkdir(path)
     path = Path(out)
     for p in protect:
         if overlaps(path, p):
@@ -93,7 +92,17 @@ def claim_session_dir(
             n += 1
             aside = path.with_name(f"{path.name}.old-{_stamp()}-{n}")
         path.rename(aside)
-    path.mkdir(parents=True, exist_ok=True)
+    return _mkdir(path)
+
+
+def _mkdir(path: Path) -> Path:
+    """Make ``path``; one that cannot be made (no permission, a file above it) is an error line."""
+    from prezence.session import folder_error
+
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise folder_error(path, e, what="folder") from None
     return path
 
 

@@ -40,7 +40,7 @@ from prezence.config.tomlconf import dumps_config
 from prezence.feedback.gestures import library_for_talk
 from prezence.processor import Cue, Decision, Processor, end_of_talk_notes, make_policy
 from prezence.samples import Sample
-from prezence.session import CUE_KEYS, SessionDir, dumps, read_jsonl
+from prezence.session import CUE_KEYS, FolderLock, SessionDir, dumps, read_jsonl
 from prezence.streams.tail import MultiTailer, stamps_path
 from prezence.summary import summarize_session
 
@@ -393,6 +393,8 @@ class Talk:
         # a library of one's own is read and planned before the robot opens
         self.library = library_for_talk(options.gestures) if options.gestures else None
         self.coach: Coach | None = None
+        #: The folder held for this talk from :meth:`start` until it is finished or abandoned.
+        self.hold: FolderLock | None = None
         #: SIGTERM stopped the talk: no post-talk summary (:class:`Terminated`).
         self.terminated = False
         self.wall0 = 0.0
@@ -409,9 +411,12 @@ class Talk:
         """Open the robot, then write the folder's config and metadata and open the source.
 
         The robot comes first: an unreachable one fails before a session folder is written.
+        The folder is then held until the talk is finished: a second talk into it at the same
+        time is refused (:meth:`SessionDir.claim`).
         """
         self.backend.open()
         try:
+            self.hold = self.session.claim()
             self.session.create(keep_streams=self.source.keep_streams)
             self.session.config.write_text(dumps_config(self.config))
             if self.library is not None:  # what the robot played, kept with the talk
@@ -442,8 +447,15 @@ class Talk:
             try:
                 self.source.stop()
             finally:
+                self.release()
                 self.backend.close()
             raise
+
+    def release(self) -> None:
+        """Let the session folder go (idempotent)."""
+        hold, self.hold = self.hold, None
+        if hold is not None:
+            hold.release()
 
     def step(self, now: float) -> Decision:
         """One decision point at ``now`` with the source's new samples."""
@@ -483,6 +495,30 @@ class Talk:
             completed: the talk ended as planned or by Ctrl-C (not by an error): only then is
                 the post-talk summary said.
         """
+        try:
+            return self._finish(
+                now,
+                clock=clock,
+                talk_s=talk_s,
+                completed=completed,
+                truncated=truncated,
+                interrupted=interrupted,
+                events=events,
+            )
+        finally:
+            self.release()  # the folder is complete (or as complete as an error leaves it)
+
+    def _finish(
+        self,
+        now: float,
+        *,
+        clock: SteppedClock | WallClock,
+        talk_s: float,
+        completed: bool,
+        truncated: bool,
+        interrupted: bool,
+        events: Sequence[str],
+    ) -> TalkRun:
         coach = self.coach
         assert coach is not None, "start() first"
         pace = self.pace if self.paced else None
@@ -747,4 +783,5 @@ def _abandon(talk: Talk) -> None:
         try:
             talk.source.stop()
         finally:
+            talk.release()
             talk.backend.close()

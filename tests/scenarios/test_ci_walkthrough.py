@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from prezence.cli import EXIT_EXPECTATIONS, EXIT_INTERRUPTED, EXIT_TERMINATED
+from prezence.cli import EXIT_EXPECTATIONS, EXIT_INTERRUPTED, EXIT_TERMINATED, main
 from prezence.evaluate import evaluate
 
 
@@ -163,3 +163,60 @@ def test_a_one_process_evaluation_logs_as_its_workers_do(caplog: pytest.LogCaptu
     evaluate(["camera_dropout"], ["none"], 1, jobs=1)
     # the scenario's garbled lines were warned about per line, naming temporary files gone
     assert not [r for r in caplog.records if r.name == "prezence.streams.tail"]
+
+
+def test_a_file_in_the_way_is_an_error_line_not_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "afile").write_text("mine\n")
+    for argv in (
+        ["run", "short_talk", "--out", str(tmp_path / "afile")],
+        ["demo", "--out", str(tmp_path / "afile/sub")],
+        [
+            "evaluate",
+            "--seeds",
+            "1",
+            "--scenarios",
+            "short_talk",
+            "--out",
+            str(tmp_path / "afile/e"),
+        ],
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.startswith("error: ") and "a file is in the way" in err, err
+    assert (tmp_path / "afile").read_text() == "mine\n"
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into a read-only folder")
+def test_a_read_only_parent_is_an_error_line_not_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        assert main(["run", "short_talk", "--out", str(ro / "s")]) == 2
+        assert "no permission to write there" in capsys.readouterr().err
+    finally:
+        ro.chmod(0o755)
+
+
+def test_a_second_talk_into_a_folder_in_use_is_refused_and_the_first_kept(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first = _realtime_run(tmp_path, "same")
+    try:
+        before = sorted(p.name for p in (tmp_path / "same/streams").glob("*.txt"))
+        assert main(["run", "fast_talker", "--seed", "3", "--out", str(tmp_path / "same")]) == 2
+        assert "another talk is being written into this folder" in capsys.readouterr().err
+        # the first talk's files are still there (the second would have deleted them)
+        assert sorted(p.name for p in (tmp_path / "same/streams").glob("*.txt")) == before
+    finally:
+        first.send_signal(signal.SIGTERM)
+        first.communicate(timeout=120)
+    assert first.returncode == EXIT_TERMINATED
+    meta = json.loads((tmp_path / "same/session.json").read_text())
+    assert meta["seed"] == 0
+    # the folder is free again once the first talk ended
+    assert main(["run", "short_talk", "--out", str(tmp_path / "same")]) == 0
