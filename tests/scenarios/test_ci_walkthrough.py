@@ -26,6 +26,8 @@ import pytest
 from prezence.cli import EXIT_EXPECTATIONS, EXIT_INTERRUPTED, EXIT_TERMINATED, main
 from prezence.evaluate import evaluate
 
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+
 
 def _default_signals() -> None:
     """The child takes Ctrl-C and SIGTERM as a terminal's process does (not ignored)."""
@@ -220,3 +222,38 @@ def test_a_second_talk_into_a_folder_in_use_is_refused_and_the_first_kept(
     assert meta["seed"] == 0
     # the folder is free again once the first talk ended
     assert main(["run", "short_talk", "--out", str(tmp_path / "same")]) == 0
+
+
+def test_run_json_says_on_stderr_why_it_failed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = (SCENARIOS / "fast_talker.toml").read_text()
+    assert "within_s = 60" in text
+    mine = tmp_path / "mine.toml"
+    mine.write_text(text.replace("within_s = 60", "within_s = 5"))
+    assert main(["run", str(mine), "--json", "--out", str(tmp_path / "o")]) == EXIT_EXPECTATIONS
+    out, err = capsys.readouterr()
+    json.loads(out)  # stdout stays the JSON alone
+    assert "scenario expectation NOT met: expected slowDown (speech_speed) between 3:00" in err
+
+
+def test_the_report_command_printed_for_a_folder_with_spaces_can_be_pasted(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "short_talk", "--out", "with space/s 1"]) == 0
+    assert "prezence report 'with space/s 1')" in capsys.readouterr().out
+
+
+def test_quiet_keeps_pybullets_banner_off_stderr(tmp_path: Path) -> None:
+    pytest.importorskip("pybullet")
+    proc = subprocess.run(
+        [sys.executable, "-m", "prezence.cli", "-q", "run", "short_talk", "--backend", "sim"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == ""
+    assert "scenario expectations met" in proc.stdout
