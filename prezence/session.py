@@ -230,19 +230,33 @@ def folder_error(root: Path, e: OSError, *, what: str = "session folder") -> Con
 
 
 class FolderLock:
-    """A session folder held by one talk (an exclusive ``flock`` on the folder)."""
+    """A session folder held by one talk (an exclusive ``flock`` on the folder).
+
+    It keeps other processes out. In this process a new talk takes the folder over from an
+    earlier one that was dropped unfinished (the Gymnasium environment's ``reset`` mid-episode):
+    one process runs one talk into a folder at a time.
+    """
+
+    #: The folders this process holds, by their real path.
+    _held: dict[str, FolderLock] = {}
 
     def __init__(self, root: Path, fd: int | None) -> None:
         self.root = root
         self._fd = fd
+        self._key = os.path.realpath(root)
+        if fd is not None:
+            FolderLock._held[self._key] = self
 
     @classmethod
     def take(cls, root: Path) -> FolderLock:
-        """Hold ``root``, or raise :class:`ConfigError` when another talk holds it."""
+        """Hold ``root``, or raise :class:`ConfigError` when another process's talk holds it."""
         try:
             import fcntl
         except ImportError:  # no flock (Windows): not held
             return cls(root, None)
+        earlier = cls._held.get(os.path.realpath(root))
+        if earlier is not None:
+            earlier.release()
         try:
             fd = os.open(root, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
         except OSError as e:
@@ -264,6 +278,8 @@ class FolderLock:
         """Let the folder go (again: nothing)."""
         fd, self._fd = self._fd, None
         if fd is not None:
+            if FolderLock._held.get(self._key) is self:
+                del FolderLock._held[self._key]
             os.close(fd)  # closing the last descriptor drops the flock
 
     def __del__(self) -> None:

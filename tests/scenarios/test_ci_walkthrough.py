@@ -257,3 +257,35 @@ def test_quiet_keeps_pybullets_banner_off_stderr(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr == ""
     assert "scenario expectations met" in proc.stdout
+
+
+def test_a_talk_dropped_unfinished_in_this_process_does_not_hold_its_folder(
+    tmp_path: Path,
+) -> None:
+    """The Gymnasium environment's reset mid-episode drops a talk unfinished and starts the
+    next one in the same folder: only another process's talk is kept out."""
+    from prezence.backends.fake import FakeBackend
+    from prezence.config.load import load_config
+    from prezence.session import SessionDir
+    from prezence.synthetic.runner import SyntheticSource
+    from prezence.synthetic.scenario import load_scenario
+    from prezence.talk import RunOptions, Talk
+
+    config = load_config(None)
+    source = SyntheticSource(load_scenario("short_talk"), config, seed=0)
+    dropped = Talk(
+        source,
+        config=config,
+        session=SessionDir(tmp_path / "ep"),
+        backend=FakeBackend(),
+        options=RunOptions.default(),
+    )
+    dropped.start()
+    try:
+        dropped.step(1.0)
+        assert main(["run", "short_talk", "--out", str(tmp_path / "ep")]) == 0
+    finally:  # as the environment drops an episode: its files closed, not finished
+        assert dropped.coach is not None
+        dropped.coach.close()
+        dropped.source.stop()
+        dropped.backend.close()
