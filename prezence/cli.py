@@ -1019,8 +1019,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if args.command is None:
         parser.error("a command is required (prezence -h lists them)")
-    if args.command == "evaluate":
-        args.rest = extra
+    if args.command == "evaluate":  # its own parser takes -q/-v too (prezence evaluate -h)
+        args.verbose += sum(a.count("v") for a in extra if a == "--verbose" or _is_vs(a))
+        args.quiet = args.quiet or "-q" in extra or "--quiet" in extra
+        args.rest = [*extra, *(["--quiet"] if args.quiet and "--quiet" not in extra else [])]
     elif extra:
         parser.error(f"unrecognized arguments: {' '.join(extra)}")
     args.verbose += getattr(args, "sub_verbose", 0)
@@ -1045,6 +1047,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return status
     except BrokenPipeError:
         return _broken_pipe()
+
+
+def _is_vs(arg: str) -> bool:
+    """``-v``, ``-vv``, …"""
+    return len(arg) > 1 and arg[0] == "-" and set(arg[1:]) == {"v"}
 
 
 def _import_without_banner(module: str) -> None:

@@ -827,6 +827,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="auto|local|ADDRESS",
         help="run the talks on Ray: 'local' starts one here, 'auto' or an address joins one",
     )
+    # as every command takes them, before or after its name (prezence sets the logging)
+    p.add_argument("-v", "--verbose", action="count", default=0, help="more logging")
+    p.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="errors only on stderr (no progress bar, no closing line); the table still on stdout",
+    )
     return p
 
 
@@ -868,7 +876,8 @@ def _evaluate_into(
 
     done = [0, 0]  # talks done, talks in all
 
-    with progress_bar("talks") as show:  # ended before the table is printed
+    bar = contextlib.nullcontext(None) if args.quiet else progress_bar("talks")
+    with bar as show:  # ended before the table is printed
 
         def counted(n: int, total: int) -> None:
             done[:] = [n, total]
@@ -896,9 +905,10 @@ def _evaluate_into(
     wall = time.perf_counter() - t0
     c, m = write_tables(rows, out)
     print(markdown_table(rows), end="")
-    print(
-        f"{len(rows)} talks in {wall:.1f} s ({len(rows) / wall:.2f} talks/s, jobs {args.jobs}); "
-        f"wrote {c}, {m} and {out / 'evaluation.json'}",
-        file=sys.stderr,
-    )
+    if not args.quiet:
+        print(
+            f"{len(rows)} talks in {wall:.1f} s ({len(rows) / wall:.2f} talks/s, "
+            f"jobs {args.jobs}); wrote {c}, {m} and {out / 'evaluation.json'}",
+            file=sys.stderr,
+        )
     return 0

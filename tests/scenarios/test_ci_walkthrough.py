@@ -289,3 +289,15 @@ def test_a_talk_dropped_unfinished_in_this_process_does_not_hold_its_folder(
         dropped.coach.close()
         dropped.source.stop()
         dropped.backend.close()
+
+
+@pytest.mark.parametrize("argv", [["-q", "evaluate"], ["evaluate", "-q"]], ids=["before", "after"])
+def test_evaluate_takes_quiet_before_or_after_its_name_and_keeps_stderr_for_errors(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str]
+) -> None:
+    grid = ["--seeds", "1", "--scenarios", "short_talk", "--policies", "none"]
+    assert main([*argv, *grid, "--out", str(tmp_path / "ev")]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""  # was 'error: unrecognized arguments: -q' after, the closing line before
+    assert "| none |" in out
+    assert (tmp_path / "ev/evaluation.csv").is_file()
