@@ -301,3 +301,16 @@ def test_evaluate_takes_quiet_before_or_after_its_name_and_keeps_stderr_for_erro
     assert err == ""  # was 'error: unrecognized arguments: -q' after, the closing line before
     assert "| none |" in out
     assert (tmp_path / "ev/evaluation.csv").is_file()
+
+
+def test_check_config_says_which_files_are_fine_when_another_is_not(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = tmp_path / "good.txt"
+    good.write_text("speech_speed inRange 140 180 speedUp slowDown\n")
+    bad = tmp_path / "bad.txt"
+    bad.write_text("speech_speed inRange 140 180 speedUp slowDown\nspeech_volume mn 60 louder\n")
+    assert main(["check-config", str(good), str(bad)]) == 1
+    out, err = capsys.readouterr()
+    assert out == f"{good}: ok\n"  # was nothing: a lint log could not tell which file passed
+    assert err.startswith(f"{bad}:2:") and str(good) not in err
