@@ -26,6 +26,7 @@ import json
 import logging
 import math
 import os
+import shutil
 import stat
 from dataclasses import dataclass
 from pathlib import Path
@@ -151,8 +152,8 @@ class SessionDir:
     def create(self, *, keep_streams: bool = False) -> SessionDir:
         """Make the folder (and ``streams/``) for a new talk.
 
-        A synthetic talk's old files are replaced (its scenario and seed make them again);
-        a folder that holds anything recorded is refused, never overwritten.
+        A synthetic talk's old files are replaced (its scenario and seed make them again), its
+        report removed; a folder that holds anything recorded is refused, never overwritten.
 
         ``keep_streams``: the folder's stream files are this talk's own input (a rehearsal just
         recorded into it): they are kept, and they do not make the folder refused.
@@ -171,11 +172,23 @@ class SessionDir:
                 if p.exists():
                     p.unlink()
             if not keep_streams:
-                for p in self.streams.glob("*.txt"):
+                for p in [*self.streams.glob("*.txt"), *self.streams.glob("*.txt.stamps")]:
                     p.unlink()
+                # the earlier synthetic talk's report (rebuilt from its files, now gone): a talk
+                # run with --no-report would otherwise sit beside another talk's report. Only
+                # in a folder a talk wrote: a report/ of one's own in any other --out is kept
+                if self._synthetic() and self.report.is_dir() and not self.report.is_symlink():
+                    shutil.rmtree(self.report)
         except OSError as e:
             raise folder_error(self.root, e) from None
         return self
+
+    def _synthetic(self) -> bool:
+        """The folder holds a synthetic talk (its ``session.json`` says so)."""
+        try:
+            return self.meta.is_file() and self.read_meta().get("kind") == "synthetic"
+        except PrezenceError:
+            return False
 
     def claim(self) -> FolderLock:
         """Make the folder and hold it for one talk: a second talk into the same folder at

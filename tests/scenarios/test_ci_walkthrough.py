@@ -314,3 +314,20 @@ def test_check_config_says_which_files_are_fine_when_another_is_not(
     out, err = capsys.readouterr()
     assert out == f"{good}: ok\n"  # was nothing: a lint log could not tell which file passed
     assert err.startswith(f"{bad}:2:") and str(good) not in err
+
+
+def test_a_talk_run_again_into_its_folder_leaves_no_report_of_the_earlier_talk(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "s"
+    assert main(["-q", "run", "fast_talker", "--out", str(out)]) == 0
+    assert "fast_talker" in (out / "report/summary.txt").read_text()
+    assert main(["-q", "run", "quiet_speaker", "--out", str(out), "--no-report"]) == 0
+    assert json.loads((out / "summary.json").read_text())["scenario"] == "quiet_speaker"
+    assert not (out / "report").exists()  # was fast_talker's report beside quiet_speaker's files
+    # a report/ folder of one's own in an --out no talk wrote is left alone
+    own = tmp_path / "own"
+    (own / "report").mkdir(parents=True)
+    (own / "report/notes.txt").write_text("mine\n")
+    assert main(["-q", "run", "short_talk", "--out", str(own), "--no-report"]) == 0
+    assert (own / "report/notes.txt").read_text() == "mine\n"
