@@ -436,7 +436,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
             backend_kwargs=kw,
             allocated_s=args.allocated,
         )
-    return _finish_session(result.session.root, result.summary, args, report=result.report)
+    status = _finish_session(result.session.root, result.summary, args, report=result.report)
+    return _stopped_status(result.summary, result.session.root, status)
 
 
 def cmd_rehearse(args: argparse.Namespace) -> int:
@@ -471,7 +472,8 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
             allocated_s=args.allocated,
             progress=show,
         )
-    return _finish_session(result.session.root, result.summary, args, report=result.report)
+    status = _finish_session(result.session.root, result.summary, args, report=result.report)
+    return _stopped_status(result.summary, result.session.root, status)
 
 
 def cmd_up(args: argparse.Namespace) -> int:
@@ -546,6 +548,22 @@ def _live_view(config: Config, specs: Sequence[Any]) -> RichLiveView:
     known = all(s.metrics for s in specs)
     measured = {m for s in specs for m in s.metrics} if known else None
     return RichLiveView(config, [s.name for s in specs], measured=measured)
+
+
+def _stopped_status(summary: dict[str, Any], root: Path, status: int) -> int:
+    """``replay``/``rehearse`` stopped by Ctrl-C or SIGTERM before their recording's end: 130
+    or 143 (a CI gate must not read a talk cut short as done), said on stderr; else ``status``.
+    (``up`` ends at Ctrl-C as a rule, and takes SIGTERM alike: not here.)"""
+    if not summary.get("interrupted"):
+        return status
+    stopped = _interrupt_status()
+    how = "SIGTERM" if stopped == EXIT_TERMINATED else "Ctrl-C"
+    print(
+        f"stopped by {how} at {_mmss(summary.get('talk_s')).strip()}: {root} holds the talk "
+        "up to there",
+        file=sys.stderr,
+    )
+    return stopped
 
 
 def _finish_session(

@@ -331,3 +331,26 @@ def test_a_talk_run_again_into_its_folder_leaves_no_report_of_the_earlier_talk(
     (own / "report/notes.txt").write_text("mine\n")
     assert main(["-q", "run", "short_talk", "--out", str(own), "--no-report"]) == 0
     assert (own / "report/notes.txt").read_text() == "mine\n"
+
+
+def test_a_replay_stopped_before_its_end_is_not_done(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C (or SIGTERM, which now ends a talk the same way) on ``replay``: exit 130 (143),
+    never 0, which a CI gate would read as a replay done."""
+    from prezence.talk import RecordedSource
+
+    src = tmp_path / "src"
+    assert main(["-q", "run", "fast_talker", "--out", str(src), "--no-report"]) == 0
+    poll = RecordedSource.poll
+
+    def ctrl_c_at_20_s(self: RecordedSource, now: float) -> object:
+        if now >= 20.0:
+            raise KeyboardInterrupt
+        return poll(self, now)
+
+    monkeypatch.setattr(RecordedSource, "poll", ctrl_c_at_20_s)
+    capsys.readouterr()
+    assert main(["replay", str(src), "--out", str(tmp_path / "rp"), "--no-report"]) == 130
+    assert "stopped by Ctrl-C at 0:20.0" in capsys.readouterr().err
+    assert json.loads((tmp_path / "rp/summary.json").read_text())["interrupted"] is True
