@@ -856,6 +856,7 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
     (:func:`prezence.sessiondir.claim_session_dir`), before any talk runs.
     """
     from prezence.processor import policy_names
+    from prezence.session import release_folder
     from prezence.sessiondir import claim_session_dir, drop_if_left_empty
     from prezence.synthetic.scenario import list_scenarios
 
@@ -863,8 +864,11 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
     scenarios = args.scenarios or list_scenarios()
     policies = args.policies or policy_names()
     out = claim_session_dir(args.out, "evaluation", force=args.force, default=Path("evaluation"))
-    with drop_if_left_empty(out):
-        return _evaluate_into(out, args, scenarios, policies)
+    try:
+        with drop_if_left_empty(out):
+            return _evaluate_into(out, args, scenarios, policies)
+    finally:
+        release_folder(out)  # held from its claim: no second evaluation wrote into it meanwhile
 
 
 def _evaluate_into(

@@ -242,12 +242,17 @@ def folder_error(root: Path, e: OSError, *, what: str = "session folder") -> Con
     return ConfigError(f"cannot write the {what} here: {why}{where}; give another --out", path=root)
 
 
-class FolderLock:
-    """A session folder held by one talk (an exclusive ``flock`` on the folder).
+class FolderInUse(ConfigError):
+    """Another process holds the folder (:class:`FolderLock`): it is writing into it now."""
 
-    It keeps other processes out. In this process a new talk takes the folder over from an
-    earlier one that was dropped unfinished (the Gymnasium environment's ``reset`` mid-episode):
-    one process runs one talk into a folder at a time.
+
+class FolderLock:
+    """A session (or evaluation) folder held by one process (an exclusive ``flock`` on it).
+
+    It keeps other processes out. In this process a new holder takes the folder over, with no
+    moment in which it is free: the talk from the command that claimed its folder
+    (:func:`prezence.sessiondir.claim_session_dir`), or a new talk from an earlier one dropped
+    unfinished (the Gymnasium environment's ``reset`` mid-episode).
     """
 
     #: The folders this process holds, by their real path.
@@ -262,14 +267,15 @@ class FolderLock:
 
     @classmethod
     def take(cls, root: Path) -> FolderLock:
-        """Hold ``root``, or raise :class:`ConfigError` when another process's talk holds it."""
+        """Hold ``root``, or raise :class:`FolderInUse` when another process holds it."""
         try:
             import fcntl
         except ImportError:  # no flock (Windows): not held
             return cls(root, None)
         earlier = cls._held.get(os.path.realpath(root))
-        if earlier is not None:
-            earlier.release()
+        if earlier is not None and earlier._fd is not None:  # taken over, never let go between
+            fd, earlier._fd = earlier._fd, None
+            return cls(root, fd)
         try:
             fd = os.open(root, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
         except OSError as e:
@@ -279,9 +285,9 @@ class FolderLock:
         except OSError as e:
             os.close(fd)
             if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                raise ConfigError(
-                    "another talk is being written into this folder right now (a second "
-                    "prezence process); each talk needs a folder of its own: give another --out",
+                raise FolderInUse(
+                    "another prezence process is writing into this folder right now (each talk "
+                    "or evaluation needs a folder of its own): give another --out",
                     path=root,
                 ) from None
             return cls(root, None)  # a file system without locks: not held
@@ -297,6 +303,13 @@ class FolderLock:
 
     def __del__(self) -> None:
         self.release()
+
+
+def release_folder(root: Path) -> None:
+    """Let ``root`` go if this process holds it (:class:`FolderLock`)."""
+    held = FolderLock._held.get(os.path.realpath(root))
+    if held is not None:
+        held.release()
 
 
 def check_format(data: dict[str, Any], path: Path) -> None:

@@ -57,17 +57,27 @@ def claim_session_dir(
         default: the folder to use when ``out`` is None (suffixed ``-2``, ``-3`` … when it
             exists); None: ``root/<kind>-<time>``.
 
+    The folder is held (:class:`prezence.session.FolderLock`) until the talk that writes into
+    it ends, or the process: two commands started together never share a folder.
+
     Raises:
-        ConfigError: ``out`` exists and is not empty (without ``force``), is a file, or
-            overlaps a protected folder.
+        ConfigError: ``out`` exists and is not empty (without ``force``), is a file, cannot be
+            made, overlaps a protected folder, or another process is writing into it.
     """
+    from prezence.session import FolderInUse, FolderLock
+
     if out is None:
         path = default_session_dir(kind, root=root) if default is None else default
-        n = 1
-        while path.exists() and not _is_empty_dir(path):
+        base, n = path.name, 1
+        while True:
+            if not path.exists() or _is_empty_dir(path):
+                try:  # held from here on: a second process at the same moment moves on
+                    FolderLock.take(_mkdir(path))
+                    return path
+                except FolderInUse:
+                    pass
             n += 1
-            path = path.with_name(f"{(default or path).name}-{n}")
-        return _mkdir(path)
+            path = path.with_name(f"{base}-{n}")
     path = Path(out)
     for p in protect:
         if overlaps(path, p):
@@ -92,7 +102,8 @@ def claim_session_dir(
             n += 1
             aside = path.with_name(f"{path.name}.old-{_stamp()}-{n}")
         path.rename(aside)
-    return _mkdir(path)
+    FolderLock.take(_mkdir(path))  # another process's command into it now: refused
+    return path
 
 
 def _mkdir(path: Path) -> Path:
@@ -116,9 +127,12 @@ def overlaps(a: Path, b: Path) -> bool:
 def drop_if_left_empty(folder: Path) -> Iterator[None]:
     """Remove ``folder`` again when the command fails before writing anything into it (an
     empty folder only: ``rmdir`` never deletes a file)."""
+    from prezence.session import release_folder
+
     try:
         yield
     except BaseException:
+        release_folder(folder)
         with contextlib.suppress(OSError):
             folder.rmdir()
         raise

@@ -211,7 +211,7 @@ def test_a_second_talk_into_a_folder_in_use_is_refused_and_the_first_kept(
     try:
         before = sorted(p.name for p in (tmp_path / "same/streams").glob("*.txt"))
         assert main(["run", "fast_talker", "--seed", "3", "--out", str(tmp_path / "same")]) == 2
-        assert "another talk is being written into this folder" in capsys.readouterr().err
+        assert "another prezence process is writing into this folder" in capsys.readouterr().err
         # the first talk's files are still there (the second would have deleted them)
         assert sorted(p.name for p in (tmp_path / "same/streams").glob("*.txt")) == before
     finally:
@@ -354,3 +354,35 @@ def test_a_replay_stopped_before_its_end_is_not_done(
     assert main(["replay", str(src), "--out", str(tmp_path / "rp"), "--no-report"]) == 130
     assert "stopped by Ctrl-C at 0:20.0" in capsys.readouterr().err
     assert json.loads((tmp_path / "rp/summary.json").read_text())["interrupted"] is True
+
+
+def test_an_evaluation_never_writes_into_a_folder_another_process_is_writing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two nightly evaluations started together without --out both wrote into evaluation/:
+    the second's tables replaced the first's, and both said they wrote them."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "evaluation").mkdir()
+    holder = subprocess.Popen(  # another process holding evaluation/, as one evaluating does
+        [
+            sys.executable,
+            "-c",
+            "import fcntl, os, sys; fd = os.open('evaluation', os.O_RDONLY); "
+            "fcntl.flock(fd, fcntl.LOCK_EX); print('held', flush=True); sys.stdin.read()",
+        ],
+        cwd=tmp_path,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline() == "held\n"
+        grid = ["--seeds", "1", "--scenarios", "short_talk", "--policies", "none"]
+        assert main(["-q", "evaluate", *grid]) == 0
+        assert not any((tmp_path / "evaluation").iterdir())
+        assert (tmp_path / "evaluation-2/evaluation.csv").is_file()
+        capsys.readouterr()
+        assert main(["-q", "evaluate", *grid, "--out", "evaluation"]) == 2
+        assert "another prezence process is writing into this folder" in capsys.readouterr().err
+    finally:
+        holder.communicate("")
