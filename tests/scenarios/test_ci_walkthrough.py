@@ -123,7 +123,7 @@ def test_sigterm_ends_evaluate_with_its_workers_and_leaves_nothing(tmp_path: Pat
     tmp = tmp_path / "tmp"
     tmp.mkdir()
     proc = _start(
-        ["evaluate", "--seeds", "3", "--jobs", "2", "--scenarios", "fast_talker", "--out", "ev"],
+        ["evaluate", "--seeds", "6", "--jobs", "2", "--scenarios", "fast_talker", "--out", "ev"],
         tmp_path,
         TMPDIR=str(tmp),
     )
