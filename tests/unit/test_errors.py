@@ -12,6 +12,7 @@ import prezence
 from prezence.config.lines import RuleProblem
 from prezence.errors import ConfigError, UnknownName
 from prezence.modules.common import ModuleInputError
+from prezence.session import FolderInUse
 from prezence.streams.codec import StreamLineError
 
 
@@ -23,6 +24,7 @@ def _examples() -> dict[type[BaseException], BaseException]:
         ModuleInputError: ModuleInputError("talk.flac", "the audio is damaged"),
         RuleProblem: RuleProblem("low", "min must be below max"),
         StreamLineError: StreamLineError("not a number: 'abc'"),
+        FolderInUse: FolderInUse("another prezence is writing into it now", path="sessions/demo"),
     }
     try:  # the vision module needs OpenCV (an extra)
         from prezence.modules.vision import VisionInputError
