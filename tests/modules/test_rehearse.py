@@ -88,16 +88,10 @@ with StreamSet(args.out, ["speech_fillers"], fresh=True) as streams:
 """
 
 
-def test_a_metric_added_as_its_module_and_its_record_is_measured_coached_and_reported(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Issue 12: adding a metric is its module plus its record; nothing else is edited."""
+def _add_the_fillers_records(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The two records of a metric added with its own module, ``fillers_stub``."""
     from prezence import metrics
 
-    pkg = tmp_path / "pkg"
-    pkg.mkdir()
-    (pkg / "fillers_stub.py").write_text(_FILLERS_MODULE)
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(pkg), *sys.path]))
     monkeypatch.setitem(
         metrics.INPUT_MODULES,
         "fillers",
@@ -116,6 +110,17 @@ def test_a_metric_added_as_its_module_and_its_record_is_measured_coached_and_rep
             physical_range=(0.0, 60.0),
         ),
     )
+
+
+def test_a_metric_added_as_its_module_and_its_record_is_measured_coached_and_reported(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 12: adding a metric is its module plus its record; nothing else is edited."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "fillers_stub.py").write_text(_FILLERS_MODULE)
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(pkg), *sys.path]))
+    _add_the_fillers_records(monkeypatch)
     rules = tmp_path / "rules.txt"  # the user's rules judge it: configuration, not code
     rules.write_text("speech_fillers max 6 above=slowDown\n")
     out = tmp_path / "s"
@@ -133,18 +138,9 @@ def test_up_starts_a_module_added_to_the_records_on_its_input(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """``up --audio`` starts every module whose record reads audio, not the speech module only."""
-    from prezence import launcher, metrics
+    from prezence import launcher
 
-    monkeypatch.setitem(
-        metrics.INPUT_MODULES,
-        "fillers",
-        metrics.InputModule("fillers", "fillers_stub", "--audio", (), metrics.DEFAULT_HANG_S),
-    )
-    monkeypatch.setitem(
-        metrics.METRICS,
-        "speech_fillers",
-        metrics.Metric("speech_fillers", "fillers/min", "filler words", "fillers", 1.0),
-    )
+    _add_the_fillers_records(monkeypatch)
     started: dict[str, launcher.ModuleSpec] = {}
 
     class Started(Exception):
