@@ -24,24 +24,6 @@ if TYPE_CHECKING:
     from prezence.streams.tail import MultiTailer, StreamProblem, TailStats
 
 
-def display_unit(rule: Rule) -> str:
-    """The unit a rule's figures are shown in: the rule's own (``config.toml``), else its
-    metric record's (``prezence/metrics.py``) when that is a unit, not a scale (``0..1``) or a
-    code: a rule in the seed's line format names none, and "60" alone says nothing.
-
-    Example:
-        >>> from prezence.config.model import Check
-        >>> [display_unit(Rule(m, Check.MIN, low=0.5)) for m in ("speech_volume", "speech_accuracy")]
-        ['dB SPL', '']
-        >>> display_unit(Rule("speech_volume", Check.MIN, low=60.0, unit="dB"))
-        'dB'
-    """  # noqa: E501 - a doctest line
-    if rule.unit:
-        return rule.unit
-    rec = METRICS.get(rule.metric)
-    return rec.shown_unit if rec is not None else ""
-
-
 def hold_ends(ts: Sequence[float] | np.ndarray, cuts: Sequence[float] | np.ndarray) -> np.ndarray:
     """For each sample time, the first of ``cuts`` at or after it (inf when none).
 
@@ -502,7 +484,7 @@ def build_summary(
         ts = np.array([s.t for s in ss], dtype=float)
         vals = np.array([s.value for s in ss], dtype=float)
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
-        m: dict[str, Any] = {"samples": len(ss), "unit": display_unit(rule)}
+        m: dict[str, Any] = {"samples": len(ss), "unit": rule.unit}
         cuts = [sp["from"] for sp in lost.get(rule.metric, ())]
         m.update(_in_range_time(rule, ts, vals, talk_s, stale_s, cuts))
         if rule.metric in lost:

@@ -35,7 +35,6 @@ from prezence.session import (
 )
 from prezence.summary import (
     build_summary,
-    display_unit,
     hold_ends,
     measurement_notes,
     module_notes,
@@ -367,7 +366,7 @@ def _off_side(rule: Rule, side: str) -> dict[str, Any]:
         "label": metric_label(rule.metric),
         "side": side,
         "bound": rule.high if side == "above" else rule.low,
-        "unit": display_unit(rule),
+        "unit": rule.unit,
     }
 
 
@@ -478,7 +477,7 @@ def _why(rule: Rule, row: Mapping[str, Any]) -> str:
     """A reader's reason for a metric cue: which metric, which way, how far."""
     side = str(row.get("side"))
     bound = rule.low if side == "below" else rule.high
-    unit = f" {display_unit(rule)}" if display_unit(rule) else ""
+    unit = f" {rule.unit}" if rule.unit else ""
     strict = "must-keep limit: " if row.get("kind") == "strict" else ""
     limit = "lowest" if side == "below" else "highest"
     value = row.get("value")
@@ -713,8 +712,7 @@ def _rebuild(
             row["improved"] = None
             if cue_rule is not None:
                 v = row.get("value")
-                shown = display_unit(cue_rule)
-                unit = f" {shown}" if shown else ""
+                unit = f" {cue_rule.unit}" if cue_rule.unit else ""
                 now = f" ({float(v):.3g}{unit})" if isinstance(v, int | float) else ""
                 label = metric_label(cue_rule.metric)
                 if row["stale"]:

@@ -31,6 +31,18 @@ def free_port() -> int:
 
 
 @pytest.mark.slow
+def _robot_killer(proc: Any, lost: list[float]) -> Any:
+    """An ``on_decision`` that kills the virtual NAO as the first cue starts (its time in
+    ``lost``)."""
+
+    def lose_the_robot_as_it_starts_a_cue(d: Decision) -> None:
+        if d.cue is not None and not lost:
+            stop_spawned(proc, kill=True)
+            lost.append(d.t)
+
+    return lose_the_robot_as_it_starts_a_cue
+
+
 def test_whole_talk_over_naoqi_with_the_cli(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -125,11 +137,7 @@ def test_a_cue_cut_off_by_a_lost_robot_and_an_unsaid_summary_are_shown_as_such(
     cfg = replace(base, processor=replace(base.processor, threshold=100.0))
     proc, url = spawn("--port", "0")
     lost: list[float] = []
-
-    def lose_the_robot_as_it_starts_a_cue(d: Decision) -> None:
-        if d.cue is not None and not lost:
-            stop_spawned(proc, kill=True)
-            lost.append(d.t)
+    lose_the_robot_as_it_starts_a_cue = _robot_killer(proc, lost)
 
     try:
         result = run_talk(
@@ -184,11 +192,7 @@ def test_run_exits_4_when_the_robot_is_lost_mid_cue(
     )
     proc, url = spawn("--port", "0")
     lost: list[float] = []
-
-    def lose_the_robot_as_it_starts_a_cue(d: Decision) -> None:
-        if d.cue is not None and not lost:
-            stop_spawned(proc, kill=True)
-            lost.append(d.t)
+    lose_the_robot_as_it_starts_a_cue = _robot_killer(proc, lost)
 
     real = runner.run_talk
 
