@@ -42,6 +42,8 @@ EXIT_ROBOT = 4
 #: the signal killed; the talk's folder is written up to where it stopped.
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
+#: What each of those exit statuses is said to have been stopped by.
+STOPPED_BY = {EXIT_INTERRUPTED: "Ctrl-C", EXIT_TERMINATED: "SIGTERM"}
 
 
 #: What ``-q`` does (the result a command prints on stdout stays: it is what it was run for).
@@ -378,7 +380,7 @@ def _interrupted_run(summary: dict[str, Any], root: Path, args: argparse.Namespa
             print(post_talk_line(post))
         print(f"session folder: {root}  (summary.json, cues.jsonl, decisions.jsonl)")
     status = _interrupt_status()
-    how = "SIGTERM" if status == EXIT_TERMINATED else "Ctrl-C"
+    how = STOPPED_BY[status]
     length = summary.get("time", {}).get("allocated_s")
     print(
         f"talk stopped by {how} at {_mmss(summary.get('talk_s')).strip()}"
@@ -557,7 +559,7 @@ def _stopped_status(summary: dict[str, Any], root: Path, status: int) -> int:
     if not summary.get("interrupted"):
         return status
     stopped = _interrupt_status()
-    how = "SIGTERM" if stopped == EXIT_TERMINATED else "Ctrl-C"
+    how = STOPPED_BY[stopped]
     print(
         f"stopped by {how} at {_mmss(summary.get('talk_s')).strip()}: {root} holds the talk "
         "up to there",
@@ -1064,7 +1066,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as e:
         status = EXIT_TERMINATED if isinstance(e, Terminated) else EXIT_INTERRUPTED
-        print(f"stopped by {'SIGTERM' if status == EXIT_TERMINATED else 'Ctrl-C'}", file=sys.stderr)
+        print(f"stopped by {STOPPED_BY[status]}", file=sys.stderr)
         return status
     except BrokenPipeError:
         return _broken_pipe()
