@@ -24,6 +24,8 @@ class Command:
     gesture: str
     phrase: str
     phrase_one: str | None = None
+    #: The parameters the processor gives each cue of this command (``minutes``).
+    params: tuple[str, ...] = ()
 
     def say(self, params: Mapping[str, Any] | None = None) -> str:
         """The phrase with the cue's parameters filled in.
@@ -60,6 +62,7 @@ def _parse(doc: Mapping[str, Any], path: str) -> dict[str, Command]:
                 gesture=str(entry["gesture"]),
                 phrase=str(entry["phrase"]),
                 phrase_one=entry.get("phrase_one"),
+                params=tuple(str(p) for p in entry.get("params", ())),
             )
         except KeyError as e:
             raise ConfigError(f"missing key {e}", path=path, key=key) from e

@@ -30,10 +30,10 @@ from prezence.feedback.collision import MIN_CLEARANCE_M, SelfCollisionChecker, p
 from prezence.feedback.gestures import (
     GestureLibrary,
     build_trajectory,
+    library_notes,
     load_library,
     load_library_file,
     time_optimal_minimum,
-    unplayed,
 )
 from prezence.feedback.limits import HANDS, JointLimits, load_limits
 from prezence.feedback.trajectory import ACCEL_TIME_S, BLEND_FRACTION, RAMP_S, Trajectory
@@ -223,7 +223,7 @@ def check_gestures(
         rows = gesture_rows(speed_fraction, limits=limits, collisions=collisions, library=lib)
     except PrezenceError as e:
         return f"error: {e}", 2
-    notes = unplayed(lib) if lib is not None else []
+    notes = library_notes(lib) if lib is not None else []
     status = 0 if all(r["ok"] for r in rows) else 1
     settings = {
         "speed_fraction": speed_fraction,

@@ -512,6 +512,41 @@ def unplayed(library: GestureLibrary) -> list[str]:
     return out
 
 
+def unset_params(library: GestureLibrary) -> list[str]:
+    """A note per parameter of a gesture of one's own that no cue sets: the commands that play
+    the gesture give their cues other parameters (``time_left``'s cues give ``minutes``), so a
+    ``mins`` would play at its default in every cue."""
+    from prezence.feedback.commands import load_commands
+
+    given: dict[str, set[str]] = {}
+    for c in load_commands().values():
+        given.setdefault(c.gesture, set()).update(c.params)
+    out = []
+    for name in library.own:
+        if name not in given:
+            continue  # unplayed() says so
+        g = library[name]
+        for p in g.params.values():
+            if p.name not in given[name]:
+                out.append(
+                    f"{g.at()}gestures.{name}.params.{p.name}: no cue sets '{p.name}', so every "
+                    f"cue plays it at its default {p.default}"
+                    + (
+                        f"{did_you_mean(p.name, sorted(given[name]))} (the cues that play "
+                        f"'{name}' give {', '.join(sorted(given[name]))})"
+                        if given[name]
+                        else f" (the cues that play '{name}' give no parameter)"
+                    )
+                )
+    return out
+
+
+def library_notes(library: GestureLibrary) -> list[str]:
+    """What ``gestures check`` notes and a talk warns of in a library of one's own: gestures
+    no command plays (:func:`unplayed`) and parameters no cue sets (:func:`unset_params`)."""
+    return unplayed(library) + unset_params(library)
+
+
 def check_plannable(library: GestureLibrary, *, limits: JointLimits) -> None:
     """Raise if a gesture of a library of one's own cannot be planned within the joint limits
     (every keyframe and the path between them, at each parameter's smallest and largest value).
@@ -543,7 +578,7 @@ def _for_talk(path: str, resolved: str, mtime_ns: int, size: int) -> GestureLibr
     limits = load_limits()
     library = load_library_file(path, limits=limits)
     check_plannable(library, limits=limits)
-    for note in unplayed(library):
+    for note in library_notes(library):
         log.warning("%s", note)
     return library
 
@@ -785,11 +820,13 @@ __all__ = [
     "check_path",
     "check_plannable",
     "library_for_talk",
+    "library_notes",
     "load_library",
     "load_library_file",
     "parse_library",
     "parse_own_library",
     "unplayed",
+    "unset_params",
     "segment_ratios",
     "time_optimal_minimum",
 ]

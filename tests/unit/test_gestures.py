@@ -17,6 +17,7 @@ from prezence.feedback.gestures import (
     DEFAULT_SPEED_FRACTION,
     build_trajectory,
     check_plannable,
+    library_notes,
     load_library,
     load_library_file,
     parse_library,
@@ -505,6 +506,33 @@ def test_a_gesture_no_command_plays_is_noted_with_a_suggestion(tmp_path: Path) -
     assert note.startswith(f"{path}:3: gestures.slow_dwon: no command plays 'slow_dwon'")
     assert "did you mean 'slow_down'?" in note
     assert unplayed(load_library_file(_write(tmp_path, OWN_SLOW_DOWN), limits=LIMITS)) == []
+
+
+OWN_TIME_LEFT = """format = 1
+[gestures.time_left]
+params.mins = { default = 2, min = 1, max = 5 }
+[[gestures.time_left.keyframes]]
+repeat = "mins"
+sequence = [ { pose = { RHand = 1.0 } }, { pose = { RHand = 0.0 } } ]
+"""
+
+
+def test_a_parameter_no_cue_sets_is_noted_with_the_ones_cues_give(tmp_path: Path) -> None:
+    # time_left counting with `mins`: the checks passed without a word and every cue showed
+    # the default 2, whatever the minutes left
+    lib = load_library_file(_write(tmp_path, OWN_TIME_LEFT), limits=LIMITS)
+    [note] = library_notes(lib)
+    assert note.startswith(f"{tmp_path}/lib.toml:2: gestures.time_left.params.mins: ")
+    assert "no cue sets 'mins', so every cue plays it at its default 2" in note
+    assert "did you mean 'minutes'?" in note
+    good = OWN_TIME_LEFT.replace("mins", "minutes")
+    assert library_notes(load_library_file(_write(tmp_path, good), limits=LIMITS)) == []
+
+
+def test_every_parameter_of_the_built_in_gestures_is_set_by_its_cues() -> None:
+    given = {c.gesture: set(c.params) for c in load_commands().values()}
+    for name in LIBRARY.names:
+        assert set(LIBRARY[name].params) <= given[name], name
 
 
 def _write(tmp_path: Path, text: str, name: str = "lib.toml") -> Path:
