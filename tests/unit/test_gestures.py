@@ -498,6 +498,25 @@ def test_a_keyframe_of_your_own_out_of_the_limits_names_file_and_line(tmp_path: 
     ), str(e.value)
 
 
+def test_the_docs_errors_are_what_the_docs_own_library_gets(tmp_path: Path) -> None:
+    # docs/gestures.md said `mine.toml:7` for keyframes[1] of its own example, which is at 8
+    doc = (Path(__file__).parents[2] / "docs" / "gestures.md").read_text()
+    [example] = re.findall(r"```toml\n(format = 1\n.*?)```", doc, re.S)
+    path = tmp_path / "mine.toml"
+    shown = re.search(r"error: (mine\.toml:\d+: gesture 'slow_down' keyframes\[1\]: .*?)`", doc)
+    assert shown is not None
+    path.write_text(example.replace("RShoulderPitch = 60.0", "RShoulderPitch = 150.0"))
+    with pytest.raises(LimitViolation) as e:
+        check_plannable(load_library_file(path, limits=LIMITS), limits=LIMITS)
+    assert str(e.value) == f"{tmp_path}/{shown.group(1)}"
+    leg = re.search(r"\n(mine\.toml:\d+: gestures\.slow_down\.keyframes\[0\]\.pose\.\w+: )", doc)
+    assert leg is not None
+    path.write_text(example.replace("RShoulderPitch = 35.0", "RKneePitch = 35.0"))
+    with pytest.raises(ConfigError) as c:
+        load_library_file(path, limits=LIMITS)
+    assert str(c.value).startswith(f"{tmp_path}/{leg.group(1)}")
+
+
 def test_a_gesture_no_command_plays_is_noted_with_a_suggestion(tmp_path: Path) -> None:
     path = tmp_path / "mine.toml"
     path.write_text(OWN_SLOW_DOWN.replace("slow_down", "slow_dwon"))
