@@ -541,10 +541,38 @@ def unset_params(library: GestureLibrary) -> list[str]:
     return out
 
 
+#: A gesture whose every angle is within ± this (degrees, as written) was most likely written in
+#: radians: 2.09 rad is the widest NAO joint's limit, and a move of 2° is not seen from the room.
+RADIANS_LIKE_DEG = 2.1
+
+
+def radians_like(library: GestureLibrary) -> list[str]:
+    """A note per gesture of one's own whose angles all look like radians (``RShoulderPitch =
+    1.2``): the file is read in degrees, so the arm would move 1.2°, not 69°."""
+    out = []
+    for name in library.own:
+        g = library[name]
+        angles = [
+            (j, math.degrees(v))
+            for kf in g.keyframes({p.name: p.low for p in g.params.values()})
+            for j, v in kf.pose.items()
+            if j not in HANDS
+        ]
+        if angles and max(abs(a) for _, a in angles) <= RADIANS_LIKE_DEG:
+            joint, big = max(angles, key=lambda ja: abs(ja[1]))
+            out.append(
+                f"{g.at()}gestures.{name}: every angle is within ±{RADIANS_LIKE_DEG:g}; angles "
+                f"are degrees, so {joint} = {big:g} is {big:g}°, not {math.degrees(big):.0f}° "
+                "(radians? multiply by 57.3)"
+            )
+    return out
+
+
 def library_notes(library: GestureLibrary) -> list[str]:
     """What ``gestures check`` notes and a talk warns of in a library of one's own: gestures
-    no command plays (:func:`unplayed`) and parameters no cue sets (:func:`unset_params`)."""
-    return unplayed(library) + unset_params(library)
+    no command plays (:func:`unplayed`), parameters no cue sets (:func:`unset_params`) and
+    angles that look like radians (:func:`radians_like`)."""
+    return unplayed(library) + unset_params(library) + radians_like(library)
 
 
 def check_plannable(library: GestureLibrary, *, limits: JointLimits) -> None:
@@ -825,6 +853,7 @@ __all__ = [
     "load_library_file",
     "parse_library",
     "parse_own_library",
+    "radians_like",
     "unplayed",
     "unset_params",
     "segment_ratios",

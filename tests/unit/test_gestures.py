@@ -15,12 +15,14 @@ from prezence.feedback.commands import load_commands
 from prezence.feedback.gesture_check import MAX_RATIO, check_gestures, gesture_rows
 from prezence.feedback.gestures import (
     DEFAULT_SPEED_FRACTION,
+    GestureLibrary,
     build_trajectory,
     check_plannable,
     library_notes,
     load_library,
     load_library_file,
     parse_library,
+    radians_like,
     time_optimal_minimum,
     unplayed,
 )
@@ -546,6 +548,21 @@ def test_a_parameter_no_cue_sets_is_noted_with_the_ones_cues_give(tmp_path: Path
     assert "did you mean 'minutes'?" in note
     good = OWN_TIME_LEFT.replace("mins", "minutes")
     assert library_notes(load_library_file(_write(tmp_path, good), limits=LIMITS)) == []
+
+
+def test_a_gesture_written_in_radians_is_noted_with_what_it_would_do(tmp_path: Path) -> None:
+    # LShoulderPitch = -1.0 (meant: -57°, the arm up) passed every check and the arm moved 1°
+    text = "format = 1\n[gestures.look_up]\n[[gestures.look_up.keyframes]]\n"
+    rad = text + "pose = { LShoulderPitch = -1.0, LShoulderRoll = 0.2, LHand = 1.0 }\n"
+    lib = load_library_file(_write(tmp_path, rad), limits=LIMITS)
+    check_plannable(lib, limits=LIMITS)  # within every limit: nothing else would say a word
+    [note] = library_notes(lib)
+    assert note.startswith(f"{tmp_path}/lib.toml:2: gestures.look_up: every angle is within ")
+    assert "LShoulderPitch = -1 is -1°, not -57° (radians?" in note
+    deg = text + "pose = { LShoulderPitch = -57.0, LShoulderRoll = 11.0, LHand = 1.0 }\n"
+    assert library_notes(load_library_file(_write(tmp_path, deg), limits=LIMITS)) == []
+    every = GestureLibrary(LIBRARY.neutral, LIBRARY.gestures, own=LIBRARY.names)
+    assert radians_like(every) == []  # no built-in gesture looks like radians
 
 
 def test_every_parameter_of_the_built_in_gestures_is_set_by_its_cues() -> None:
