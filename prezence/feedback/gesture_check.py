@@ -7,7 +7,8 @@ distance to a position limit along the whole path (sampled every 5 ms, head anti
 included) and, when PyBullet is installed, the least clearance between two non-adjacent links
 of the robot along the path (:mod:`prezence.feedback.collision`, the URDF's collision shapes).
 The exit status is non-zero when any gesture breaks a limit, comes closer to itself than
-``MIN_CLEARANCE_M``, or is slower than ``MAX_RATIO`` × its minimum.
+``MIN_CLEARANCE_M``, is slower than ``MAX_RATIO`` × its minimum, or takes more than
+``MAX_DURATION_S``.
 
 ``prezence gestures check FILE`` checks the gestures of a library of one's own
 (:func:`~prezence.feedback.gestures.load_library_file`) the same way; the built-in gestures it
@@ -42,6 +43,9 @@ log = logging.getLogger(__name__)
 
 #: The issue's bound: planned duration <= 1.10 × the time-optimal minimum.
 MAX_RATIO = 1.10
+#: The longest a gesture may take (s). While it plays the robot gives no other cue, a time
+#: warning included; the built-in ones take at most 4.3 s at the default speed (6.8 s at 0.2).
+MAX_DURATION_S = 10.0
 SAMPLE_DT = 0.005
 _TOL = 1e-9
 
@@ -153,6 +157,11 @@ def _rows(
         ratio = traj.duration / t_min if t_min > 0 else math.inf
         if ratio > MAX_RATIO:
             problems.append(f"duration {ratio:.3f} × the time-optimal minimum > {MAX_RATIO}")
+        if traj.duration > MAX_DURATION_S:
+            problems.append(
+                f"takes {traj.duration:.1f} s > {MAX_DURATION_S:g} s: while a gesture plays the "
+                "robot gives no other cue, a time warning included (fewer holds or repeats)"
+            )
         if checker is not None:
             clearance = checker.trajectory_clearance(traj)
             row.update(
@@ -203,8 +212,9 @@ def check_gestures(
 
     Returns:
         (text, status): status 0 when every gesture is within every limit, keeps
-        ``MIN_CLEARANCE_M`` from itself (when checked) and is within ``MAX_RATIO`` of its
-        time-optimal minimum, 1 otherwise, 2 for a bad argument.
+        ``MIN_CLEARANCE_M`` from itself (when checked), is within ``MAX_RATIO`` of its
+        time-optimal minimum and takes at most ``MAX_DURATION_S``, 1 otherwise, 2 for a bad
+        argument.
 
     Raises:
         ConfigError: ``library`` cannot be read or is not a valid library (``file:line:``).
@@ -232,6 +242,7 @@ def check_gestures(
         "blend_fraction": BLEND_FRACTION,
         "accel_bound": f"fraction x URDF velocity / {ACCEL_TIME_S:.2f} s",
         "max_ratio": MAX_RATIO,
+        "max_duration_s": MAX_DURATION_S,
         "self_collision": (
             f"URDF collision shapes, non-adjacent links, >= {1000 * MIN_CLEARANCE_M:.0f} mm"
             if collisions

@@ -12,7 +12,12 @@ import pytest
 
 from prezence.errors import ConfigError, LimitViolation, UnknownName
 from prezence.feedback.commands import load_commands
-from prezence.feedback.gesture_check import MAX_RATIO, check_gestures, gesture_rows
+from prezence.feedback.gesture_check import (
+    MAX_DURATION_S,
+    MAX_RATIO,
+    check_gestures,
+    gesture_rows,
+)
 from prezence.feedback.gestures import (
     DEFAULT_SPEED_FRACTION,
     GestureLibrary,
@@ -563,6 +568,28 @@ def test_a_gesture_written_in_radians_is_noted_with_what_it_would_do(tmp_path: P
     assert library_notes(load_library_file(_write(tmp_path, deg), limits=LIMITS)) == []
     every = GestureLibrary(LIBRARY.neutral, LIBRARY.gestures, own=LIBRARY.names)
     assert radians_like(every) == []  # no built-in gesture looks like radians
+
+
+def test_a_gesture_that_keeps_the_robot_busy_too_long_fails_the_check(tmp_path: Path) -> None:
+    # ten repeats of two 5 s holds: 113 s of one cue passed, and a talk gave no time warning
+    # while it played
+    long = OWN_SLOW_DOWN + (
+        "[[gestures.slow_down.keyframes]]\nrepeat = 10\nsequence = [ { pose = { RHand = 0.0 }, "
+        "hold = 5 }, { pose = { RHand = 1.0 }, hold = 5 } ]\n"
+    )
+    text, status = check_gestures(
+        0.6, as_json=False, collisions=False, library=_write(tmp_path, long)
+    )
+    assert status == 1
+    [row] = [ln for ln in text.splitlines() if ln.startswith("slow_down")]
+    planned = float(row.split()[1])  # the figure the table prints
+    assert planned > MAX_DURATION_S
+    assert f"FAIL: takes {planned:.1f} s > {MAX_DURATION_S:g} s" in row, row
+    assert "while a gesture plays the robot gives no other cue" in row
+    text, status = check_gestures(
+        0.6, as_json=False, collisions=False, library=_write(tmp_path, OWN_SLOW_DOWN)
+    )
+    assert status == 0, text
 
 
 def test_every_parameter_of_the_built_in_gestures_is_set_by_its_cues() -> None:
