@@ -1054,7 +1054,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(
         level=max(logging.DEBUG, level), format="%(levelname)s %(name)s: %(message)s"
     )
-    if args.quiet and (getattr(args, "backend", None) == "sim" or args.command == "gestures"):
+    if args.quiet and (
+        getattr(args, "backend", None) == "sim"
+        or args.command == "gestures"
+        or isinstance(getattr(args, "gestures", None), str)  # own gestures' collision check
+    ):
         _import_without_banner("pybullet")
     try:
         with _sigterm_as_interrupt():

@@ -38,8 +38,13 @@ from typing import Any
 
 import numpy as np
 
-from prezence.errors import BackendUnavailable
-from prezence.feedback.gestures import GestureLibrary, load_library
+from prezence.errors import BackendUnavailable, LimitViolation
+from prezence.feedback.gestures import (
+    DEFAULT_SPEED_FRACTION,
+    GestureLibrary,
+    build_trajectory,
+    load_library,
+)
 from prezence.feedback.limits import JointLimits, load_limits
 from prezence.feedback.trajectory import Trajectory
 
@@ -254,10 +259,55 @@ class SelfCollisionChecker:
         return best
 
 
+def check_own_clearance(library: GestureLibrary, *, limits: JointLimits) -> None:
+    """Raise :class:`LimitViolation` if a gesture of a library of one's own (at each
+    parameter's smallest and largest value) brings two links of the robot closer than
+    :data:`MIN_CLEARANCE_M` along its planned path.
+
+    A talk checks it before it starts, as it checks the joint limits: a real NAO's shell (or
+    its joints stalling against each other) would stop such a gesture, and the simulated NAO,
+    which has no self-collision, would play it as if nothing were wrong. The path between
+    keyframes does not depend on the speed, so one speed is checked (the time in the message
+    is at :data:`~prezence.feedback.gestures.DEFAULT_SPEED_FRACTION`).
+
+    Raises:
+        LimitViolation: naming the file, the gesture's line, the two links and when.
+        BackendUnavailable: PyBullet is not installed.
+    """
+    if not library.own:
+        return
+    with SelfCollisionChecker(limits=limits, library=library) as checker:
+        for name in library.own:
+            g = library[name]
+            values: list[dict[str, int] | None] = (
+                [None]
+                if not g.params
+                else [{p.name: v} for p in g.params.values() for v in sorted({p.low, p.high})]
+            )
+            for params in values:
+                traj = build_trajectory(
+                    name,
+                    params=params,
+                    speed_fraction=DEFAULT_SPEED_FRACTION,
+                    limits=limits,
+                    library=library,
+                )
+                c = checker.trajectory_clearance(traj)
+                if c.distance_m < MIN_CLEARANCE_M:
+                    with_ = "".join(f" with {k} = {v}" for k, v in (params or {}).items())
+                    raise LimitViolation(
+                        f"{g.at()}gesture '{name}'{with_}: self-collision: {c.describe()} "
+                        f"(< {1000 * MIN_CLEARANCE_M:.0f} mm clearance; a real NAO's shell "
+                        "would stop it): move its keyframes apart (`prezence gestures check "
+                        f"{g.path or 'FILE'}` shows each gesture's clearance)"
+                    )
+
+
 __all__ = [
     "MIN_CLEARANCE_M",
     "SAMPLE_DT",
     "Clearance",
     "SelfCollisionChecker",
+    "check_own_clearance",
     "pybullet_available",
 ]

@@ -589,8 +589,9 @@ def check_plannable(library: GestureLibrary, *, limits: JointLimits) -> None:
 
 def library_for_talk(path: str | Path) -> GestureLibrary:
     """The library a talk with ``--gestures path`` plays: loaded, each of the file's gestures
-    planned within the limits (before the talk starts), and a warning for each gesture no
-    command plays. Read once per version of the file."""
+    planned within the limits and, with PyBullet, clear of the robot's own body (before the
+    talk starts), and a warning for each gesture no command plays. Read once per version of
+    the file."""
     p = Path(path)
     try:
         st = p.stat()
@@ -606,6 +607,17 @@ def _for_talk(path: str, resolved: str, mtime_ns: int, size: int) -> GestureLibr
     limits = load_limits()
     library = load_library_file(path, limits=limits)
     check_plannable(library, limits=limits)
+    from prezence.feedback.collision import check_own_clearance, pybullet_available
+
+    if pybullet_available():
+        check_own_clearance(library, limits=limits)
+    elif library.own:
+        log.warning(
+            "%s: self-collision not checked: PyBullet is not installed here (pip install "
+            '"prezence[sim]", or run `prezence gestures check %s` where it is)',
+            path,
+            path,
+        )
     for note in library_notes(library):
         log.warning("%s", note)
     return library

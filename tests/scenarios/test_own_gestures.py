@@ -158,3 +158,51 @@ def test_a_library_that_cannot_be_played_stops_every_talk_before_it_starts(
     err = capsys.readouterr().err
     assert err.startswith(f"error: {bad}:7: gesture 'slow_down' keyframes[1]: RShoulderPitch"), err
     assert not out.exists()
+
+
+#: articulate as both hands clasped in front: each joint within its limits, but the wrists
+#: 18.5 mm through each other (the built-in articulate's keyframes before a review moved them)
+CLASP = """format = 1
+[gestures.articulate]
+description = "Hands clasped in front."
+[[gestures.articulate.keyframes]]
+pose = { LShoulderPitch = -5.0, LShoulderRoll = -10.0, LElbowYaw = -40.0, LElbowRoll = -82.0, \
+RShoulderPitch = -5.0, RShoulderRoll = 10.0, RElbowYaw = 40.0, RElbowRoll = 82.0 }
+hold = 0.3
+"""
+
+
+def test_a_gesture_that_runs_into_the_robot_stops_the_talk_before_it_starts(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # It passed the limit check and played in every talk (the simulated NAO has no
+    # self-collision); only `gestures check` said FAIL, and a real NAO would have tried it.
+    pytest.importorskip("pybullet", reason="the self-collision check needs the sim extra")
+    clasp = tmp_path / "clasp.toml"
+    clasp.write_text(CLASP)
+    out = tmp_path / "out"
+    assert main(["-q", "run", "short_talk", "--gestures", str(clasp), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {clasp}:2: gesture 'articulate': self-collision: "), err
+    assert "between l_wrist and r_wrist" in err and "gestures check" in err
+    assert err.count("\n") == 1  # one line: no PyBullet banner under -q
+    assert not out.exists()
+
+
+def test_without_pybullet_a_talk_says_the_collision_check_was_not_made(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    from prezence.feedback import collision
+
+    monkeypatch.setattr(collision, "pybullet_available", lambda: False)
+    clasp = tmp_path / "clasp.toml"
+    clasp.write_text(CLASP)
+    with caplog.at_level("WARNING"):
+        rc = main(
+            ["-q", "run", "short_talk", "--gestures", str(clasp), "--out", str(tmp_path / "o")]
+        )
+    assert rc == 0
+    said = [
+        r.getMessage() for r in caplog.records if "self-collision not checked" in r.getMessage()
+    ]
+    assert len(said) == 1 and "prezence gestures check" in said[0], said
