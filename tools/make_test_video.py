@@ -39,6 +39,12 @@ Small videos (320x240, 15 fps, mp4v) go to ``tests/modules/material_video/``:
         $(python -m prezence.modules.vision_env where) tools/make_test_video.py \
             --only gestures --gesture-videos gestures_c gestures_d --sdist-dir SDIST_DIR
 
+``gestures_r<SPEC_SEED>.mp4`` (``--only gestures --random-gestures SPEC_SEED ... --out DIR``)
+    Presenters nobody scripted by hand, for held-out material kept outside the repository:
+    :func:`random_gesture_spec` draws the face, shirt, background, the gesture style (where the
+    beat is, how wide it swings, where the hands rest) and the script from the seed. Issue 11's
+    held-out set after ``c`` and ``d`` were looked at: spec seeds 101 102 103, ``--seed 11``.
+
 ``gestures.mp4``
     A static photo of a person with camera noise and a slow light flicker, and a skin-coloured
     "hand" that swings at 1.6-2.4 Hz during known bursts (start, end) in the lower body region,
@@ -484,6 +490,14 @@ class GestureSpec:
     head: tuple[tuple[float, float, float, float], ...]
     #: (start, end): the background pans (a moving background; the camera is still).
     pans: tuple[tuple[float, float], ...]
+    #: How this presenter gestures, output pixels (the defaults drew a-d): the beat's centre,
+    #: out from the body's midline and its height; the swing's half-widths across and up.
+    beat_out: float = 66.0
+    beat_y: float = 176.0
+    swing: tuple[float, float] = (22.0, 20.0)
+    #: Where a hand rests: out from the midline, and its height.
+    rest_out: float = 20.0
+    rest_y: float = 224.0
 
 
 GESTURE_VIDEOS: dict[str, GestureSpec] = {
@@ -619,6 +633,67 @@ GESTURE_VIDEOS: dict[str, GestureSpec] = {
     ),
 }
 
+#: Backgrounds for :func:`random_gesture_spec`: scikit-image photos no shipped video uses.
+RANDOM_BACKGROUNDS = ("grass", "gravel", "coins", "clock", "immunohistochemistry", "cat", "moon")
+
+
+def random_gesture_spec(seed: int, duration_s: float = 48.0) -> GestureSpec:
+    """A presenter drawn from ``seed``: face, shirt, background, gesture style and script.
+
+    For held-out material that nobody picked by hand: 7-11 gestures (0.8-2.2 s, 1.4-2.5 Hz,
+    either hand or both), 2-4 hands at the face (1-4 s, still or scratching), up to 9 head moves
+    (up to +-30 deg yaw, +-20 deg pitch), 2-4 pans, every act 0.8-3 s after the previous one,
+    and a beat centre, swing and rest position within about a third of a-d's either way.
+    """
+    rng = np.random.default_rng(seed)
+    kinds = ["gesture"] * int(rng.integers(7, 12)) + ["face"] * int(rng.integers(2, 5))
+    rng.shuffle(kinds)
+    acts: list[tuple[float, float, str, int, float]] = []
+    t = float(rng.uniform(1.0, 2.5))
+    for kind in kinds:
+        if kind == "gesture":
+            length, hz = float(rng.uniform(0.8, 2.2)), float(rng.uniform(1.4, 2.5))
+        else:
+            length = float(rng.uniform(1.0, 4.0))
+            hz = 0.0 if rng.random() < 0.3 else float(rng.uniform(2.2, 3.5))
+        if t + length > duration_s - 1.0:
+            break
+        side = int(rng.choice([-1, 0, 1]))
+        acts.append((round(t, 2), round(t + length, 2), kind, side, round(hz, 2)))
+        t += length + float(rng.uniform(0.8, 3.0))
+    head = []
+    for start in np.sort(rng.uniform(1.0, duration_s - 3.0, int(rng.integers(6, 10)))):
+        if head and start < head[-1][1] + 0.3:
+            continue
+        yaw = round(float(rng.uniform(-30.0, 30.0)), 1)
+        pitch = round(float(rng.uniform(-20.0, 20.0)), 1)
+        head.append(
+            (round(float(start), 2), round(float(start + rng.uniform(1.0, 2.0)), 2), yaw, pitch)
+        )
+    pans = []
+    t = float(rng.uniform(0.0, 6.0))
+    for _ in range(int(rng.integers(2, 5))):
+        length = float(rng.uniform(4.0, 8.0))
+        if t + length > duration_s:
+            break
+        pans.append((round(t, 2), round(t + length, 2)))
+        t += length + float(rng.uniform(3.0, 10.0))
+    return GestureSpec(
+        face=str(rng.choice(sorted(FACES))),
+        shirt=(int(rng.integers(30, 200)), int(rng.integers(30, 200)), int(rng.integers(30, 200))),
+        background=str(rng.choice(RANDOM_BACKGROUNDS)),
+        duration_s=duration_s,
+        acts=tuple(acts),
+        head=tuple(head),
+        pans=tuple(pans),
+        beat_out=round(float(rng.uniform(48.0, 80.0)), 1),
+        beat_y=round(float(rng.uniform(160.0, 195.0)), 1),
+        swing=(round(float(rng.uniform(14.0, 28.0)), 1), round(float(rng.uniform(12.0, 26.0)), 1)),
+        rest_out=round(float(rng.uniform(12.0, 30.0)), 1),
+        rest_y=round(float(rng.uniform(214.0, 228.0)), 1),
+    )
+
+
 BODY_FACE_PX = 44.0  #: face width in the gesture videos (upper body in frame)
 _SKIN = (222, 170, 140)
 
@@ -640,7 +715,7 @@ def wrist_targets(spec: GestureSpec, t: float, cx: float) -> dict[int, np.ndarra
     """The two wrists' positions (output pixels) at time ``t``; keys -1 (right) and +1."""
     out = {}
     for side in (-1, 1):
-        rest = np.array([cx + side * 20.0, 224.0])
+        rest = np.array([cx + side * spec.rest_out, spec.rest_y])
         pos = rest.copy()
         for start, end, kind, s, hz in spec.acts:
             if s not in (0, side):
@@ -650,8 +725,9 @@ def wrist_targets(spec: GestureSpec, t: float, cx: float) -> dict[int, np.ndarra
                 continue
             if kind == "gesture":
                 ph = 2 * math.pi * hz * (t - start)
-                centre = np.array([cx + side * 66.0, 176.0])
-                target = centre + np.array([side * 22.0 * math.sin(ph), -20.0 * math.sin(2 * ph)])
+                centre = np.array([cx + side * spec.beat_out, spec.beat_y])
+                sx, sy = spec.swing
+                target = centre + np.array([side * sx * math.sin(ph), -sy * math.sin(2 * ph)])
             else:  # the hand at the chin, a small scratch
                 ph = 2 * math.pi * hz * (t - start)
                 target = np.array([cx + side * 8.0 + 3.0 * math.sin(ph), 136.0])
@@ -770,6 +846,17 @@ def gesture_entry(fname: str, spec: GestureSpec) -> dict:
     }
 
 
+def _style(spec: GestureSpec) -> dict:
+    return {
+        "shirt": list(spec.shirt),
+        "beat_out": spec.beat_out,
+        "beat_y": spec.beat_y,
+        "swing": list(spec.swing),
+        "rest_out": spec.rest_out,
+        "rest_y": spec.rest_y,
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     """Write the videos and ``manifest.json``."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -790,6 +877,15 @@ def main(argv: list[str] | None = None) -> int:
         default=list(GESTURE_VIDEOS),
         help="which presenter videos to (re)write (with --only gestures: not gestures.mp4 "
         "unless all are asked for)",
+    )
+    ap.add_argument(
+        "--random-gestures",
+        nargs="+",
+        type=int,
+        default=[],
+        metavar="SPEC_SEED",
+        help="with --only gestures: write only gestures_r<SPEC_SEED>.mp4, presenters drawn by "
+        "random_gesture_spec (for held-out material; use another --out)",
     )
     ap.add_argument(
         "--sdist-dir", type=Path, default=None, help=f"folder holding {INSIGHTFACE_SDIST}"
@@ -816,7 +912,17 @@ def main(argv: list[str] | None = None) -> int:
                 normalise_depth=args.normalise_depth,
             )
             print(f"{fname}: done", flush=True)
-    if args.only in (None, "gestures"):
+    if args.random_gestures:
+        if args.only != "gestures":
+            ap.error("--random-gestures needs --only gestures")
+        for spec_seed in args.random_gestures:
+            key = f"gestures_r{spec_seed}"
+            spec = random_gesture_spec(spec_seed)
+            photo = load_face(FACES[spec.face], args.sdist_dir)
+            entry = make_gesture_video(args.out / f"{key}.mp4", spec, photo, seed=args.seed + 1)
+            manifest[key] = {**entry, "spec_seed": spec_seed, "style": _style(spec)}
+            print(f"{key}.mp4: done", flush=True)
+    elif args.only in (None, "gestures"):
         if set(args.gesture_videos) == set(GESTURE_VIDEOS):
             manifest["gestures"] = make_motion_video(args.out / "gestures.mp4", seed=args.seed + 1)
         for key in args.gesture_videos:
