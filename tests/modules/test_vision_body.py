@@ -31,19 +31,25 @@ MATCH_S = 0.6  # a gesture found within this of a true start is a hit
 # The rule on made-up keypoints (pixels; shoulders 100 px apart, nose 90 px above them)
 
 
+ELBOWS_AT_REST = ((160.0, 270.0), (40.0, 270.0))
+
+
 def body(
     left: tuple[float, float] = (120.0, 300.0),
     right: tuple[float, float] = (80.0, 300.0),
     nose: tuple[float, float] = (100.0, 110.0),
     shift: float = 0.0,
+    elbows: tuple[tuple[float, float], tuple[float, float]] | None = None,
 ) -> BodyKeypoints:
-    """A presenter facing the camera; ``shift`` moves the whole body sideways."""
+    """A presenter facing the camera; ``shift`` moves the whole body sideways. Without
+    ``elbows`` there are no elbow keypoints (the arm rules do not apply)."""
     s = np.array([shift, 0.0])
     return BodyKeypoints(
         nose=np.array(nose) + s,
         shoulders=(np.array([150.0, 200.0]) + s, np.array([50.0, 200.0]) + s),
         wrists=(np.array(left) + s, np.array(right) + s),
         wrist_visibility=(0.9, 0.9),
+        elbows=None if elbows is None else (np.array(elbows[0]) + s, np.array(elbows[1]) + s),
     )
 
 
@@ -143,6 +149,64 @@ def test_a_hand_the_pose_model_loses_is_not_a_gesture() -> None:
     assert det.bursts == []
 
 
+def jumping_wrist(elbows: bool) -> list[BodyKeypoints]:
+    """The left wrist jumps about on the chest at its usual visibility; the elbow rests."""
+    e = ELBOWS_AT_REST if elbows else None
+    jumps = [
+        body(left=(110.0 + 25 * math.sin(1.7 * i), 260.0 + 30 * math.cos(2.3 * i)), elbows=e)
+        for i in range(24)
+    ]
+    return [body(elbows=e) for _ in range(16)] + jumps + [body(elbows=e) for _ in range(16)]
+
+
+def test_a_wrist_that_jumps_while_its_elbow_stays_where_it_rests_is_not_a_gesture() -> None:
+    # The pose model losing the hand at the face, or during a head turn, with a visibility as
+    # usual (videos c and d): the elbow, a bigger joint, stays where it rests.
+    det = BodyGestureDetector()
+    feed(det, jumping_wrist(elbows=True))
+    assert det.bursts == []
+    det = BodyGestureDetector()  # the same wrist without elbow keypoints: the old rule counts it
+    feed(det, jumping_wrist(elbows=False))
+    assert len(det.bursts) == 1
+
+
+def chin_beat(elbows: bool) -> list[BodyKeypoints]:
+    """A left-hand beat out to the side, the elbow out with it; the model draws the wrist at
+    the chin in two frames of each cycle (as on video c)."""
+    out = [body(elbows=ELBOWS_AT_REST if elbows else None) for _ in range(16)]
+    for i in range(16):
+        dx = 40.0 * math.sin(2 * math.pi * 2.0 * i / 8 + 0.5)
+        wrist = (100.0, 170.0) if i % 6 in (3, 4) else (190.0 + dx, 250.0)
+        e = ((220.0 + dx / 4, 220.0), ELBOWS_AT_REST[1]) if elbows else None
+        out.append(body(left=wrist, elbows=e))
+    return out + [body(elbows=ELBOWS_AT_REST if elbows else None) for _ in range(16)]
+
+
+def test_a_beat_the_model_draws_at_the_chin_is_a_gesture_when_the_elbow_is_out() -> None:
+    det = BodyGestureDetector()
+    feed(det, chin_beat(elbows=True))
+    assert len(det.bursts) == 1
+    det = BodyGestureDetector()  # without elbows the face zone swallows it, as before
+    feed(det, chin_beat(elbows=False))
+    assert det.bursts == []
+
+
+def test_a_hand_brought_to_the_chin_with_the_elbow_barely_moving_is_not_a_gesture() -> None:
+    det = BodyGestureDetector()
+    e0 = ELBOWS_AT_REST
+    up = [
+        body(left=(120.0 - 4 * k, 300.0 - 32 * k), elbows=((160.0 - 2 * k, 270.0 - 5 * k), e0[1]))
+        for k in range(5)
+    ]  # to (100, 172), the elbow up by 0.2 shoulder widths
+    scratch = [
+        body(left=(100.0 + 8 * math.sin(2 * i), 172.0), elbows=((152.0, 250.0), e0[1]))
+        for i in range(24)
+    ]
+    rest_e = [body(elbows=e0) for _ in range(16)]
+    feed(det, rest_e + up + scratch + up[::-1] + rest_e)
+    assert det.bursts == []
+
+
 def test_a_single_glitch_of_the_keypoints_is_not_a_gesture() -> None:
     det = BodyGestureDetector()
     glitch = body(left=(300.0, 100.0))
@@ -171,6 +235,8 @@ needs_vision_env = pytest.mark.skipif(
     reason=f"no vision env (mediapipe 0.10.21); create it with: {vision_env.INSTALL_HINT}",
 )
 VIDEOS = ("gestures_a", "gestures_b")
+#: c and d were held out until issue 11's arm rule; they became development material then.
+RATE_VIDEOS = (*VIDEOS, "gestures_c", "gestures_d")
 
 
 def read_stream(path: Path) -> list[tuple[float, float]]:
@@ -181,7 +247,7 @@ def read_stream(path: Path) -> list[tuple[float, float]]:
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
     assert VISION_PY is not None
     out: dict[str, dict[str, Any]] = {}
-    for key in VIDEOS:
+    for key in RATE_VIDEOS:
         entry = MANIFEST[key]
         session = tmp_path_factory.mktemp(key)
         env = dict(os.environ)
@@ -250,8 +316,9 @@ def test_head_turns_and_a_panning_background_are_not_gestures(
 
 
 # b's hands at the face (6 false gestures before) were used to find what failed, so b checks
-# the fix but is no longer held out; bench/bench_vision.py measures the held-out c and d, where
-# the pose model errs more (see the README).
+# the fix but is no longer held out; c and d (the pose model errs more there) were looked at to
+# find the arm rule, so only their rate is asserted here; the held-out presenters made after
+# that live outside the repository (see the README).
 
 
 @needs_vision_env
@@ -264,7 +331,7 @@ def test_hands_at_the_face_are_not_gestures(runs: dict[str, dict[str, Any]], key
 
 @needs_vision_env
 @pytest.mark.slow
-@pytest.mark.parametrize("key", VIDEOS)
+@pytest.mark.parametrize("key", RATE_VIDEOS)
 def test_the_gesture_rate_over_the_whole_video_is_within_one_gesture(
     runs: dict[str, dict[str, Any]], key: str
 ) -> None:
