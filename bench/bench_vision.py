@@ -21,7 +21,10 @@ rebuilds it; its manifest holds the truth and which videos the module was tuned 
 Needs mediapipe: from the main env the script re-runs itself in the vision env
 (``python -m prezence.modules.vision_env install``).
 
-    python bench/bench_vision.py [--part cpu gestures head] [--scale 1 2]
+    python bench/bench_vision.py [--part cpu gestures head] [--scale 1 2] [--material DIR]
+
+``--material DIR`` reads another folder of videos and its manifest (held-out presenters made
+with ``tools/make_test_video.py --random-gestures``, kept outside the repository).
 """
 
 from __future__ import annotations
@@ -184,7 +187,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description="The vision module's figures.")
     ap.add_argument("--part", nargs="+", choices=("cpu", "gestures", "head"), default=None)
     ap.add_argument("--scale", type=int, nargs="+", default=[1])
+    ap.add_argument("--material", type=Path, default=None, help="another video folder")
     args = ap.parse_args(argv)
+    if args.material is not None:
+        global MATERIAL, MANIFEST
+        MATERIAL = args.material.resolve()
+        MANIFEST = json.loads((MATERIAL / "manifest.json").read_text())
     parts = args.part or ["cpu", "gestures", "head"]
     if not vision.mediapipe_available():
         py = vision_env.find_python()
