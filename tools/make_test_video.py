@@ -33,8 +33,10 @@ Small videos (320x240, 15 fps, mp4v) go to ``tests/modules/material_video/``:
     the gesture thresholds were tuned on; ``b`` (another face, shirt, background and script) is
     held out, though its hands-at-the-face errors were used to find what failed; ``c`` (made
     after that, before the new rules ran on it) is held out and nothing was looked at on it
-    before measuring, then looked at; ``d`` was made after that and measured once. Only ``c``
-    and ``d`` again (``d``'s face needs the sdist)::
+    before measuring, then looked at; ``d`` was made after that and measured once. Both were
+    then used to find the arm rule (issue 11, session 16), so all four are development material
+    (manifest role ``tuned`` or ``diagnosed``); held-out presenters now come from
+    ``--random-gestures`` (below). Only ``c`` and ``d`` again (``d``'s face needs the sdist)::
 
         $(python -m prezence.modules.vision_env where) tools/make_test_video.py \
             --only gestures --gesture-videos gestures_c gestures_d --sdist-dir SDIST_DIR
@@ -832,8 +834,14 @@ def gesture_entry(fname: str, spec: GestureSpec) -> dict:
         "file": fname,
         "face": spec.face,
         "background": spec.background,
-        # b was held out, then used to find why hands at the face were counted.
-        "role": {"gestures_a.mp4": "tuned", "gestures_b.mp4": "diagnosed"}.get(fname, "held-out"),
+        # b was held out, then used to find why hands at the face were counted; c and d were
+        # held out, then used to find the arm rule (issue 11, session 16).
+        "role": {"gestures_a.mp4": "tuned"}.get(
+            fname,
+            "diagnosed"
+            if fname in ("gestures_b.mp4", "gestures_c.mp4", "gestures_d.mp4")
+            else "held-out",
+        ),
         "fps": FPS,
         "frames": int(round(spec.duration_s * FPS)),
         "size": [W, H],
