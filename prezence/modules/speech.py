@@ -85,6 +85,9 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
   trusted (the prior :data:`NUCLEI_PER_WORD` before :data:`MIN_CALIBRATION_SYLLABLES`), when
   the estimated SNR is at least :data:`MIN_SYLLABLE_SNR_DB`; otherwise none: speech_speed and
   speech_articulation are not written there and the log says why (once per change of source).
+  Neither is trusted where more than :data:`MAX_CLIPPED_SHARE` of the window's speech samples
+  are clipped (at :data:`CLIPPED_LEVEL` of full scale or above): a recording driven past its
+  range loses words and syllable peaks alike, and read up to a third slow.
 * Volume: RMS of the 30 ms frames inside voice activity and within 30 dB of the window's
   95th-percentile speech frame, so pauses do not dilute it and it follows a gain change exactly.
 * **Clarity** (speech_accuracy). The recogniser's confidence falls where the speech is hard to
@@ -257,6 +260,16 @@ CLEAN_SIGNAL_BAND_DB = -30.0
 #: What a clean signal adds to the recogniser's confidence: the least that lifts 99 % of the
 #: dev corpus's clean windows to the cue threshold 0.5 (their 1st percentile: 0.395).
 CLEAN_SIGNAL_CREDIT = 0.1
+#: A sample at or above this share of full scale counts as clipped (a recorder driven past its
+#: range flattens the waveform there; clean speech recorded with headroom has none).
+CLIPPED_LEVEL = 0.98
+#: Where more than this share of a word window's speech samples is clipped, neither count is
+#: trusted: speech_speed and speech_articulation are not written (the log says why). Measured
+#: on a 161.6 wpm flite reading driven past full scale (``sox gain``): +8 dB, 2.7 % of samples
+#: clipped, read -6 %; +12 dB, 15.6 %, read -16 % with the recogniser trusted; +20 dB, 42 %,
+#: read -32 % (the coach said "pick up the pace"). Not a retuned threshold: a new condition,
+#: set between the first two of those.
+MAX_CLIPPED_SHARE = 0.05
 #: speech_accuracy -> speech_clarity anchors: (accuracy, score).
 CLARITY_ANCHORS = ((0.2, 0.0), (0.8, 100.0))
 #: Warn when a live input is this many seconds behind.
@@ -488,6 +501,7 @@ class SpeechAnalyser:
         self._n_samples = 0  # samples fed
         self._frame_ms: list[float] = []  # mean square per frame, for the volume
         self._frame_bands: list[tuple[float, float]] = []  # band_energies per frame (clarity)
+        self._frame_clipped: list[float] = []  # share of clipped samples per frame
         # The last few windows' audio, for LUFS: samples from absolute index _ring_start.
         self._ring = np.zeros(0, np.int16)
         self._ring_start = 0
@@ -572,6 +586,7 @@ class SpeechAnalyser:
             ms = float(np.mean(tail.astype(np.float64) ** 2))
             self._frame_ms.append(ms)
             self._frame_bands.append(band_energies(tail.astype(np.float64)))
+            self._frame_clipped.append(_clipped_share(tail))
             self._ring = np.concatenate([self._ring, tail])
         # end_stream needs a non-empty partial frame; one zero sample flushes it all the same.
         speech = self._ep.end_stream(tail.tobytes() if len(tail) else b"\x00\x00")
@@ -605,6 +620,7 @@ class SpeechAnalyser:
         x = frame.astype(np.float64)
         self._frame_ms.append(float(np.mean(x**2)))
         self._frame_bands.append(band_energies(x))
+        self._frame_clipped.append(_clipped_share(frame))
         speech = self._ep.process(frame.tobytes())
         self._n_frames += 1
         if speech is not None:
@@ -846,7 +862,10 @@ class SpeechAnalyser:
         coverage = covered / voiced_s if voiced_s > 0 else 0.0
         snr = self._snr_db(lo, t)
         band = self._band_db(lo, t)
+        clipped = self._clipped(lo, t)
         source = self._choose_source(mean_post, coverage, snr)
+        if clipped > MAX_CLIPPED_SHARE:
+            source = SOURCE_NONE
         if self.window_log is not None:
             self.window_log.append(
                 {
@@ -861,11 +880,21 @@ class SpeechAnalyser:
                     "coverage": coverage,
                     "snr_db": snr,
                     "band_db": band if band is not None else math.nan,
+                    "clipped": clipped,
                     "source": source,
                 }
             )
         if source != self._last_source:
-            if source == SOURCE_NONE:
+            if source == SOURCE_NONE and clipped > MAX_CLIPPED_SHARE:
+                log.warning(
+                    "t=%.0f s: speech speed cannot be measured (the recording is clipped: "
+                    "%.0f %% of the speech samples at full scale; record with less input gain "
+                    "or farther from the microphone): speech_speed and speech_articulation are "
+                    "not written until it can",
+                    t_out,
+                    100 * clipped,
+                )
+            elif source == SOURCE_NONE:
                 log.warning(
                     "t=%.0f s: speech speed cannot be measured (recogniser unsure: mean word "
                     "posterior %.2f, words cover %.0f %% of the voice; estimated SNR %.0f dB): "
@@ -963,6 +992,16 @@ class SpeechAnalyser:
         low, high = float(bands[:, 0].sum()), float(bands[:, 1].sum())
         return 10.0 * math.log10((high + 1e-9) / (low + 1e-9))
 
+    def _clipped(self, lo: float, t: float) -> float:
+        """Share of clipped samples in the loud frames of ``[lo, t)`` (those within 30 dB of
+        the 95th percentile, as for the volume): 0 without frames."""
+        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+        if i1 - i0 < 10:
+            return 0.0
+        db = 10.0 * np.log10(np.asarray(self._frame_ms[i0:i1]) + 1.0)
+        loud = np.flatnonzero(db >= np.percentile(db, 95) - 30.0)
+        return float(np.mean(np.asarray(self._frame_clipped[i0:i1])[loud]))
+
     def _active_dbfs(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float | None:
         i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
         if i1 <= i0:
@@ -989,6 +1028,13 @@ class SpeechAnalyser:
             return None
         v = float(self._meter.integrated_loudness(x))
         return v if math.isfinite(v) else None
+
+
+def _clipped_share(x: np.ndarray) -> float:
+    """Share of the int16 samples of ``x`` at or above :data:`CLIPPED_LEVEL` of full scale."""
+    if len(x) == 0:
+        return 0.0
+    return float(np.count_nonzero(np.abs(x.astype(np.int32)) >= CLIPPED_LEVEL * 32767) / len(x))
 
 
 def analyse(

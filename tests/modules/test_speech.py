@@ -31,8 +31,11 @@ from prezence.modules.common import ModuleInputError  # noqa: E402
 from prezence.modules.speech import (  # noqa: E402
     MAX_UTTERANCE_S,
     METRICS,
+    SOURCE_NONE,
     SPEECH_ACTIVITY,
     SPEECH_LOUDNESS,
+    SPEECH_SPEED,
+    SPEECH_SPEED_SOURCE,
     SPEECH_VOLUME,
     SpeechOptions,
     SpeechTotals,
@@ -196,6 +199,34 @@ def test_calibration_offset_shifts_the_volume() -> None:
     (raw,) = measure("gain_m6.flac", opts)[0]["speech_volume"]
     assert raw.value < 0  # dBFS
     assert whole("gain_m6.flac", "speech_volume") - raw.value == pytest.approx(WHOLE.calibration_db)
+
+
+def _driven_past_full_scale(x: np.ndarray, gain_db: float) -> np.ndarray:
+    """``x`` recorded with ``gain_db`` too much input gain: the recorder clips at full scale."""
+    y = np.round(x.astype(np.float64) * 10 ** (gain_db / 20.0))
+    return np.clip(y, -32768, 32767).astype(np.int16)
+
+
+def test_a_clipped_recording_gets_no_pace_rather_than_a_wrong_one(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # A phone held too close: the reading (peaks at -7 dBFS) recorded 20 and 26 dB too loud,
+    # 13 % and 30 % of its samples clipped. Before, the recogniser was trusted and read 6 % and
+    # 17 % slow (a flite reading clipped as much read 16-32 % slow: "pick up the pace").
+    x = read_file(MATERIAL / "rate_175.flac")
+    truth = MANIFEST["rate_175.flac"]["true_wpm"]
+    for gain_db in (20.0, 26.0):
+        with caplog.at_level("WARNING", logger="prezence.modules.speech"):
+            got = by_metric(analyse(blocks(_driven_past_full_scale(x, gain_db)), WHOLE)[0])
+        for s in got[SPEECH_SPEED]:
+            assert s.value == pytest.approx(truth, rel=0.12), f"+{gain_db:g} dB: {s.value:.1f}"
+        assert [s.value for s in got[SPEECH_SPEED_SOURCE]] == [SOURCE_NONE]
+        assert "clipped" in caplog.text
+        assert got[SPEECH_VOLUME], "the level is still measured"
+    # A little clipping (0.4 % of the samples: a peak here and there) still reads the pace.
+    assert whole("rate_175.flac", SPEECH_SPEED) == pytest.approx(truth, rel=0.05)
+    mild = by_metric(analyse(blocks(_driven_past_full_scale(x, 12.0)), WHOLE)[0])
+    assert [s.value for s in mild[SPEECH_SPEED]] == [pytest.approx(truth, rel=0.05)]
 
 
 # ---- clarity -------------------------------------------------------------------------------
