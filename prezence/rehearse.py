@@ -36,7 +36,22 @@ from prezence.talk import RunOptions
 
 log = logging.getLogger(__name__)
 
-AUDIO_EXT = {".wav", ".flac", ".mp3", ".ogg", ".m4a"}
+#: What phones and recorders save a talk as; the decoder (ffmpeg) reads them all. WhatsApp's
+#: voice notes are .opus, many recorder apps write .aac, .amr (older phones) or .aiff.
+AUDIO_EXT = {
+    ".wav",
+    ".flac",
+    ".mp3",
+    ".ogg",
+    ".oga",
+    ".opus",
+    ".m4a",
+    ".aac",
+    ".aif",
+    ".aiff",
+    ".amr",
+    ".wma",
+}
 VIDEO_EXT = {".mp4", ".mov", ".mkv", ".avi", ".webm"}
 
 

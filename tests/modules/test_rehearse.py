@@ -353,3 +353,43 @@ def test_rehearse_a_video_without_cv2_names_the_vision_extra(
     err = capsys.readouterr().err
     assert 'vision: the vision module needs OpenCV (cv2): pip install "prezence[vision]"' in err
     assert "ModuleNotFoundError" not in err and err.count("error:") == 1
+
+
+def _encode_as(src: Path, dst: Path, fmt: str, codec: str) -> None:
+    """``src`` re-encoded by PyAV (ffmpeg) as a phone or a messaging app would save it."""
+    import av
+
+    from prezence.modules.audio_io import read_file
+
+    x = read_file(src)
+    with av.open(str(dst), "w", format=fmt) as out:
+        stream = out.add_stream(codec, rate=48000 if codec == "libopus" else 16000)
+        stream.layout = "mono"
+        ctx = stream.codec_context
+        resampler = av.AudioResampler(
+            format=ctx.format.name, layout="mono", rate=ctx.sample_rate, frame_size=ctx.frame_size
+        )
+        frame = av.AudioFrame.from_ndarray(x.reshape(1, -1), format="s16", layout="mono")
+        frame.sample_rate = 16000
+        for f in [*resampler.resample(frame), *resampler.resample(None)]:
+            for packet in stream.encode(f):
+                out.mux(packet)
+        for packet in stream.encode(None):
+            out.mux(packet)
+
+
+@pytest.mark.parametrize(
+    ("suffix", "fmt", "codec"),
+    [(".opus", "opus", "libopus"), (".aac", "adts", "aac"), (".aiff", "aiff", "pcm_s16be")],
+)
+def test_a_voice_note_or_recorder_file_is_rehearsed_not_refused_for_its_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], suffix: str, fmt: str, codec: str
+) -> None:
+    # A WhatsApp voice note (.opus), a recorder app's .aac, a Mac's .aiff: the decoder reads
+    # them, yet `rehearse` said "not an audio or video file I know" from the name alone.
+    note = tmp_path / f"voice note{suffix}"
+    _encode_as(FAST, note, fmt, codec)
+    out = tmp_path / "s"
+    assert main(["rehearse", str(note), "--out", str(out), "-q"]) == 0, capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert 200.0 < summary["metrics"]["speech_speed"]["p50"] < 250.0  # 225 wpm, as the flac
