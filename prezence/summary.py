@@ -149,6 +149,16 @@ def measurement_notes(
     if isinstance(off, Mapping):
         for metric, why in off.items():
             unmeasured.setdefault(str(metric), str(why))
+    speed_src = folder / "streams" / "speech_speed_source.txt"
+    if speed_src.is_file():
+        src, _ = read_stream(speed_src, "speech_speed_source")
+        if src and not any(x.value for x in src):  # 0 in every window: no count trusted
+            for metric in ("speech_speed", "speech_articulation"):
+                unmeasured.setdefault(
+                    metric,
+                    "the speech module trusted neither its recogniser nor its syllable count "
+                    "in any window (noise, music, a clipped recording: speech.log says which)",
+                )
     less: dict[str, str] = {}
     src_path = folder / "streams" / "cv_gestures_source.txt"
     if src_path.is_file():

@@ -211,3 +211,34 @@ def test_the_printed_table_marks_a_fallback_and_says_what_was_not_measured() -> 
     assert "100%*" in row
     assert f"cv_gestures: {fallback}; less reliable, so no advice on it" in text
     assert "speech_speed: not measured: the speech module could not run: no audio track" in text
+
+
+def test_a_recording_the_speech_module_could_not_time_is_said_not_praised(
+    tmp_path: Path,
+) -> None:
+    # session 16: a clipped recording (or noise alone) ran the speech module, which wrote
+    # speech_speed_source 0 in every window and no speed; the table said "no data" with no
+    # reason and the robot "Everything I could measure stayed in the ideal range. Well done!"
+    rows = range(10, 61)
+    streams = {
+        "speech_speed": [],
+        "speech_speed_source": [(float(t), 0.0) for t in rows],
+        "speech_volume": [(float(t), 87.0) for t in rows],
+    }
+    session = rehearsal(tmp_path / "s", streams, talk_s=61.0, recording="talk.wav")
+    report = build_report(session.root)
+    why = report["metrics"]["speech_speed"]["not_measured_why"]
+    assert "trusted neither" in why and "speech.log" in why
+    said = summary_phrase(report)
+    assert "Everything I could measure" not in said
+    assert "I could not judge your pace" in said
+    write_report(session.root)
+    assert (
+        "pace: not measured: the speech module trusted neither"
+        in (session.report / "summary.txt").read_text()
+    )
+    # a talk where the speed was measured some of the time is not said to be unmeasured
+    streams["speech_speed_source"][5] = (15.0, 1.0)
+    streams["speech_speed"] = [(15.0, 160.0)]
+    again = rehearsal(tmp_path / "t", streams, talk_s=61.0, recording="talk.wav")
+    assert "not_measured_why" not in build_report(again.root)["metrics"]["speech_speed"]
