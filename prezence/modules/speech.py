@@ -1196,7 +1196,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ModuleInputError, ValueError) as e:
         return report_error("speech", e)
     if args.calibration_db is None:
-        log.info(
+        # a warning: `rehearse` and `up` run the module with -q, and the user must learn that
+        # speech_volume is a guess before acting on "speak louder"
+        log.warning(
             "volume is not calibrated: speech_volume = dBFS + %g is a rough guess "
             "(see --calibration-db)",
             DEFAULT_CALIBRATION_DB,

@@ -393,3 +393,19 @@ def test_a_voice_note_or_recorder_file_is_rehearsed_not_refused_for_its_name(
     assert main(["rehearse", str(note), "--out", str(out), "-q"]) == 0, capsys.readouterr().err
     summary = json.loads((out / "summary.json").read_text())
     assert 200.0 < summary["metrics"]["speech_speed"]["p50"] < 250.0  # 225 wpm, as the flac
+
+
+def test_the_session_says_when_the_volume_is_not_calibrated(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The module's doc promised "the module says so in its log", but rehearse and up run it
+    # with -q and the line was at info level: speech.log stayed empty, the volume in dB SPL
+    # (dBFS + a guessed 90) looked measured.
+    out = tmp_path / "s"
+    assert main(["rehearse", str(FAST), "--out", str(out), "-q"]) == 0
+    log = (out / "speech.log").read_text()
+    assert "volume is not calibrated" in log and "--calibration-db" in log
+    calibrated = tmp_path / "c"
+    argv = ["rehearse", str(FAST), "--out", str(calibrated), "-q"]
+    assert main([*argv, "--speech-args", "--calibration-db 93"]) == 0
+    assert "not calibrated" not in (calibrated / "speech.log").read_text()
