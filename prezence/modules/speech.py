@@ -895,14 +895,27 @@ class SpeechAnalyser:
                     100 * clipped,
                 )
             elif source == SOURCE_NONE:
+                # only the checks that failed: a posterior of 0.80 is no reason to say unsure
+                doubts = []
+                if mean_post < MIN_RELIABLE_POSTERIOR:
+                    doubts.append(
+                        f"mean word posterior {mean_post:.2f} (under {MIN_RELIABLE_POSTERIOR:g})"
+                    )
+                if coverage < MIN_WORD_COVERAGE:
+                    doubts.append(
+                        f"its words cover {100 * coverage:.0f} % of the voice "
+                        f"(under {100 * MIN_WORD_COVERAGE:.0f} %)"
+                    )
+                if snr < MIN_RECOGNISER_SNR_DB:
+                    doubts.append(f"SNR under its {MIN_RECOGNISER_SNR_DB:g} dB")
                 log.warning(
-                    "t=%.0f s: speech speed cannot be measured (recogniser unsure: mean word "
-                    "posterior %.2f, words cover %.0f %% of the voice; estimated SNR %.0f dB): "
+                    "t=%.0f s: speech speed cannot be measured (too much noise for the syllable "
+                    "count: estimated SNR %.0f dB, under %g dB; recogniser not trusted: %s): "
                     "speech_speed and speech_articulation are not written until it can",
                     t_out,
-                    mean_post,
-                    100 * coverage,
                     snr,
+                    MIN_SYLLABLE_SNR_DB,
+                    ", ".join(doubts),
                 )
             else:
                 log.info(
