@@ -261,14 +261,17 @@ CLEAN_SIGNAL_BAND_DB = -30.0
 #: dev corpus's clean windows to the cue threshold 0.5 (their 1st percentile: 0.395).
 CLEAN_SIGNAL_CREDIT = 0.1
 #: A sample at or above this share of full scale counts as clipped (a recorder driven past its
-#: range flattens the waveform there; clean speech recorded with headroom has none).
-CLIPPED_LEVEL = 0.98
+#: range flattens the waveform there). Not 1.0: a lossy codec (a phone's AAC, an MP3) puts the
+#: flattened tops of a clipped recording at 0.9-0.95 of full scale with ripple; speech made
+#: as loud as it can be without clipping (peaks normalised to -0.1 dBFS) has 0.003 % of its
+#: samples this high, the same speech driven 12 dB past full scale 16-18 % (WAV, AAC, MP3).
+CLIPPED_LEVEL = 0.9
 #: Where more than this share of a word window's speech samples is clipped, neither count is
 #: trusted: speech_speed and speech_articulation are not written (the log says why). Measured
-#: on a 161.6 wpm flite reading driven past full scale (``sox gain``): +8 dB, 2.7 % of samples
-#: clipped, read -6 %; +12 dB, 15.6 %, read -16 % with the recogniser trusted; +20 dB, 42 %,
-#: read -32 % (the coach said "pick up the pace"). Not a retuned threshold: a new condition,
-#: set between the first two of those.
+#: on a 161.6 wpm flite reading driven past full scale (``sox gain``): +8 dB, 4.2 % of samples
+#: clipped, read -6 %; +12 dB, 18.5 %, read -16 % with the recogniser trusted; +20 dB, 42 %,
+#: read -32 % (the coach said "pick up the pace"); +16 dB saved as AAC or MP3 read -13 and
+#: -17 %. Not a retuned threshold: a new condition, set between the first two of those.
 MAX_CLIPPED_SHARE = 0.05
 #: speech_accuracy -> speech_clarity anchors: (accuracy, score).
 CLARITY_ANCHORS = ((0.2, 0.0), (0.8, 100.0))
@@ -888,9 +891,9 @@ class SpeechAnalyser:
             if source == SOURCE_NONE and clipped > MAX_CLIPPED_SHARE:
                 log.warning(
                     "t=%.0f s: speech speed cannot be measured (the recording is clipped: "
-                    "%.0f %% of the speech samples at full scale; record with less input gain "
-                    "or farther from the microphone): speech_speed and speech_articulation are "
-                    "not written until it can",
+                    "%.0f %% of the speech samples at or near full scale; record with less "
+                    "input gain or farther from the microphone): speech_speed and "
+                    "speech_articulation are not written until it can",
                     t_out,
                     100 * clipped,
                 )

@@ -208,7 +208,7 @@ def _driven_past_full_scale(x: np.ndarray, gain_db: float) -> np.ndarray:
 
 
 def test_a_clipped_recording_gets_no_pace_rather_than_a_wrong_one(
-    caplog: pytest.LogCaptureFixture,
+    caplog: pytest.LogCaptureFixture, tmp_path: Path
 ) -> None:
     # A phone held too close: the reading (peaks at -7 dBFS) recorded 20 and 26 dB too loud,
     # 13 % and 30 % of its samples clipped. Before, the recogniser was trusted and read 6 % and
@@ -223,6 +223,13 @@ def test_a_clipped_recording_gets_no_pace_rather_than_a_wrong_one(
         assert [s.value for s in got[SPEECH_SPEED_SOURCE]] == [SOURCE_NONE]
         assert "clipped" in caplog.text
         assert got[SPEECH_VOLUME], "the level is still measured"
+    # A phone saves it as AAC: the codec rounds the flat tops off under full scale.
+    phone = tmp_path / "clipped.m4a"
+    _encode_samples(_driven_past_full_scale(x, 26.0), phone, "aac")
+    got = by_metric(analyse(blocks(read_file(phone)), WHOLE)[0])
+    for s in got[SPEECH_SPEED]:
+        assert s.value == pytest.approx(truth, rel=0.12), f"as AAC: {s.value:.1f}"
+    assert [s.value for s in got[SPEECH_SPEED_SOURCE]] == [SOURCE_NONE]
     # A little clipping (0.4 % of the samples: a peak here and there) still reads the pace.
     assert whole("rate_175.flac", SPEECH_SPEED) == pytest.approx(truth, rel=0.05)
     mild = by_metric(analyse(blocks(_driven_past_full_scale(x, 12.0)), WHOLE)[0])
@@ -329,9 +336,12 @@ def test_zero_window_is_refused() -> None:
 
 
 def _encode(src: Path, dst: Path, codec: str) -> None:
+    _encode_samples(read_file(src), dst, codec)
+
+
+def _encode_samples(x: np.ndarray, dst: Path, codec: str) -> None:
     import av
 
-    x = read_file(src)
     with av.open(str(dst), "w") as out:
         stream = out.add_stream(codec, rate=16000, layout="mono")
         fmt = stream.codec_context.format.name if stream.codec_context.format else "s16"
