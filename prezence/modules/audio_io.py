@@ -93,15 +93,17 @@ def decode_file(path: str | Path) -> Generator[np.ndarray, None, None]:
         if not container.streams.audio:
             raise ModuleInputError(path, "the file has no audio track")
         stream = container.streams.audio[0]
-        resampler = av.AudioResampler(format="s16", layout="mono", rate=SAMPLE_RATE)
+        # every channel kept (planar), mixed down here: see _Downmix
+        resampler = av.AudioResampler(format="s16p", rate=SAMPLE_RATE)
+        mix = _Downmix()
         try:
             for frame in container.decode(stream):
                 for out in resampler.resample(frame):
-                    pcm = out.to_ndarray().reshape(-1).astype(np.int16, copy=False)
+                    pcm = mix(out.to_ndarray())
                     n_out += len(pcm)
                     yield pcm
             for out in resampler.resample(None):
-                pcm = out.to_ndarray().reshape(-1).astype(np.int16, copy=False)
+                pcm = mix(out.to_ndarray())
                 n_out += len(pcm)
                 yield pcm
         except av.error.FFmpegError as e:
@@ -118,6 +120,39 @@ def decode_file(path: str | Path) -> Generator[np.ndarray, None, None]:
             f"the audio ends after {got:.1f} s of the {announced:.1f} s the file announces "
             "(truncated?); what was read has been analysed",
         )
+
+
+#: A channel mix whose energy falls this far under its loudest channel's (so far in the file)
+#: is not used: the loudest channel is. Two channels of the same voice mix at 1.0 of it, two
+#: unrelated ones of equal level at 0.5 (-3 dB); one silent channel gives 0.25 (-6 dB: a
+#: lapel microphone on input 1 of a stereo recorder read 6 dB quiet), and a channel wired
+#: in opposite phase cancels the voice (near 0: "nothing measured" for a clear recording).
+MIN_MIX_ENERGY_RATIO = 0.35
+
+
+class _Downmix:
+    """Planar int16 blocks (channels x samples) to mono: the channels' mean, as ffmpeg's
+    downmix, unless that mean has lost the voice (:data:`MIN_MIX_ENERGY_RATIO`), then the
+    loudest channel. Decided on the energies summed since the file's start, so the choice
+    settles within the first words and the level does not jump from block to block."""
+
+    def __init__(self) -> None:
+        self._channels: np.ndarray | None = None
+        self._mix = 0.0
+
+    def __call__(self, planar: np.ndarray) -> np.ndarray:
+        x = np.asarray(planar)
+        if x.ndim == 1 or x.shape[0] == 1:
+            return x.reshape(-1).astype(np.int16, copy=False)
+        f = x.astype(np.float64)
+        mean = f.mean(axis=0)
+        energy = (f**2).sum(axis=1)
+        self._channels = energy if self._channels is None else self._channels + energy
+        self._mix += float((mean**2).sum())
+        loudest = int(np.argmax(self._channels))
+        if self._mix < MIN_MIX_ENERGY_RATIO * float(self._channels[loudest]):
+            return x[loudest].astype(np.int16, copy=True)
+        return np.round(mean).astype(np.int16)
 
 
 def _check_wav_length(path: Path) -> None:

@@ -383,6 +383,37 @@ def test_reads_wav_mp3_and_mp4(tmp_path: Path, suffix: str, codec: str) -> None:
     assert level == pytest.approx(0.0, abs=0.5)
 
 
+def _stereo_wav(path: Path, left: np.ndarray, right: np.ndarray) -> Path:
+    import wave
+
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(2)
+        w.setsampwidth(2)
+        w.setframerate(16000)
+        w.writeframes(np.column_stack([left, right]).astype("<i2").tobytes())
+    return path
+
+
+@pytest.mark.parametrize("case", ["one channel silent", "one channel in opposite phase"])
+def test_a_stereo_recording_whose_channels_do_not_mix_keeps_its_voice(
+    tmp_path: Path, case: str
+) -> None:
+    # A lapel microphone on input 1 of a stereo recorder (the other input silent) read 6 dB
+    # quiet: the coach's "speak louder" from the file's wiring. A channel wired in opposite
+    # phase cancelled the voice in the mix: "I could not measure your delivery".
+    x = read_file(MATERIAL / "rate_175.flac")
+    other = np.zeros_like(x) if case == "one channel silent" else -x
+    path = _stereo_wav(tmp_path / "stereo.wav", x, other)
+    got = by_metric(analyse(blocks(read_file(path)), WHOLE)[0])
+    (volume,) = got[SPEECH_VOLUME]
+    assert volume.value == pytest.approx(whole("rate_175.flac", SPEECH_VOLUME), abs=0.2)
+    (speed,) = got[SPEECH_SPEED]
+    assert speed.value == pytest.approx(MANIFEST["rate_175.flac"]["true_wpm"], rel=0.05)
+    # the same voice on both channels (mono saved as stereo) is the mono file, sample for sample
+    same = read_file(_stereo_wav(tmp_path / "same.wav", x, x))
+    assert np.array_equal(same, x)
+
+
 def _truncated_flac(tmp_path: Path) -> Path:
     p = tmp_path / "cut.flac"
     p.write_bytes((MATERIAL / "rate_175.flac").read_bytes()[:100_000])
