@@ -279,12 +279,7 @@ def check_own_clearance(library: GestureLibrary, *, limits: JointLimits) -> None
     with SelfCollisionChecker(limits=limits, library=library) as checker:
         for name in library.own:
             g = library[name]
-            values: list[dict[str, int] | None] = (
-                [None]
-                if not g.params
-                else [{p.name: v} for p in g.params.values() for v in sorted({p.low, p.high})]
-            )
-            for params in values:
+            for params in g.extreme_params():
                 traj = build_trajectory(
                     name,
                     params=params,

@@ -54,13 +54,9 @@ def _cases(lib: GestureLibrary) -> list[tuple[str, str, dict[str, int] | None]]:
     """Each gesture to check (a library of one's own: those its file defines)."""
     out: list[tuple[str, str, dict[str, int] | None]] = []
     for name in lib.own or lib.names:
-        g = lib[name]
-        if not g.params:
-            out.append((name, name, None))
-            continue
-        for pname, p in g.params.items():
-            for v in sorted({p.low, p.high}):
-                out.append((f"{name}[{pname}={v}]", name, {pname: v}))
+        for params in lib[name].extreme_params():
+            label = name + "".join(f"[{k}={v}]" for k, v in (params or {}).items())
+            out.append((label, name, params))
     return out
 
 

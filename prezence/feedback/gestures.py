@@ -156,6 +156,13 @@ class Gesture:
             out[name] = min(max(int(v), p.low), p.high)
         return out
 
+    def extreme_params(self) -> list[dict[str, int] | None]:
+        """The parameter values a check plays: each parameter at its smallest and largest
+        value (None: a gesture without parameters, played once)."""
+        if not self.params:
+            return [None]
+        return [{p.name: v} for p in self.params.values() for v in sorted({p.low, p.high})]
+
     def keyframes(self, params: Mapping[str, Any] | None = None) -> list[Keyframe]:
         """The keyframes in order, repeats expanded (without the final return to neutral)."""
         values = self.resolve_params(params)
@@ -840,13 +847,7 @@ def check_keyframes(
     """Raise :class:`LimitViolation` if any keyframe of ``name`` (all parameter values) is out
     of limits."""
     lib = library if library is not None else load_library(limits)
-    g = lib[name]
-    values = (
-        [None]
-        if not g.params
-        else [{p.name: v} for p in g.params.values() for v in (p.low, p.high)]
-    )
-    for params in values:
+    for params in lib[name].extreme_params():
         build_trajectory(name, params=params, speed_fraction=1.0, limits=limits, library=lib)
 
 
