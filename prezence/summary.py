@@ -149,6 +149,17 @@ def measurement_notes(
     if isinstance(off, Mapping):
         for metric, why in off.items():
             unmeasured.setdefault(str(metric), str(why))
+    activity_path = folder / "streams" / "speech_activity.txt"
+    if activity_path.is_file():
+        activity, _ = read_stream(activity_path, "speech_activity")
+        if activity and not any(x.value for x in activity):  # no voice in any window
+            for name, rec in METRICS.items():
+                if rec.module == "speech":
+                    unmeasured.setdefault(
+                        name,
+                        "the speech module heard no voice (silence, or noise or music without "
+                        "a voice: speech.log says which)",
+                    )
     speed_src = folder / "streams" / "speech_speed_source.txt"
     if speed_src.is_file():
         src, _ = read_stream(speed_src, "speech_speed_source")

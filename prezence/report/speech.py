@@ -167,6 +167,11 @@ def nothing_judged_sentence(report: Mapping[str, Any]) -> str:
         return "The talk was too short for me to judge your delivery."
     if "no audio track" in whys:
         return "I could not judge your delivery: the recording has no audio track."
+    if "heard no voice" in whys:
+        return (
+            "I heard no voice, only silence or noise, so I could not judge your delivery: "
+            f"check {_inputs_used(report)}."
+        )
     if any(m.get("too_brief") for m in metrics):
         return "I measured too little of your delivery to judge it."
     return f"I could not measure enough of your delivery to judge it: check {_inputs_used(report)}."

@@ -242,3 +242,25 @@ def test_a_recording_the_speech_module_could_not_time_is_said_not_praised(
     streams["speech_speed"] = [(15.0, 160.0)]
     again = rehearsal(tmp_path / "t", streams, talk_s=61.0, recording="talk.wav")
     assert "not_measured_why" not in build_report(again.root)["metrics"]["speech_speed"]
+
+
+def test_a_recording_with_no_voice_is_said_so_not_praised(tmp_path: Path) -> None:
+    # session 17: 60 s of pink noise read volume 65.8 and clarity 0.53 and got "Your volume and
+    # clarity stayed in the ideal range". The speech module now writes speech_activity 0 and
+    # nothing else where it hears no voice; the record says so for every speech metric.
+    rows = range(10, 61)
+    streams = {"speech_activity": [(float(t), 0.0) for t in rows]}
+    session = rehearsal(tmp_path / "s", streams, talk_s=61.0, recording="noise.wav")
+    report = build_report(session.root)
+    speech = [k for k in report["metrics"] if k.startswith("speech_")]
+    assert {"speech_speed", "speech_volume"} <= set(speech)
+    for metric in speech:
+        why = report["metrics"][metric]["not_measured_why"]
+        assert "heard no voice" in why and "speech.log" in why
+    said = summary_phrase(report)
+    assert "ideal range" not in said
+    assert "I heard no voice" in said and "check the recording" in said
+    # a voice heard in one window: the talk is not said to have none
+    streams["speech_activity"][20] = (30.0, 0.4)
+    again = rehearsal(tmp_path / "t", streams, talk_s=61.0, recording="noise.wav")
+    assert "not_measured_why" not in build_report(again.root)["metrics"]["speech_volume"]

@@ -1,0 +1,144 @@
+"""Noise is not a voice: the speech module measures nothing where it hears no voice.
+
+Session 17: 60 s of pink noise read ``speech_volume`` 65.8 (in range) and clarity 0.53-1.0
+(the recogniser made up a few words with high posteriors), so the robot praised a file with no
+voice in it. The webrtc voice-activity detector fires on steady noise; a voice is periodic and
+noise is not, so a level window whose voice activity is under ``MIN_VOICED_SHARE`` voiced
+(YIN aperiodicity) now writes ``speech_activity`` 0 and nothing else, as silence does.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import defaultdict
+
+import numpy as np
+import pytest
+
+from prezence.modules.speech import (
+    MIN_VOICED_SHARE,
+    VOICED_APERIODICITY,
+    aperiodicity,
+)
+
+RATE = 16000
+FRAME = 480
+
+
+def coloured_noise(kind: str, seconds: float, seed: int) -> np.ndarray:
+    """Seeded noise, in int16 units at RMS 3300 (-20 dBFS): white, pink (1/f power), brown
+    (1/f^2) or a fan (brown noise low-passed at 400 Hz)."""
+    n = int(seconds * RATE)
+    rng = np.random.default_rng(seed)
+    spec = np.fft.rfft(rng.standard_normal(n))
+    f = np.fft.rfftfreq(n, 1.0 / RATE)
+    f[0] = f[1]
+    if kind == "pink":
+        spec /= np.sqrt(f)
+    elif kind == "brown":
+        spec /= f
+    elif kind == "fan":
+        spec /= f
+        spec[f > 400.0] = 0.0
+    elif kind != "white":
+        raise ValueError(kind)
+    x = np.fft.irfft(spec, n)
+    return np.asarray(3300.0 * x / np.sqrt(np.mean(x**2)))
+
+
+def voice(f0: float, seconds: float, seed: int) -> np.ndarray:
+    """A crude vowel at -20 dBFS: harmonics of ``f0`` with a falling spectrum and a 1 % pitch
+    vibrato."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * RATE)) / RATE
+    pitch = f0 * (1.0 + 0.01 * np.sin(2 * np.pi * 3.0 * t + rng.uniform(0, 6.28)))
+    phase = 2 * np.pi * np.cumsum(pitch) / RATE
+    k = np.arange(1, int(4000 / f0) + 1)
+    x = np.sum(np.sin(np.outer(phase, k) + rng.uniform(0, 6.28, len(k))) / k, axis=1)
+    return np.asarray(3300.0 * x / np.sqrt(np.mean(x**2)))
+
+
+def frames_voiced(x: np.ndarray) -> np.ndarray:
+    """The module's test per 30 ms frame: this frame and the one before, aperiodicity < limit."""
+    n = len(x) // FRAME
+    return np.array(
+        [
+            aperiodicity(x[(i - 1) * FRAME : (i + 1) * FRAME]) < VOICED_APERIODICITY
+            for i in range(1, n)
+        ]
+    )
+
+
+@pytest.mark.parametrize("kind", ["white", "pink", "brown", "fan"])
+def test_no_frame_of_noise_of_any_colour_is_voiced(kind: str) -> None:
+    # 20 s of each, two seeds: 1332 frames, none voiced (low-passed noise fooled the syllable
+    # detector's autocorrelation test: brown noise gave 2.4 voiced "syllables" a second)
+    for seed in (1, 2):
+        assert not frames_voiced(coloured_noise(kind, 10.0, seed)).any()
+
+
+@pytest.mark.parametrize("f0", [72.0, 105.0, 180.0, 260.0, 390.0])
+def test_a_voice_from_low_to_high_pitch_is_voiced_alone_and_in_noise(f0: float) -> None:
+    v = voice(f0, 3.0, seed=int(f0))
+    assert frames_voiced(v).mean() > 0.95
+    # at SNR 10 dB (white noise) most frames still are
+    noisy = v + coloured_noise("white", 3.0, seed=7) * 10 ** (-10 / 20)
+    assert frames_voiced(noisy).mean() > 0.5
+
+
+def test_aperiodicity_of_silence_and_of_too_little_audio() -> None:
+    assert aperiodicity(np.zeros(960)) == 1.0  # digital silence has no pitch
+    assert aperiodicity(np.full(960, 3000.0)) == 1.0  # a constant: nothing left after the mean
+    assert aperiodicity(np.random.default_rng(0).normal(0, 0.5, 960)) == 1.0  # under one LSB
+    with pytest.raises(ValueError, match="needs more than"):
+        aperiodicity(np.ones(400))
+
+
+# ---- the module on noise ---------------------------------------------------------------
+
+
+def analyse(x: np.ndarray) -> dict[str, list[tuple[float, float]]]:
+    pytest.importorskip("pocketsphinx", reason='needs pocketsphinx: pip install "prezence[speech]"')
+    from prezence.modules.speech import SpeechOptions
+    from prezence.modules.speech import analyse as run
+
+    pcm = np.clip(np.round(x), -32768, 32767).astype(np.int16)
+    blocks = [pcm[i : i + 1600] for i in range(0, len(pcm), 1600)]
+    samples, _ = run(blocks, SpeechOptions(), loudness=False)
+    out: dict[str, list[tuple[float, float]]] = defaultdict(list)
+    for s in samples:
+        out[s.metric].append((s.t, s.value))
+    return out
+
+
+@pytest.mark.parametrize("kind", ["pink", "white"])
+def test_noise_alone_is_not_measured_as_quiet_unclear_or_slow_speech(
+    kind: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    # -20 dBFS RMS: the voice-activity detector hears "speech" throughout
+    with caplog.at_level(logging.WARNING, logger="prezence.modules.speech"):
+        got = analyse(coloured_noise(kind, 30.0, seed=3))
+    assert set(got) == {"speech_activity"}
+    assert len(got["speech_activity"]) >= 20
+    assert all(v == 0.0 for _, v in got["speech_activity"])
+    said = [r.getMessage() for r in caplog.records if "no voice heard" in r.getMessage()]
+    assert len(said) == 1  # once per stretch of noise, not every second
+    assert f"under {100 * MIN_VOICED_SHARE:g} %" in said[0]
+
+
+def test_speech_after_a_stretch_of_noise_is_measured_again() -> None:
+    pytest.importorskip("av", reason='needs PyAV: pip install "prezence[speech]"')
+    from pathlib import Path
+
+    from prezence.modules.audio_io import read_file
+
+    talk = read_file(Path(__file__).parent / "material" / "rate_175.flac").astype(np.float64)
+    assert len(talk) > 22 * RATE
+    noise = coloured_noise("pink", 25.0, seed=4)
+    got = analyse(np.concatenate([talk[: 12 * RATE], noise, talk[12 * RATE :]]))
+    vol = [t for t, _ in got["speech_volume"]]
+    # level windows (10 s) wholly inside the noise (12-37 s) say nothing; speech either side does
+    assert not [t for t in vol if 23.0 <= t <= 36.0]
+    assert any(t <= 12.0 for t in vol) and any(t >= 45.0 for t in vol)
+    quiet = [v for t, v in got["speech_activity"] if 23.0 <= t <= 36.0]
+    assert len(quiet) >= 13 and all(v == 0.0 for v in quiet)
