@@ -98,6 +98,8 @@ MIN_JUDGED_S = 10.0
 #: The vision module's record of what it could not measure and how it measured the rest
 #: (``SESSION/vision.json``: ``{"off": {metric: why}, "gesture_source": "body"|"motion"}``).
 VISION_STATUS = "vision.json"
+#: The speech module's record of which of its metrics are estimates (``speech.json``).
+SPEECH_STATUS = "speech.json"
 
 #: ``cv_gestures_source``'s value for a rate from the frame difference (the fallback).
 GESTURES_FROM_MOTION = 2.0
@@ -107,6 +109,26 @@ def _failure_text(msg: str) -> str:
     """A module's last error line without its ``error:`` prefix."""
     msg = msg.strip()
     return msg[len("error:") :].strip() if msg.startswith("error:") else msg
+
+
+def estimate_notes(root: Any) -> dict[str, str]:
+    """Per metric, why its figures are an estimate, as far as the session folder records it
+    (the speech module's ``speech.json``: the volume of an uncalibrated microphone). Unlike
+    ``less_reliable`` these keep their advice: a level relative to a guessed offset still says
+    louder or quieter, but its dB SPL figure is not a measurement."""
+    from pathlib import Path
+
+    from prezence.session import read_json_object
+
+    path = Path(root) / SPEECH_STATUS
+    if not path.is_file():
+        return {}
+    try:
+        status = read_json_object(path)
+    except (OSError, ValueError):  # a torn record says nothing; the streams still do
+        return {}
+    est = status.get("estimate")
+    return {str(k): str(v) for k, v in est.items()} if isinstance(est, Mapping) else {}
 
 
 def measurement_notes(
@@ -467,6 +489,7 @@ def build_summary(
     skipped_records: Sequence[str] = (),
     unmeasured: Mapping[str, str] | None = None,
     less_reliable: Mapping[str, str] | None = None,
+    estimates: Mapping[str, str] | None = None,
 ) -> dict[str, Any]:
     """The ``summary.json`` of a talk.
 
@@ -493,6 +516,8 @@ def build_summary(
             in a talk shorter than its first value (``Metric.first_after_s``) gets the same:
             the talk was too short.
         less_reliable: per metric, why its figures are less reliable (``less_reliable``).
+        estimates: per metric, why its figures are an estimate (``estimate``,
+            :func:`estimate_notes`); its advice stands.
 
     A metric measured for less than :data:`MIN_JUDGED_S` has ``too_brief``: the report neither
     advises on it nor praises it.
@@ -539,6 +564,8 @@ def build_summary(
             m["too_brief"] = True
         if ss and less_reliable and rule.metric in less_reliable:
             m["less_reliable"] = less_reliable[rule.metric]
+        if ss and estimates and rule.metric in estimates:
+            m["estimate"] = estimates[rule.metric]
         if truth is not None:
             m["truth_time_in_range"] = _truth_in_range_fraction(truth, rule.metric, talk_s)
         if stream_stats and rule.metric in stream_stats:
@@ -751,6 +778,7 @@ def summarize_session(
         extra=extra,
         unmeasured=unmeasured,
         less_reliable=less_reliable,
+        estimates=estimate_notes(session.root),
         processor_counts=processor.counts() if processor is not None else None,
         problems=problems,
         not_measured=absent,

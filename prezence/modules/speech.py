@@ -1163,6 +1163,27 @@ def analyse(
     return out, an.totals()
 
 
+#: The session folder's record of how this module measures (read by
+#: :func:`prezence.summary.estimate_notes`): the volume is an estimate until calibrated.
+STATUS_FILE = "speech.json"
+
+
+def write_status(out: Path, *, calibrated: bool, calibration_db: float) -> None:
+    """Write ``out/speech.json``: which metrics are estimates and why, so the report and the
+    printed table say so next to the figures, not only ``speech.log``."""
+    import json
+
+    estimate = {}
+    if not calibrated:
+        estimate[SPEECH_VOLUME] = (
+            f"an estimate: the microphone is not calibrated (dBFS + {calibration_db:g}, a rough "
+            "guess for a laptop microphone; --calibration-db sets it, see docs/modules.md)"
+        )
+    status = {"format": 1, "calibration_db": calibration_db, "estimate": estimate}
+    Path(out).mkdir(parents=True, exist_ok=True)
+    (Path(out) / STATUS_FILE).write_text(json.dumps(status, indent=1) + "\n")
+
+
 def run(
     source: AudioSource,
     out: Path,
@@ -1317,6 +1338,14 @@ def main(argv: list[str] | None = None) -> int:
             "(see --calibration-db)",
             DEFAULT_CALIBRATION_DB,
         )
+    try:
+        write_status(
+            args.out,
+            calibrated=args.calibration_db is not None,
+            calibration_db=options.calibration_db,
+        )
+    except OSError as e:  # the streams will say what they can; the status is a courtesy
+        log.warning("could not write %s: %s", Path(args.out) / STATUS_FILE, e)
     stop = threading.Event()
 
     def _on_signal(signum: int, frame: FrameType | None) -> None:

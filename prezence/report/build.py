@@ -35,6 +35,7 @@ from prezence.session import (
 )
 from prezence.summary import (
     build_summary,
+    estimate_notes,
     hold_ends,
     measurement_notes,
     module_notes,
@@ -648,6 +649,7 @@ def _rebuild(
         not_measured=[r.metric for r in cfg.rules if r.metric not in paths],
         unmeasured=unmeasured,
         less_reliable=less_reliable,
+        estimates=estimate_notes(session.root),
         processor_counts=_recorded_drops(recorded),
     )
 

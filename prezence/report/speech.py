@@ -112,8 +112,9 @@ def unjudged_labels(report: Mapping[str, Any]) -> list[str]:
 
 
 def metric_notes(report: Mapping[str, Any]) -> list[str]:
-    """One line per metric not measured for a known reason, measured too briefly to judge, or
-    measured in a less reliable way, for the text and the HTML report alike.
+    """One line per metric not measured for a known reason, measured too briefly to judge,
+    measured in a less reliable way, or an estimate (an uncalibrated volume), for the text and
+    the HTML report alike.
 
     Example:
         >>> metric_notes({"metrics": {"speech_speed": {"label": "pace", "samples": 3,
@@ -131,7 +132,9 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
             out.append(f"{label}: not measured: {m['not_measured_why']}")
         elif m.get("samples") and m.get("less_reliable"):
             out.append(f"{label}: {m['less_reliable']}; less reliable, so no advice on it")
-        elif m.get("samples") and m.get("too_brief"):
+        elif m.get("samples") and m.get("estimate"):
+            out.append(f"{label}: {m['estimate']}")
+        if m.get("samples") and m.get("too_brief") and not m.get("less_reliable"):
             s = float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
             out.append(
                 f"{label}: measured for only {s:.0f} s, under the {MIN_JUDGED_S:.0f} s needed "

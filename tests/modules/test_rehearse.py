@@ -405,7 +405,20 @@ def test_the_session_says_when_the_volume_is_not_calibrated(
     assert main(["rehearse", str(FAST), "--out", str(out), "-q"]) == 0
     log = (out / "speech.log").read_text()
     assert "volume is not calibrated" in log and "--calibration-db" in log
+    # session 17: the report and the printed table say it next to the figure, not only the log
+    note = "an estimate: the microphone is not calibrated (dBFS + 90"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["metrics"]["speech_volume"]["estimate"].startswith(note)
+    assert f"Volume: {note}" in (out / "report" / "report.html").read_text()
     calibrated = tmp_path / "c"
-    argv = ["rehearse", str(FAST), "--out", str(calibrated), "-q"]
-    assert main([*argv, "--speech-args", "--calibration-db 93"]) == 0
+    argv = ["rehearse", str(FAST), "--out", str(calibrated), "--speech-args", "--calibration-db 93"]
+    capsys.readouterr()
+    assert main(argv) == 0
     assert "not calibrated" not in (calibrated / "speech.log").read_text()
+    assert (
+        "estimate"
+        not in json.loads((calibrated / "summary.json").read_text())["metrics"]["speech_volume"]
+    )
+    assert "an estimate" not in capsys.readouterr().out
+    assert main(["rehearse", str(FAST), "--out", str(tmp_path / "t")]) == 0
+    assert f"speech_volume: {note}" in capsys.readouterr().out
