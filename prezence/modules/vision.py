@@ -908,6 +908,10 @@ def open_video(path: Path) -> cv2.VideoCapture:
         raise VisionInputError(
             path, "cannot be read as a video (wrong format, or a truncated file)"
         )
+    # A phone stores a portrait video as landscape frames plus a rotation in its metadata.
+    # OpenCV applies that rotation only where it is on by default (5.x, not the 4.x of the
+    # vision env): sideways frames gave head yaws of +-190 deg and no facing. Ask for it.
+    cap.set(cv2.CAP_PROP_ORIENTATION_AUTO, 1)
     fps = cap.get(cv2.CAP_PROP_FPS)
     if not (math.isfinite(fps) and fps > 0.0):
         cap.release()
