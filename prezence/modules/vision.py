@@ -943,11 +943,19 @@ class FileSource:
             if not self._cap.grab():
                 break
         start = time.monotonic() - i / self.fps
+        prev_t: float | None = None
         while True:
             ok, frame = self._cap.read()
             if not ok or frame is None:
                 break
-            t = i / self.fps
+            # The frame's own timestamp, not its index over the frame rate: a phone or a
+            # stalling webcam records a variable frame rate, and i / fps put every frame after
+            # a 6 s stall up to 4.6 s early against the sound. A container without usable
+            # timestamps (none, or not increasing) falls back to one frame period.
+            t = self._cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0
+            if not math.isfinite(t) or t < 0.0 or (prev_t is not None and t <= prev_t):
+                t = i / self.fps if prev_t is None else prev_t + 1.0 / self.fps
+            prev_t = t
             i += 1
             self.stats.frames += 1
             if self.realtime:

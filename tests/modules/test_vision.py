@@ -339,3 +339,21 @@ def test_live_frames_the_analysis_missed_are_counted_and_reported(
     assert summary.analysed == 1
     assert cam.stats.not_analysed == 11
     assert "11 of 12 frames were not analysed" in caplog.text
+
+
+def test_a_variable_frame_rate_video_keeps_its_own_frame_times() -> None:
+    # Session 17: a webcam that stalls (or a phone) records a variable frame rate. The times
+    # were frame index / the container's average rate, so every frame after a stall came too
+    # early against the sound (4.6 s mid-talk on a 48 s video with a 6 s stall).
+    # stall_vfr.mp4: 6 s of testsrc at 15 fps with the frames of 2..4 s dropped, their times kept:
+    #   ffmpeg -f lavfi -i testsrc=size=64x48:rate=15:duration=6 \
+    #       -vf "select='not(between(t,2,4))'" -fps_mode passthrough -c:v libx264 \
+    #       -pix_fmt yuv420p -g 15 stall_vfr.mp4
+    source = FileSource(MATERIAL / "stall_vfr.mp4")
+    try:
+        ts = [t for t, _ in source.frames()]
+    finally:
+        source.close()
+    want = [i / 15.0 for i in range(90) if not 2.0 <= i / 15.0 <= 4.0]
+    assert len(ts) == len(want)
+    assert ts == pytest.approx(want, abs=1e-3)
