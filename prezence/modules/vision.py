@@ -891,6 +891,41 @@ class SourceStats:
     expected_frames: int | None = None  #: files: the frame count the container announces
 
 
+def _sound_only(path: Path) -> bool:
+    """True when ``path`` is a media file with audio streams and no video stream, as far as
+    PyAV or ``ffprobe`` can tell (False when neither is here or the file cannot be probed).
+
+    An .mp4 of a voice memo is a good file: "wrong format, or truncated" sent the user looking
+    for a fault that was not there (session 17)."""
+    try:
+        import av  # the speech extra's decoder; not in the vision env
+
+        with av.open(str(path)) as c:
+            return bool(c.streams.audio) and not c.streams.video
+    except ImportError:
+        pass
+    except Exception:  # noqa: BLE001 - any decoder failure: not a sound file we can name
+        return False
+    import shutil
+    import subprocess
+
+    ffprobe = shutil.which("ffprobe")
+    if ffprobe is None:
+        return False
+    try:
+        out = subprocess.run(
+            [ffprobe, "-v", "error", "-show_entries", "stream=codec_type", "-of", "csv=p=0"]
+            + [str(path)],
+            capture_output=True,
+            text=True,
+            timeout=20,
+            check=False,
+        ).stdout.split()
+    except (OSError, subprocess.SubprocessError):
+        return False
+    return "audio" in out and "video" not in out
+
+
 def open_video(path: Path) -> cv2.VideoCapture:
     """Open a video file, checking it is one.
 
@@ -905,8 +940,14 @@ def open_video(path: Path) -> cv2.VideoCapture:
         raise VisionInputError(path, "empty file (0 bytes), not a video")
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
+        if _sound_only(path):
+            raise VisionInputError(
+                path, "has sound but no video stream: there is nothing for the camera to see"
+            )
         raise VisionInputError(
-            path, "cannot be read as a video (wrong format, or a truncated file)"
+            path,
+            "cannot be read as a video (no video stream, e.g. a sound-only recording; a wrong "
+            "format; or a truncated file)",
         )
     # A phone stores a portrait video as landscape frames plus a rotation in its metadata.
     # OpenCV applies that rotation only where it is on by default (5.x, not the 4.x of the

@@ -357,3 +357,13 @@ def test_a_variable_frame_rate_video_keeps_its_own_frame_times() -> None:
     want = [i / 15.0 for i in range(90) if not 2.0 <= i / 15.0 <= 4.0]
     assert len(ts) == len(want)
     assert ts == pytest.approx(want, abs=1e-3)
+
+
+def test_a_sound_only_mp4_is_named_as_such_not_as_a_broken_video() -> None:
+    # Session 17: a voice memo saved as .mp4 (sound only) was reported as "cannot be read as
+    # a video (wrong format, or a truncated file)", in vision.log and in the report, for a
+    # good file. sound_only.mp4: ffmpeg -f lavfi -i "sine=frequency=220:duration=1" -c:a aac
+    path = MATERIAL / "sound_only.mp4"
+    with pytest.raises(VisionInputError, match="no video stream") as e:
+        FileSource(path)
+    assert str(path) in str(e.value)
