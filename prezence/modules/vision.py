@@ -334,9 +334,28 @@ class GazeTracker:
         """
         if self.offset is None:
             self._pending.append((t, pose))
-            faces = [p for _, p in self._pending if p is not None]
-            if t < self.calibrate_s or len(faces) < 3:
+            seen = [(tt, p) for tt, p in self._pending if p is not None]
+            if t < self.calibrate_s or len(seen) < 3:
                 return []
+            faces = [p for _, p in seen]
+            if sum(1 for tt, _ in seen if tt < self.calibrate_s) < 3:
+                # The face was not found in the calibration seconds (a small face in a portrait
+                # frame, a late start): the first three faces found were taken as the audience
+                # direction, mid head turn (session 17: -28 deg, then every yaw 28 deg off and
+                # facing 0). Take the median of calibrate_s seconds from the first face found.
+                first = seen[0][0]
+                if t - first < self.calibrate_s:
+                    return []
+                faces = [p for tt, p in seen if tt <= first + self.calibrate_s]
+                log.warning(
+                    "fewer than 3 faces in the first %.1f s: the audience direction is the "
+                    "median pose of %.1f-%.1f s, where the face was first found; give "
+                    "--audience-yaw/--audience-pitch if the presenter did not face the "
+                    "audience then",
+                    self.calibrate_s,
+                    first,
+                    first + self.calibrate_s,
+                )
             self.offset = (
                 float(np.median([p.yaw for p in faces])),
                 float(np.median([p.pitch for p in faces])),

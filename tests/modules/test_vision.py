@@ -367,3 +367,24 @@ def test_a_sound_only_mp4_is_named_as_such_not_as_a_broken_video() -> None:
     with pytest.raises(VisionInputError, match="no video stream") as e:
         FileSource(path)
     assert str(path) in str(e.value)
+
+
+def test_a_face_found_late_is_calibrated_on_seconds_of_it_not_its_first_three_frames() -> None:
+    # Session 17: in a portrait video FaceMesh found no face for 9.5 s; the first three faces
+    # then, mid head turn at -28 deg, became the audience direction, and every later yaw read
+    # 28 deg off (facing 0). Now the median of calibrate_s seconds from the first face is used.
+    g = GazeTracker(calibrate_s=3.0)
+    fps = 8.0
+    out = []
+    for i in range(int(20 * fps)):
+        t = i / fps
+        if t < 9.5:
+            pose = None
+        elif t < 10.0:
+            pose = HeadPose(-28.0, -12.0, (0, 0, 1, 1))  # turning, as the face is first found
+        else:
+            pose = HeadPose(1.0, 2.0, (0, 0, 1, 1))  # then facing the audience
+        out += g.update(t, pose)
+    assert g.offset == pytest.approx((1.0, 2.0))
+    later = [(y, p) for t, y, p in out if t >= 10.0]
+    assert later and all(y == pytest.approx(0.0) and p == pytest.approx(0.0) for y, p in later)
