@@ -91,7 +91,10 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
   speech_articulation are not written there and the log says why (once per change of source).
   Neither is trusted where more than :data:`MAX_CLIPPED_SHARE` of the window's speech samples
   are clipped (at :data:`CLIPPED_LEVEL` of full scale or above): a recording driven past its
-  range loses words and syllable peaks alike, and read up to a third slow.
+  range loses words and syllable peaks alike, and read up to a third slow. Nor where an
+  utterance of noise without a voice (1 s or more, under :data:`MIN_VOICED_SHARE` voiced) lies
+  in or within ``max_utterance_s`` of the word window: such an utterance is a pause, but the
+  ones joining it to the speech hold noise counted as talk time.
 * Volume: RMS of the 30 ms frames inside voice activity and within 30 dB of the window's
   95th-percentile speech frame, so pauses do not dilute it and it follows a gain change exactly.
 * **Clarity** (speech_accuracy). The recogniser's confidence falls where the speech is hard to
@@ -579,6 +582,8 @@ class SpeechAnalyser:
         # Finished results, oldest first (pruned once no future window can need them).
         self._words: deque[Word] = deque()
         self._spans: deque[tuple[float, float]] = deque()
+        # Utterances of noise, not voice (see _end_utterance): cut out of the spans.
+        self._noise_utts: deque[tuple[float, float]] = deque()
         self._syllables: deque[float] = deque()
         self._span_start: float | None = None
         self._next_t = options.window_s  # end of the next window to write
@@ -722,6 +727,23 @@ class SpeechAnalyser:
     def _end_utterance(self, end: float) -> None:
         t0 = self._utt_start
         pcm = np.frombuffer(b"".join(self._utt_pcm), dtype=np.int16)
+        t1 = t0 + len(pcm) / SAMPLE_RATE
+        if t1 - t0 >= self.options.min_speech_s and self._utterance_voiced(t0, t1) < (
+            MIN_VOICED_SHARE
+        ):
+            # Noise the voice-activity detector took for speech: as talk time, with its
+            # made-up words and the syllable peaks of low-frequency noise (brown noise gave 2.4
+            # a second), it would count in the word window after it (after 30 s of noise a
+            # 175 wpm talk read 84-133 wpm, clarity 0.65 and `articulate`). It is a pause
+            # instead, and not decoded, so the recogniser does not adapt to it either. Only
+            # from min_speech_s: on the corpus only 0.2-0.5 s clicks and breaths have under
+            # 1 % voiced frames, and they are left as they were.
+            self._noise_utts.append((t0, t1))
+            self._utt_pcm = []
+            self._utt_ms = []
+            self._in_utt = False
+            self._utt_start = end
+            return
         nuclei = syllable_nuclei(pcm)
         self._recent.append((len(pcm) / SAMPLE_RATE, len(nuclei)))
         frate = self._set_frame_rate()
@@ -831,6 +853,8 @@ class SpeechAnalyser:
             self._words.popleft()
         while self._spans and self._spans[0][1] <= lo:
             self._spans.popleft()
+        while self._noise_utts and self._noise_utts[0][1] <= lo:
+            self._noise_utts.popleft()
         while self._syllables and self._syllables[0] < lo:
             self._syllables.popleft()
         keep_from = max(0, int(lo_audio * SAMPLE_RATE) - self._ring_start)
@@ -881,14 +905,17 @@ class SpeechAnalyser:
         spans = list(self._spans)
         if self._span_start is not None:
             spans.append((self._span_start, t))
+        if self._noise_utts:
+            spans = _cut(spans, self._noise_utts)
         speech_s = sum(_overlap(a, b, lo, t) for a, b in spans)
         if dur <= 0:
             return []
-        out = [Sample(SPEECH_ACTIVITY, t, min(1.0, speech_s / dur))]
+        voiced = self._voiced_share(lo, t, spans) if speech_s > 0 else 0.0
+        heard = voiced >= MIN_VOICED_SHARE  # voice activity that is a voice
+        out = [Sample(SPEECH_ACTIVITY, t, min(1.0, speech_s / dur) if heard else 0.0)]
         if speech_s < min(opt.min_speech_s, 0.5 * dur):
             return out
-        voiced = self._voiced_share(lo, t, spans)
-        if voiced < MIN_VOICED_SHARE:
+        if not heard:
             # Sound without a voice in it (noise, a fan, music without singing): not speech,
             # so neither quiet nor unclear nor slow speech. Said once per stretch of it.
             if not self._voiceless:
@@ -949,6 +976,13 @@ class SpeechAnalyser:
         source = self._choose_source(mean_post, coverage, snr)
         if clipped > MAX_CLIPPED_SHARE:
             source = SOURCE_NONE
+        # Noise without a voice in or just before the word window: the utterances that join
+        # it to the speech (up to max_utterance_s each) hold noise counted as talk time, so a
+        # 175 wpm talk read 88-114 wpm just after 25 s of noise. No speed until it is out.
+        reach = lo - opt.max_utterance_s
+        near_noise = any(a < t + opt.max_utterance_s and b > reach for a, b in self._noise_utts)
+        if near_noise:
+            source = SOURCE_NONE
         if self.window_log is not None:
             self.window_log.append(
                 {
@@ -968,7 +1002,15 @@ class SpeechAnalyser:
                 }
             )
         if source != self._last_source:
-            if source == SOURCE_NONE and clipped > MAX_CLIPPED_SHARE:
+            if source == SOURCE_NONE and near_noise:
+                log.warning(
+                    "t=%.0f s: speech speed cannot be measured (noise without a voice in or "
+                    "next to the last %.0f s of talk would count as talk time): speech_speed "
+                    "and speech_articulation are not written until it is out of the window",
+                    t_out,
+                    opt.word_window_s,
+                )
+            elif source == SOURCE_NONE and clipped > MAX_CLIPPED_SHARE:
                 log.warning(
                     "t=%.0f s: speech speed cannot be measured (the recording is clipped: "
                     "%.0f %% of the speech samples at or near full scale; record with less "
@@ -1098,6 +1140,13 @@ class SpeechAnalyser:
         loud = np.flatnonzero(db >= np.percentile(db, 95) - 30.0)
         return float(np.mean(np.asarray(self._frame_clipped[i0:i1])[loud]))
 
+    def _utterance_voiced(self, t0: float, t1: float) -> float:
+        """Share of the frames of ``[t0, t1)`` that are voiced (1.0 when none is known yet)."""
+        i0, i1 = int(t0 / _FRAME_S), min(len(self._frame_voiced), int(math.ceil(t1 / _FRAME_S)))
+        if i1 <= i0:
+            return 1.0
+        return float(np.count_nonzero(self._frame_voiced[i0:i1])) / (i1 - i0)
+
     def _voiced_share(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float:
         """Share of the voice-activity frames of ``[lo, t)`` that are voiced (periodic); 0
         without such frames."""
@@ -1133,6 +1182,25 @@ class SpeechAnalyser:
             return None
         v = float(self._meter.integrated_loudness(x))
         return v if math.isfinite(v) else None
+
+
+def _cut(
+    spans: list[tuple[float, float]], holes: Iterable[tuple[float, float]]
+) -> list[tuple[float, float]]:
+    """``spans`` without the intervals ``holes`` (both sorted by time)."""
+    out = spans
+    for h0, h1 in holes:
+        nxt: list[tuple[float, float]] = []
+        for a, b in out:
+            if b <= h0 or a >= h1:
+                nxt.append((a, b))
+                continue
+            if a < h0:
+                nxt.append((a, h0))
+            if b > h1:
+                nxt.append((h1, b))
+        out = nxt
+    return out
 
 
 def _in_spans(i0: int, i1: int, spans: list[tuple[float, float]]) -> np.ndarray:
