@@ -111,23 +111,41 @@ def _failure_text(msg: str) -> str:
     return msg[len("error:") :].strip() if msg.startswith("error:") else msg
 
 
+def _module_status(folder: Any, name: str) -> dict[str, Any]:
+    """A module's status record in the session folder (``vision.json``, ``speech.json``); {}
+    when it is absent or torn (a torn record says nothing; the streams still do)."""
+    from pathlib import Path
+
+    from prezence.session import read_json_object
+
+    path = Path(folder) / name
+    if not path.is_file():
+        return {}
+    try:
+        return read_json_object(path)
+    except (OSError, ValueError):
+        return {}
+
+
+def _stream_values(folder: Any, metric: str) -> list[float]:
+    """Every value of ``streams/<metric>.txt`` in the session folder; [] without the file."""
+    from pathlib import Path
+
+    from prezence.streams.tail import read_stream
+
+    path = Path(folder) / "streams" / f"{metric}.txt"
+    if not path.is_file():
+        return []
+    samples, _ = read_stream(path, metric)
+    return [x.value for x in samples]
+
+
 def estimate_notes(root: Any) -> dict[str, str]:
     """Per metric, why its figures are an estimate, as far as the session folder records it
     (the speech module's ``speech.json``: the volume of an uncalibrated microphone). Unlike
     ``less_reliable`` these keep their advice: a level relative to a guessed offset still says
     louder or quieter, but its dB SPL figure is not a measurement."""
-    from pathlib import Path
-
-    from prezence.session import read_json_object
-
-    path = Path(root) / SPEECH_STATUS
-    if not path.is_file():
-        return {}
-    try:
-        status = read_json_object(path)
-    except (OSError, ValueError):  # a torn record says nothing; the streams still do
-        return {}
-    est = status.get("estimate")
+    est = _module_status(root, SPEECH_STATUS).get("estimate")
     return {str(k): str(v) for k, v in est.items()} if isinstance(est, Mapping) else {}
 
 
@@ -147,12 +165,6 @@ def measurement_notes(
         failed; head pose was off) and why its figures are less reliable (the gesture rate
         from the frame-difference fallback).
     """
-    from pathlib import Path
-
-    from prezence.session import read_json_object
-    from prezence.streams.tail import read_stream
-
-    folder = Path(root)
     unmeasured: dict[str, str] = {}
     failures = (recorded or {}).get("module_failures") or {}
     if isinstance(failures, Mapping):
@@ -160,47 +172,33 @@ def measurement_notes(
             msg = failures.get(rec.module)
             if isinstance(msg, str):
                 unmeasured[name] = f"the {rec.module} module could not run: {_failure_text(msg)}"
-    status_path = folder / VISION_STATUS
-    status: dict[str, Any] = {}
-    if status_path.is_file():
-        try:
-            status = read_json_object(status_path)
-        except (OSError, ValueError):  # a torn record says nothing; the streams still do
-            status = {}
-    off = status.get("off")
+    off = _module_status(root, VISION_STATUS).get("off")
     if isinstance(off, Mapping):
         for metric, why in off.items():
             unmeasured.setdefault(str(metric), str(why))
-    activity_path = folder / "streams" / "speech_activity.txt"
-    if activity_path.is_file():
-        activity, _ = read_stream(activity_path, "speech_activity")
-        if activity and not any(x.value for x in activity):  # no voice in any window
-            for name, rec in METRICS.items():
-                if rec.module == "speech":
-                    unmeasured.setdefault(
-                        name,
-                        "the speech module heard no voice (silence, or noise or music without "
-                        "a voice: speech.log says which)",
-                    )
-    speed_src = folder / "streams" / "speech_speed_source.txt"
-    if speed_src.is_file():
-        src, _ = read_stream(speed_src, "speech_speed_source")
-        if src and not any(x.value for x in src):  # 0 in every window: no count trusted
-            for metric in ("speech_speed", "speech_articulation"):
+    activity = _stream_values(root, "speech_activity")
+    if activity and not any(activity):  # no voice in any window
+        for name, rec in METRICS.items():
+            if rec.module == "speech":
                 unmeasured.setdefault(
-                    metric,
-                    "the speech module trusted neither its recogniser nor its syllable count "
-                    "in any window (noise, music, a clipped recording: speech.log says which)",
+                    name,
+                    "the speech module heard no voice (silence, or noise or music without "
+                    "a voice: speech.log says which)",
                 )
-    less: dict[str, str] = {}
-    src_path = folder / "streams" / "cv_gestures_source.txt"
-    if src_path.is_file():
-        src, _ = read_stream(src_path, "cv_gestures_source")
-        if any(x.value == GESTURES_FROM_MOTION for x in src):
-            less["cv_gestures"] = (
-                "counted from the frame difference, the fallback when the pose model cannot "
-                "run (it misses most gestures and counts other motion)"
+    source = _stream_values(root, "speech_speed_source")
+    if source and not any(source):  # 0 in every window: no count trusted
+        for metric in ("speech_speed", "speech_articulation"):
+            unmeasured.setdefault(
+                metric,
+                "the speech module trusted neither its recogniser nor its syllable count "
+                "in any window (noise, music, a clipped recording: speech.log says which)",
             )
+    less: dict[str, str] = {}
+    if GESTURES_FROM_MOTION in _stream_values(root, "cv_gestures_source"):
+        less["cv_gestures"] = (
+            "counted from the frame difference, the fallback when the pose model cannot "
+            "run (it misses most gestures and counts other motion)"
+        )
     return unmeasured, less
 
 

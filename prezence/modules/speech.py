@@ -331,7 +331,7 @@ _VOICED_TAU = np.arange(1, _VOICED_LAGS[1] + 1, dtype=np.float64)
 
 
 def aperiodicity(x: np.ndarray) -> float:
-    """YIN aperiodicity of ``x`` (float samples, at least two pitch periods of the lowest
+    """YIN aperiodicity of ``x`` (samples in int16 units, at least two periods of the lowest
     pitch long): the minimum, over the lags of :data:`VOICED_F0_RANGE`, of the cumulative
     mean normalised difference function. Near 0 for a periodic signal, about 1 for noise of
     any colour (low-passed noise's difference grows smoothly with the lag and never dips);
@@ -736,8 +736,8 @@ class SpeechAnalyser:
             # a second), it would count in the word window after it (after 30 s of noise a
             # 175 wpm talk read 84-133 wpm, clarity 0.65 and `articulate`). It is a pause
             # instead, and not decoded, so the recogniser does not adapt to it either. Only
-            # from min_speech_s: on the corpus only 0.2-0.5 s clicks and breaths have under
-            # 1 % voiced frames, and they are left as they were.
+            # from min_speech_s: on the corpus only clicks and breaths (at most 0.6 s a file)
+            # have under 1 % voiced frames, and they are left as they were.
             self._noise_utts.append((t0, t1))
             self._utt_pcm = []
             self._utt_ms = []
@@ -1103,6 +1103,17 @@ class SpeechAnalyser:
             return SOURCE_SYLLABLES
         return SOURCE_NONE
 
+    def _frames(self, lo: float, t: float) -> tuple[int, int]:
+        """The indices ``i0, i1`` of the 30 ms frames of ``[lo, t)`` analysed so far (every
+        per-frame list is as long as ``_frame_ms``)."""
+        return int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+
+    def _loud(self, i0: int, i1: int) -> np.ndarray:
+        """Indices (from ``i0``) of the frames ``i0 .. i1 - 1`` within 30 dB of their 95th
+        percentile: the speech, not the pauses, as for the volume."""
+        db = 10.0 * np.log10(np.asarray(self._frame_ms[i0:i1]) + 1.0)
+        return np.flatnonzero(db >= np.percentile(db, 95) - 30.0)
+
     def _snr_db(self, lo: float, t: float) -> float:
         """Estimated SNR of ``[lo, t)``: loud (p90) over quiet (p10) 30 ms frames, in dB.
 
@@ -1110,7 +1121,7 @@ class SpeechAnalyser:
         under-reads clean speech (still >= 20 dB on the corpus); it is only meant to tell
         whether syllable peaks stand out of the noise.
         """
-        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+        i0, i1 = self._frames(lo, t)
         if i1 - i0 < 10:
             return 0.0
         ms = np.asarray(self._frame_ms[i0:i1]) + 1.0  # +1: int16 rounding floor
@@ -1120,29 +1131,24 @@ class SpeechAnalyser:
     def _band_db(self, lo: float, t: float) -> float | None:
         """Energy in 1.5-4 kHz over that in 0.1-1 kHz (dB) of the loud frames of ``[lo, t)``
         (within 30 dB of the 95th percentile, as for the volume); None without frames."""
-        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+        i0, i1 = self._frames(lo, t)
         if i1 - i0 < 10:
             return None
-        ms = np.asarray(self._frame_ms[i0:i1]) + 1.0
-        db = 10.0 * np.log10(ms)
-        loud = np.flatnonzero(db >= np.percentile(db, 95) - 30.0)
-        bands = np.asarray(self._frame_bands[i0:i1])[loud]
+        bands = np.asarray(self._frame_bands[i0:i1])[self._loud(i0, i1)]
         low, high = float(bands[:, 0].sum()), float(bands[:, 1].sum())
         return 10.0 * math.log10((high + 1e-9) / (low + 1e-9))
 
     def _clipped(self, lo: float, t: float) -> float:
         """Share of clipped samples in the loud frames of ``[lo, t)`` (those within 30 dB of
         the 95th percentile, as for the volume): 0 without frames."""
-        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+        i0, i1 = self._frames(lo, t)
         if i1 - i0 < 10:
             return 0.0
-        db = 10.0 * np.log10(np.asarray(self._frame_ms[i0:i1]) + 1.0)
-        loud = np.flatnonzero(db >= np.percentile(db, 95) - 30.0)
-        return float(np.mean(np.asarray(self._frame_clipped[i0:i1])[loud]))
+        return float(np.mean(np.asarray(self._frame_clipped[i0:i1])[self._loud(i0, i1)]))
 
     def _utterance_voiced(self, t0: float, t1: float) -> float:
         """Share of the frames of ``[t0, t1)`` that are voiced (1.0 when none is known yet)."""
-        i0, i1 = int(t0 / _FRAME_S), min(len(self._frame_voiced), int(math.ceil(t1 / _FRAME_S)))
+        i0, i1 = self._frames(t0, t1)
         if i1 <= i0:
             return 1.0
         return float(np.count_nonzero(self._frame_voiced[i0:i1])) / (i1 - i0)
@@ -1150,7 +1156,7 @@ class SpeechAnalyser:
     def _voiced_share(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float:
         """Share of the voice-activity frames of ``[lo, t)`` that are voiced (periodic); 0
         without such frames."""
-        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_voiced), int(math.ceil(t / _FRAME_S)))
+        i0, i1 = self._frames(lo, t)
         if i1 <= i0:
             return 0.0
         in_speech = _in_spans(i0, i1, spans)
@@ -1161,7 +1167,7 @@ class SpeechAnalyser:
         return float(np.count_nonzero(voiced & in_speech)) / n
 
     def _active_dbfs(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float | None:
-        i0, i1 = int(lo / _FRAME_S), min(len(self._frame_ms), int(math.ceil(t / _FRAME_S)))
+        i0, i1 = self._frames(lo, t)
         if i1 <= i0:
             return None
         ms = np.asarray(self._frame_ms[i0:i1])
