@@ -21,7 +21,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from prezence.modules.common import ModuleInputError
+from prezence.modules.common import InputCutShort, ModuleInputError
 
 log = logging.getLogger(__name__)
 
@@ -70,14 +70,16 @@ def decode_file(path: str | Path) -> Generator[np.ndarray, None, None]:
         int16 arrays, in order.
 
     Raises:
-        ModuleInputError: the file is missing, empty, not audio, or breaks off mid-stream.
+        ModuleInputError: the file is missing, empty or not audio.
+        InputCutShort: the file breaks off mid-stream, or holds less audio than it announces;
+            raised after the last block read has been yielded.
     """
     path = Path(path)
     if not path.is_file():
         raise ModuleInputError(path, "no such file")
     if path.stat().st_size == 0:
         raise ModuleInputError(path, "the file is empty")
-    _check_wav_length(path)
+    wav_short = _wav_shortfall(path)
     av = _av()
     try:
         container = av.open(str(path), mode="r")
@@ -107,18 +109,34 @@ def decode_file(path: str | Path) -> Generator[np.ndarray, None, None]:
                 n_out += len(pcm)
                 yield pcm
         except av.error.FFmpegError as e:
-            raise ModuleInputError(path, f"the audio is damaged or truncated ({e})") from e
+            if n_out == 0:
+                raise ModuleInputError(path, f"the audio is damaged or truncated ({e})") from e
+            raise InputCutShort(
+                path,
+                f"the audio is damaged or truncated after {n_out / SAMPLE_RATE:.1f} s ({e}); "
+                "what was read has been analysed",
+                n_out / SAMPLE_RATE,
+            ) from e
         announced = _announced_s(container, stream)
     finally:
         container.close()
     if n_out == 0:
         raise ModuleInputError(path, "the file holds no audio samples")
     got = n_out / SAMPLE_RATE
+    if wav_short is not None:
+        have, n = wav_short
+        raise InputCutShort(
+            path,
+            f"the WAV data is cut short ({have} of the {n} bytes its header announces): the "
+            f"file is truncated; the {got:.1f} s read have been analysed",
+            got,
+        )
     if announced is not None and got < 0.98 * announced - 0.1:
-        raise ModuleInputError(
+        raise InputCutShort(
             path,
             f"the audio ends after {got:.1f} s of the {announced:.1f} s the file announces "
             "(truncated?); what was read has been analysed",
+            got,
         )
 
 
@@ -155,8 +173,9 @@ class _Downmix:
         return np.round(mean).astype(np.int16)
 
 
-def _check_wav_length(path: Path) -> None:
-    """Refuse a RIFF/WAVE file whose data chunk runs past the end of the file.
+def _wav_shortfall(path: Path) -> tuple[int, int] | None:
+    """For a RIFF/WAVE file whose data chunk runs past the end of the file, ``(bytes of data
+    present, bytes its header announces)``; else None.
 
     ffmpeg estimates a WAV's duration from the file size, so a cut-off WAV would otherwise
     decode quietly as a shorter talk.
@@ -165,7 +184,7 @@ def _check_wav_length(path: Path) -> None:
     with path.open("rb") as f:
         head = f.read(12)
         if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
-            return
+            return None
         pos = 12
         while pos + 8 <= size:
             f.seek(pos)
@@ -173,14 +192,10 @@ def _check_wav_length(path: Path) -> None:
             n = int.from_bytes(chunk[4:8], "little")
             if chunk[:4] == b"data":
                 if n != 0xFFFFFFFF and pos + 8 + n > size:  # 0xFFFFFFFF: streamed, unknown
-                    have = size - pos - 8
-                    raise ModuleInputError(
-                        path,
-                        f"the WAV data is cut short ({have} of the {n} bytes its header "
-                        "announces): the file is truncated",
-                    )
-                return
+                    return size - pos - 8, n
+                return None
             pos += 8 + n + (n & 1)
+    return None
 
 
 def _announced_s(container: Any, stream: Any) -> float | None:
@@ -201,11 +216,16 @@ def read_file(path: str | Path) -> np.ndarray:
 def _reblock(parts: Iterator[np.ndarray], size: int = BLOCK) -> Iterator[np.ndarray]:
     """Cut a stream of arrays of any length into blocks of ``size`` (the last may be shorter)."""
     buf = np.zeros(0, np.int16)
-    for p in parts:
-        buf = np.concatenate([buf, p]) if len(buf) else p
-        while len(buf) >= size:
-            yield buf[:size]
-            buf = buf[size:]
+    try:
+        for p in parts:
+            buf = np.concatenate([buf, p]) if len(buf) else p
+            while len(buf) >= size:
+                yield buf[:size]
+                buf = buf[size:]
+    except InputCutShort:
+        if len(buf):  # the audio read before the break is analysed too
+            yield buf
+        raise
     if len(buf):
         yield buf
 

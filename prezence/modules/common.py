@@ -13,7 +13,9 @@ began. The common command line is::
     -v / -q            more / less logging on stderr
 
 Exit status: 0 done, 2 bad input or arguments (``error: FILE: what is wrong`` on stderr, no
-traceback), as ``prezence``'s own command line does.
+traceback), as ``prezence``'s own command line does; 3 (:data:`CUT_SHORT_STATUS`) a file that
+breaks off before its end (a truncated recording: ``warning: FILE: …`` on stderr), whose every
+sample read has been analysed and written.
 
 Heartbeat: when the launcher sets :data:`HEARTBEAT_ENV` to a file's path, a module touches that
 file (:class:`Heartbeat`) about once a second while it reads and analyses its input, so that a
@@ -58,6 +60,26 @@ class ModuleInputError(PrezenceError, ValueError):
     def __reduce__(self) -> tuple[Any, ...]:
         # picklable (a process pool sends errors back): Exception's own gives cls(message)
         return (type(self), (self.source, self.reason), self.__dict__)
+
+
+#: The exit status of a module whose input file broke off before its end (a recording cut
+#: short: a phone that died mid-talk, a copy stopped half-way) after it analysed and wrote
+#: everything it could read: the streams are whole up to there. Not a failure: ``rehearse``
+#: and ``up`` coach and report on what was read, and say the input was cut short.
+CUT_SHORT_STATUS = 3
+
+
+class InputCutShort(ModuleInputError):
+    """The input file ends before its end: it breaks off mid-stream, or holds less than its
+    header announces. Raised once everything read has been handed on.
+
+    Attributes:
+        read_s: seconds of the input that were read.
+    """
+
+    def __init__(self, source: str | os.PathLike[str], reason: str, read_s: float = 0.0) -> None:
+        super().__init__(source, reason)
+        self.read_s = float(read_s)
 
 
 #: The environment variable holding the heartbeat file's path (``prezence.launcher`` sets it).
@@ -198,7 +220,12 @@ class StreamSet:
 
 
 def report_error(module: str, err: PrezenceError | ValueError) -> int:
-    """Print ``error: …`` for a failed module run and return its exit status, 2."""
+    """Print ``error: …`` for a failed module run and return its exit status: 2, or
+    :data:`CUT_SHORT_STATUS` with ``warning: …`` for an input cut short (:class:`InputCutShort`),
+    whose streams are whole up to where it broke off."""
     log.debug("%s failed", module, exc_info=err)
+    if isinstance(err, InputCutShort):
+        print(f"warning: {err}", file=sys.stderr)
+        return CUT_SHORT_STATUS
     print(f"error: {err}", file=sys.stderr)
     return 2

@@ -122,8 +122,10 @@ Calibrating the volume (once per microphone, gain setting and distance):
     Without calibration the default :data:`DEFAULT_CALIBRATION_DB` (90) is a rough guess for a
     laptop microphone at arm's length, and the module says so in its log.
 
-Exit status: 0 done; 2 bad input (missing, empty, wrong-format or truncated file, no
-microphone) with ``error: FILE: …`` on stderr, or bad arguments.
+Exit status: 0 done; 2 bad input (missing, empty or wrong-format file, no microphone) with
+``error: FILE: …`` on stderr, or bad arguments; 3 a file that breaks off before its end (a
+truncated recording), with ``warning: FILE: …`` on stderr once everything read has been
+analysed and written.
 """
 
 from __future__ import annotations
@@ -148,6 +150,7 @@ from prezence.errors import BackendUnavailable, PrezenceError
 from prezence.modules.audio_io import SAMPLE_RATE, AudioSource, FileSource, MicSource
 from prezence.modules.common import (
     Heartbeat,
+    InputCutShort,
     ModuleInputError,
     StreamSet,
     add_common_arguments,
@@ -1283,6 +1286,8 @@ def run(
 
     Raises:
         ModuleInputError: the input cannot be read.
+        InputCutShort: the file broke off before its end; raised after everything read has
+            been analysed and written, the last window included.
         BackendUnavailable: pocketsphinx is missing.
     """
     an = SpeechAnalyser(options)
@@ -1297,24 +1302,28 @@ def run(
             for s in samples:
                 streams.write(s.metric, (offset or 0.0) + s.t, s.value)
 
-        for block in source.blocks():
-            heartbeat.beat()
-            if offset is None and callable(t_offset):
-                offset = max(0.0, t_offset() - len(block) / SAMPLE_RATE)
-            write(an.feed(block))
-            behind = source.backlog_s
-            if behind > BEHIND_WARN_S and an.duration_s - last_warn >= 10.0:
-                log.warning(
-                    "falling behind real time: %.1f s of audio waiting (no audio is dropped)",
-                    behind,
-                )
-                last_warn = an.duration_s
-                behind_warned = True
-            elif behind_warned and behind < 0.5:
-                log.info("caught up with real time")
-                behind_warned = False
-            if stop is not None and stop.is_set():
-                source.close()  # a live source ends after the audio it has captured
+        cut: InputCutShort | None = None
+        try:
+            for block in source.blocks():
+                heartbeat.beat()
+                if offset is None and callable(t_offset):
+                    offset = max(0.0, t_offset() - len(block) / SAMPLE_RATE)
+                write(an.feed(block))
+                behind = source.backlog_s
+                if behind > BEHIND_WARN_S and an.duration_s - last_warn >= 10.0:
+                    log.warning(
+                        "falling behind real time: %.1f s of audio waiting (no audio is dropped)",
+                        behind,
+                    )
+                    last_warn = an.duration_s
+                    behind_warned = True
+                elif behind_warned and behind < 0.5:
+                    log.info("caught up with real time")
+                    behind_warned = False
+                if stop is not None and stop.is_set():
+                    source.close()  # a live source ends after the audio it has captured
+        except InputCutShort as e:
+            cut = e  # a recording cut short: what was read is analysed to its last word
         write(an.finish())
     totals = an.totals()
     cpu = time.process_time() - cpu0
@@ -1330,6 +1339,8 @@ def run(
         ratio,
         " (slower than real time)" if ratio > 1.0 else "",
     )
+    if cut is not None:
+        raise cut
     return totals
 
 

@@ -26,8 +26,8 @@ pytest.importorskip(
     "pocketsphinx", reason='the speech module needs pocketsphinx: pip install "prezence[speech]"'
 )
 
-from prezence.modules.audio_io import FileSource, read_file  # noqa: E402
-from prezence.modules.common import ModuleInputError  # noqa: E402
+from prezence.modules.audio_io import FileSource, decode_file, read_file  # noqa: E402
+from prezence.modules.common import CUT_SHORT_STATUS, InputCutShort, ModuleInputError  # noqa: E402
 from prezence.modules.speech import (  # noqa: E402
     MAX_UTTERANCE_S,
     METRICS,
@@ -530,6 +530,44 @@ def test_module_process_bad_file_exits_2_naming_it(tmp_path: Path) -> None:
     r = _module("--audio", str(bad), "--out", str(tmp_path / "session"))
     assert r.returncode == 2
     assert f"error: {bad}" in r.stderr and "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("codec", ["pcm_s16le", "mp3", "flac"])
+def test_a_recording_cut_short_is_analysed_up_to_where_it_breaks_off(
+    tmp_path: Path, codec: str
+) -> None:
+    # A phone that died mid-talk leaves a file that breaks off. A truncated WAV was refused
+    # outright (nothing measured); a truncated mp3 lost its last window (its last up to 10 s
+    # of words): both said "error" and exited 2, so `up` stopped the talk and `rehearse`
+    # gave no report.
+    ext = {"pcm_s16le": "wav", "mp3": "mp3", "flac": "flac"}[codec]
+    full = tmp_path / f"full.{ext}"
+    _encode(MATERIAL / "rate_175.flac", full, codec)
+    cut = tmp_path / f"cut.{ext}"
+    cut.write_bytes(full.read_bytes()[: full.stat().st_size * 2 // 3])
+    r = _module("--audio", str(cut), "--out", str(tmp_path / "cut"))
+    assert r.returncode == CUT_SHORT_STATUS, r.stderr
+    assert f"warning: {cut}: " in r.stderr and "Traceback" not in r.stderr
+    assert "error:" not in r.stderr
+    # what it read, as the decoder gives it before it breaks off
+    parts: list[np.ndarray] = []
+    with pytest.raises(InputCutShort) as info:
+        parts.extend(decode_file(cut))
+    read = np.concatenate(parts)
+    assert 10.0 < len(read) / 16000 == pytest.approx(info.value.read_s)
+    assert len(read) / 16000 < 0.75 * MANIFEST["rate_175.flac"]["duration_s"]
+    # ... analysed as a whole file gives the same streams, line for line: nothing read is lost
+    same = tmp_path / "read.wav"
+    _encode_samples(read, same, "pcm_s16le")
+    r = _module("--audio", str(same), "--out", str(tmp_path / "whole"))
+    assert r.returncode == 0, r.stderr
+    for metric in METRICS:
+        got = (tmp_path / "cut" / "streams" / f"{metric}.txt").read_text()
+        assert got == (tmp_path / "whole" / "streams" / f"{metric}.txt").read_text(), metric
+    last = parse_line(
+        (tmp_path / "cut" / "streams" / f"{SPEECH_SPEED}.txt").read_text().split("\n")[-2]
+    )
+    assert last[0] == pytest.approx(len(read) / 16000, abs=0.05)  # its last words
 
 
 class _SlowLiveSource:

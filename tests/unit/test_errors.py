@@ -11,7 +11,7 @@ import pytest
 import prezence
 from prezence.config.lines import RuleProblem
 from prezence.errors import ConfigError, UnknownName
-from prezence.modules.common import ModuleInputError
+from prezence.modules.common import InputCutShort, ModuleInputError
 from prezence.session import FolderInUse
 from prezence.streams.codec import StreamLineError
 
@@ -22,6 +22,7 @@ def _examples() -> dict[type[BaseException], BaseException]:
         ConfigError: ConfigError("bad value", path="rules.toml", line=3, col=7, key="rules[0].min"),
         UnknownName: UnknownName("policy", "biggest_now", ["weighted"], hint="see the docs"),
         ModuleInputError: ModuleInputError("talk.flac", "the audio is damaged"),
+        InputCutShort: InputCutShort("talk.wav", "the audio ends after 15.1 s", 15.1),
         RuleProblem: RuleProblem("low", "min must be below max"),
         StreamLineError: StreamLineError("not a number: 'abc'"),
         FolderInUse: FolderInUse("another prezence is writing into it now", path="sessions/demo"),
