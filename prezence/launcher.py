@@ -47,6 +47,7 @@ from prezence.backends.base import Backend
 from prezence.config.model import Config
 from prezence.errors import PrezenceError
 from prezence.metrics import DEFAULT_HANG_S, INPUT_MODULES
+from prezence.modules.common import CUT_SHORT_STATUS
 from prezence.samples import MAX_AHEAD_S, Sample
 from prezence.session import SessionDir
 from prezence.streams.tail import MultiTailer
@@ -241,6 +242,9 @@ class ModuleProcess:
     gave_up: str | None = None
     next_start: float = 0.0
     finished: bool = False
+    #: Set when it exited with :data:`CUT_SHORT_STATUS`: its input file broke off before its
+    #: end (its own warning); everything it read was measured, and it has finished.
+    cut_short: str | None = None
     started_at: float = 0.0
     #: When it last showed a sign of life (talk seconds).
     last_life: float = 0.0
@@ -339,6 +343,16 @@ class ModuleProcess:
             self.finished = True
             self.proc = None
             return f"module {self.spec.name} finished its input"
+        if rc == CUT_SHORT_STATUS and self.spec.finite:
+            self.cut_short = (
+                self.last_error(prefix="warning:") or f"exited with status {rc} (input cut short)"
+            )
+            self.finished = True
+            self.proc = None
+            log.warning("module %s: its input is cut short: %s", self.spec.name, self.cut_short)
+            return (
+                f"module {self.spec.name} finished its input, which is cut short: {self.cut_short}"
+            )
         if rc == BAD_INPUT_STATUS:
             self.fatal = self.last_error() or f"exited with status {rc} (bad input)"
             self.finished = True
@@ -379,8 +393,9 @@ class ModuleProcess:
         log.warning("module %s %s; restarting in %.1f s", self.spec.name, why, delay)
         return f"module {self.spec.name} {why}; restart in {delay:.0f} s (metrics stale meanwhile)"
 
-    def last_error(self) -> str | None:
-        """The module's own last ``error: …`` line in its log (else its last line), or None."""
+    def last_error(self, prefix: str = "error:") -> str | None:
+        """The module's own last ``error: …`` line (``prefix``) in its log, without the prefix
+        (else its last line), or None."""
         try:
             self.log_file.flush()
             with open(self.log_path, "rb") as f:
@@ -390,8 +405,8 @@ class ModuleProcess:
             return None
         lines = [ln.strip() for ln in lines if ln.strip()]
         for ln in reversed(lines):
-            if ln.startswith("error:"):
-                return ln[len("error:") :].strip()
+            if ln.startswith(prefix):
+                return ln[len(prefix) :].strip()
         return lines[-1] if lines else None
 
     def _kill(self) -> None:
@@ -582,6 +597,8 @@ class LiveSource(SourceBase):
             rec: dict[str, Any] = {"restarts": p.restarts, "crashes": p.crashes}
             if p.gave_up:
                 rec["gave_up"] = p.gave_up
+            if p.cut_short:
+                rec["cut_short"] = p.cut_short
             if p.crashes:
                 # which metrics a crash took with it (the report says when they were lost);
                 # none recorded: not known (the report says so)

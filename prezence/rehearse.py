@@ -24,6 +24,7 @@ from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError, PrezenceError
 from prezence.metrics import INPUT_MODULES
+from prezence.modules.common import CUT_SHORT_STATUS
 from prezence.replay import (
     ReplayResult,
     find_streams,
@@ -275,9 +276,17 @@ def rehearse(
     if progress is not None:
         progress(total, total)
     failures: dict[str, str] = {}
+    cut_short: dict[str, str] = {}
     for name, p in procs.items():
         err = (session.root / f"{name}.log").read_text(errors="replace")
-        if p.returncode != 0:
+        if p.returncode == CUT_SHORT_STATUS:
+            # a recording that breaks off (a phone that died mid-talk): the module analysed
+            # all of it that could be read, so the talk is coached and reported on that
+            lines = err.strip().splitlines()
+            msg = next((ln for ln in reversed(lines) if ln.startswith("warning:")), "")
+            cut_short[name] = msg.removeprefix("warning:").strip() or "the input was cut short"
+            log.warning("the recording is cut short: %s", cut_short[name])
+        elif p.returncode != 0:
             msg = err.strip().splitlines()[-1] if err.strip() else f"exit status {p.returncode}"
             # the module's own "error: …" line: the CLI says "error:" once, before them all
             failures[name] = msg.removeprefix("error:").strip()
@@ -294,8 +303,18 @@ def rehearse(
     samples = merge_readings(readings)
     # The talk lasted as long as the recording, not up to its last measured value: a talk that
     # ends in silence (or a module that stopped measuring) still used that time.
-    heard = total if total > 0 else newest_stamp(session.streams)
+    # A recording cut short lasted until it broke off, not as long as its header announces.
+    heard = total if total > 0 and not cut_short else newest_stamp(session.streams)
     talk_s = max(samples[-1].t if samples else 0.0, min(heard, MAX_TALK_S))
+    extra: dict[str, Any] = {
+        "kind": "rehearsal",
+        "recording": str(recording),
+        "module_failures": failures,
+    }
+    if cut_short:  # recorded as `up` records its modules, for the report's notes
+        extra["modules"] = {
+            n: {"restarts": 0, "crashes": [], "cut_short": m} for n, m in cut_short.items()
+        }
     return process_recorded(
         session,
         config,
@@ -307,5 +326,5 @@ def rehearse(
         kind="rehearsal",
         readings=readings,
         meta={"recording": str(recording)},
-        extra={"kind": "rehearsal", "recording": str(recording), "module_failures": failures},
+        extra=extra,
     )

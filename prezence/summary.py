@@ -414,14 +414,19 @@ def module_notes(
         ``first_crash_t``, ``hangs``, ``first_hang_t`` (when it went silent) and
         ``first_kill_t``, ``restarts``, ``last_why`` and ``lost`` (``metric``, ``from``,
         ``to``), and ``metrics_unknown`` (True) when the record does not say which metrics it
-        writes (so nothing says which it left unmeasured); [] when every module ran throughout.
+        writes (so nothing says which it left unmeasured); ``cut_short`` (its message) for a
+        module whose input file broke off before its end (``modules.NAME.cut_short``, written
+        by ``up`` and ``rehearse``); [] when every module ran throughout on all its input.
     """
     notes: list[dict[str, Any]] = []
     for name, rec in (modules or {}).items():
         if not isinstance(rec, Mapping):
             continue
         crashes = _crashes(rec)
+        cut = rec.get("cut_short")
         if not crashes:
+            if isinstance(cut, str) and cut:
+                notes.append({"module": str(name), "cut_short": cut, "lost": []})
             continue
         hangs = [c for c in crashes if _hung(c)]
         exits = [c for c in crashes if not _hung(c)]
@@ -443,6 +448,7 @@ def module_notes(
                 "last_why": str(crashes[-1].get("why") or ""),
                 "lost": lost,
                 **({} if isinstance(rec.get("metrics"), list) else {"metrics_unknown": True}),
+                **({"cut_short": cut} if isinstance(cut, str) and cut else {}),
             }
         )
     return notes

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -136,8 +137,10 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
             out.append(f"{label}: {m['estimate']}")
         if m.get("samples") and m.get("too_brief") and not m.get("less_reliable"):
             s = float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
+            # 9.9 s is not "10 s, under the 10 s needed": a tenth, rounded down, near the limit
+            shown = f"{s:.0f}" if s < MIN_JUDGED_S - 0.5 else f"{math.floor(s * 10) / 10:.1f}"
             out.append(
-                f"{label}: measured for only {s:.0f} s, under the {MIN_JUDGED_S:.0f} s needed "
+                f"{label}: measured for only {shown} s, under the {MIN_JUDGED_S:.0f} s needed "
                 "to judge it: no advice on it"
             )
     return out
@@ -200,7 +203,7 @@ def module_sentences(
     label: Callable[[str], str] = str,
 ) -> list[str]:
     """One sentence per module that crashed or hung: when, whether it was restarted, and from
-    when to when its metrics were not measured.
+    when to when its metrics were not measured; and one per module whose input was cut short.
 
     Args:
         notes: :func:`prezence.summary.module_notes`'s rows.
@@ -215,6 +218,13 @@ def module_sentences(
     """  # noqa: E501 - a doctest output line
     out: list[str] = []
     for n in notes:
+        if n.get("cut_short"):
+            out.append(
+                f"module {n['module']}'s input was cut short ({n['cut_short']}): "
+                "the talk was judged on what was read"
+            )
+            if not (n.get("crashes") or n.get("hangs")):
+                continue
         what: list[str] = []
         crashes, hangs = int(n.get("crashes") or 0), int(n.get("hangs") or 0)
         if crashes:
@@ -323,6 +333,12 @@ def lost_sentences(report: Mapping[str, Any]) -> list[str]:
             ]
             when = f" {_spoken_after(min(died), 'at the start')}" if died else ""
             out.append(f"Your {n['module']} module stopped{when}, so I may have missed something.")
+    if any(n.get("cut_short") for n in report.get("modules") or ()):
+        # "You used 15 seconds" of a talk whose recording broke off there is not the whole
+        # story: the speaker must hear that the rest was never heard
+        out.append(
+            f"Your recording breaks off after {_spoken_minutes(talk_s)}, so I judged only that."
+        )
     return out
 
 

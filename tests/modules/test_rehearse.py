@@ -194,6 +194,67 @@ def test_up_with_file_inputs_runs_a_short_live_talk(
     assert summary["modules"]["vision"]["restarts"] == 0
 
 
+def _cut_wav(tmp_path: Path) -> Path:
+    """FAST as a WAV that breaks off two thirds in (11.7 s of its 17.6 s), as a phone that
+    died mid-talk leaves it: the header still announces the whole."""
+    import av
+
+    full = tmp_path / "full.wav"
+    with av.open(str(FAST)) as src, av.open(str(full), "w") as dst:
+        out = dst.add_stream("pcm_s16le", rate=16000, layout="mono")
+        resampler = av.AudioResampler(format="s16", layout="mono", rate=16000)
+        for frame in src.decode(audio=0):
+            for f in resampler.resample(frame):
+                for packet in out.encode(f):
+                    dst.mux(packet)
+        for packet in out.encode(None):
+            dst.mux(packet)
+    cut = tmp_path / "cut.wav"
+    cut.write_bytes(full.read_bytes()[: full.stat().st_size * 2 // 3])
+    return cut
+
+
+def test_a_recording_cut_short_is_coached_and_reported_on_what_was_read(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A truncated WAV (a phone that died mid-talk) was refused with exit 2 and nothing was
+    # measured; a truncated mp3 was analysed but gave exit 2 and no report either.
+    cut = _cut_wav(tmp_path)
+    out = tmp_path / "s"
+    assert main(["rehearse", str(cut), "--out", str(out), "--allocated", "20"]) == 0
+    printed = capsys.readouterr().out
+    assert (out / "report" / "report.html").exists()
+    summary = json.loads((out / "summary.json").read_text())
+    why = summary["modules"]["speech"]["cut_short"]
+    assert why.startswith(f"{cut}: the WAV data is cut short")
+    assert summary["module_failures"] == {}
+    # the talk lasted as long as what was read, not the 17.6 s the header announces
+    assert 11.0 < summary["talk_s"] < 12.5
+    assert summary["metrics"]["speech_speed"]["samples"] >= 1  # it was measured
+    assert f"note: module speech's input was cut short ({why})" in printed
+    spoken = (out / "report" / "spoken.txt").read_text()
+    assert "Your recording breaks off after 12 seconds, so I judged only that." in spoken
+    assert "input was cut short" in (out / "report" / "report.html").read_text()
+
+
+@pytest.mark.slow
+def test_up_goes_on_to_the_report_when_its_input_file_is_cut_short(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `up --audio` on a truncated file stopped the talk with "error: the talk stopped: module
+    # speech: …" and exit 2, as if the file could not be used at all, and wrote no report.
+    cut = _cut_wav(tmp_path)
+    out = tmp_path / "live"
+    assert main(["-q", "up", "--audio", str(cut), "--backend", "fake", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert "error" not in summary
+    speech = summary["modules"]["speech"]
+    assert speech["cut_short"].startswith(f"{cut}: the WAV data is cut short")
+    assert speech["crashes"] == [] and speech["restarts"] == 0
+    assert (out / "report" / "report.html").exists()
+    assert "input was cut short" in capsys.readouterr().out
+
+
 def test_rehearse_reports_its_progress_through_the_recording(tmp_path: Path) -> None:
     seen: list[tuple[float, float]] = []
     rehearse(

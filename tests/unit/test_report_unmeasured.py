@@ -264,3 +264,20 @@ def test_a_recording_with_no_voice_is_said_so_not_praised(tmp_path: Path) -> Non
     streams["speech_activity"][20] = (30.0, 0.4)
     again = rehearsal(tmp_path / "t", streams, talk_s=61.0, recording="noise.wav")
     assert "not_measured_why" not in build_report(again.root)["metrics"]["speech_volume"]
+
+
+def test_a_metric_measured_just_under_the_limit_does_not_read_as_the_limit() -> None:
+    # session 18: `up` of a 22.6 s file printed "measured for only 10 s, under the 10 s needed
+    # to judge it" for 9.9 s of samples
+    from prezence.report.speech import metric_notes
+
+    def note(seconds: float) -> str:
+        m = {"samples": 10, "in_range_s": seconds, "out_of_range_s": 0.0, "too_brief": True}
+        (line,) = metric_notes({"metrics": {"speech_speed": {"label": "pace", **m}}})
+        return line
+
+    assert note(9.96) == "pace: measured for only 9.9 s, under the 10 s needed to judge it: " + (
+        "no advice on it"
+    )
+    assert note(9.6).startswith("pace: measured for only 9.6 s,")
+    assert note(2.9).startswith("pace: measured for only 3 s,")
