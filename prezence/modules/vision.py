@@ -216,20 +216,30 @@ def raw_angles(landmarks: np.ndarray) -> tuple[float, float]:
 
 
 class HeadPoseEstimator:
-    """mediapipe FaceMesh → :class:`HeadPose` per frame (one face: the biggest).
+    """mediapipe FaceMesh → :class:`HeadPose` per face found in a frame.
 
     Args:
         yaw_gain: multiplies the raw yaw (default :data:`YAW_GAIN`).
         pitch_gain: multiplies the raw pitch (default :data:`PITCH_GAIN`).
         static: treat every frame as unrelated (slower; for single images).
+        max_faces: FaceMesh finds this many faces at most. With one, FaceMesh tracks whichever
+            face it found first and may take a second person's (session 18: an audience head
+            in view); :class:`PresenterFace` picks the presenter's among several.
 
     Raises:
         VisionUnavailable: mediapipe (or its FaceMesh solution) cannot be imported here.
     """
 
     def __init__(
-        self, *, yaw_gain: float = YAW_GAIN, pitch_gain: float = PITCH_GAIN, static: bool = False
+        self,
+        *,
+        yaw_gain: float = YAW_GAIN,
+        pitch_gain: float = PITCH_GAIN,
+        static: bool = False,
+        max_faces: int = 3,
     ) -> None:
+        if max_faces < 1:
+            raise ValueError(f"max_faces must be >= 1, got {max_faces!r}")
         try:
             import mediapipe as mp
 
@@ -240,34 +250,46 @@ class HeadPoseEstimator:
         self.pitch_gain = float(pitch_gain)
         self._fm: Any = face_mesh.FaceMesh(
             static_image_mode=static,
-            max_num_faces=1,
+            max_num_faces=int(max_faces),
             refine_landmarks=False,
             min_detection_confidence=0.5,
             min_tracking_confidence=0.5,
         )
 
-    def landmarks(self, bgr: np.ndarray) -> np.ndarray | None:
-        """Return the ``(468, 3)`` landmarks in pixel units, or None when no face is found."""
+    def all_landmarks(self, bgr: np.ndarray) -> list[np.ndarray]:
+        """Return each face's ``(468, 3)`` landmarks in pixel units (none found: ``[]``)."""
         if self._fm is None:
             raise ValueError("HeadPoseEstimator is closed")
         h, w = bgr.shape[:2]
         res = self._fm.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        if not res.multi_face_landmarks:
-            return None
-        lm = res.multi_face_landmarks[0].landmark
-        return np.array([(p.x * w, p.y * h, p.z * w) for p in lm], dtype=np.float64)
+        return [
+            np.array([(p.x * w, p.y * h, p.z * w) for p in face.landmark], dtype=np.float64)
+            for face in res.multi_face_landmarks or []
+        ]
 
-    def estimate(self, bgr: np.ndarray) -> HeadPose | None:
-        """Return the head pose in the camera frame, or None when no face is found."""
-        pts = self.landmarks(bgr)
-        if pts is None:
+    def landmarks(self, bgr: np.ndarray) -> np.ndarray | None:
+        """Return the biggest face's landmarks in pixel units, or None when no face is found."""
+        faces = self.all_landmarks(bgr)
+        if not faces:
             return None
+        return max(faces, key=lambda pts: float(np.ptp(pts[:, 0]) * np.ptp(pts[:, 1])))
+
+    def _pose(self, pts: np.ndarray) -> HeadPose:
         yaw, pitch = raw_angles(pts)
         x0, y0 = np.floor(pts[:, :2].min(axis=0)).astype(int)
         x1, y1 = np.ceil(pts[:, :2].max(axis=0)).astype(int)
         return HeadPose(
             yaw * self.yaw_gain, pitch * self.pitch_gain, (int(x0), int(y0), int(x1), int(y1))
         )
+
+    def estimate_all(self, bgr: np.ndarray) -> list[HeadPose]:
+        """Return the head pose of every face found, in the camera frame."""
+        return [self._pose(pts) for pts in self.all_landmarks(bgr)]
+
+    def estimate(self, bgr: np.ndarray) -> HeadPose | None:
+        """Return the biggest face's head pose in the camera frame, or None when none is found."""
+        pts = self.landmarks(bgr)
+        return None if pts is None else self._pose(pts)
 
     def close(self) -> None:
         """Release the graph; a second call does nothing."""
@@ -285,6 +307,95 @@ class HeadPoseEstimator:
         tb: TracebackType | None,
     ) -> None:
         self.close()
+
+
+def _centre(box: tuple[int, int, int, int]) -> np.ndarray:
+    return np.array([(box[0] + box[2]) / 2.0, (box[1] + box[3]) / 2.0])
+
+
+def _width(box: tuple[int, int, int, int]) -> float:
+    return float(max(box[2] - box[0], 1))
+
+
+def _inside(point: np.ndarray, box: tuple[int, int, int, int], grow: float = 0.0) -> bool:
+    """True when ``point`` is in ``box`` grown by ``grow`` times its size on every side."""
+    gx, gy = grow * (box[2] - box[0]), grow * (box[3] - box[1])
+    return bool(box[0] - gx <= point[0] <= box[2] + gx and box[1] - gy <= point[1] <= box[3] + gy)
+
+
+class PresenterFace:
+    """Which of the faces found in a frame is the presenter's.
+
+    A second face in view (someone in the audience, a face on a slide) must not be measured as
+    the presenter (session 18: FaceMesh with one face tracked an audience head, facing 0.70
+    instead of 0.90 and its turns written as the presenter's). Once the presenter's face is
+    chosen, it is followed: the face nearest the last one, within ``max_step`` of its widths
+    plus ``growth`` widths per second since it was last seen (a presenter walks; another face
+    stays where it is). None of them that near: the presenter's face is not in this frame (no
+    head sample, rather than someone else's). The first choice among several faces: the one
+    the pose model's nose is in (the face with the body under it), else one with room for
+    shoulders under it (an audience head in the foreground is cut by the frame's lower edge),
+    else the biggest. A second face is logged once.
+    """
+
+    def __init__(self, *, max_step: float = 0.75, growth: float = 1.0) -> None:
+        self.max_step = float(max_step)
+        self.growth = float(growth)
+        self.box: tuple[int, int, int, int] | None = None  #: the presenter's face, last seen
+        self._seen_t = 0.0
+        self.second_face_at: float | None = None  #: when a second face was first seen
+
+    def choose(
+        self,
+        t: float,
+        faces: list[HeadPose],
+        *,
+        frame_height: int,
+        nose: np.ndarray | None = None,
+    ) -> HeadPose | None:
+        """Return the presenter's face among ``faces`` (None: not among them).
+
+        Args:
+            t: the frame's time.
+            faces: every face found in the frame.
+            frame_height: the frame's height, pixels.
+            nose: where the pose model put the presenter's nose (a recent frame), if anywhere.
+        """
+        if len(faces) > 1 and self.second_face_at is None:
+            self.second_face_at = t
+            log.warning(
+                "%d faces in view at %.1f s: head pose follows the presenter's (%s), "
+                "not the others",
+                len(faces),
+                t,
+                "the one the body is under" if self.box is None else "the one seen so far",
+            )
+        if not faces:
+            return None
+        chosen: HeadPose | None
+        if self.box is None:
+            chosen = self._first(faces, frame_height, nose)
+        else:
+            last, w = _centre(self.box), _width(self.box)
+            reach = (self.max_step + self.growth * max(0.0, t - self._seen_t)) * w
+            dist = [float(np.linalg.norm(_centre(f.box) - last)) for f in faces]
+            k = int(np.argmin(dist))
+            chosen = faces[k] if dist[k] <= reach else None
+        if chosen is not None:
+            self.box, self._seen_t = chosen.box, t
+        return chosen
+
+    @staticmethod
+    def _first(faces: list[HeadPose], frame_height: int, nose: np.ndarray | None) -> HeadPose:
+        if len(faces) == 1:
+            return faces[0]
+        if nose is not None:
+            under = [f for f in faces if _inside(nose, f.box, grow=0.25)]
+            if len(under) == 1:
+                return under[0]
+        room = [f for f in faces if frame_height - f.box[3] >= f.box[3] - f.box[1]]
+        pool = room or faces
+        return max(pool, key=lambda f: (f.box[2] - f.box[0]) * (f.box[3] - f.box[1]))
 
 
 class GazeTracker:
@@ -544,6 +655,10 @@ SOURCE_NOT_MEASURED = 0.0  #: no cv_gestures sample at this t: the body was not 
 SOURCE_BODY = 1.0  #: wrist keypoints of the pose model
 SOURCE_MOTION = 2.0  #: frame difference (the fallback when the pose model cannot run)
 GESTURES_SOURCE = "cv_gestures_source"
+#: What an analysed frame gave the body's gesture rate: the presenter's body seen well, no
+#: body, another person's body, the presenter's with the image about the arms too dark (or
+#: bright, or flat), or with neither hand seen by the pose model.
+FRAME_STATES = ("seen", "none", "other", "image", "hands")
 
 # BlazePose landmark indices.
 _NOSE = 0
@@ -561,7 +676,8 @@ class BodyKeypoints:
 
     ``face`` (the centre of the pose model's face keypoints), ``hands`` (each hand's wrist,
     pinky, index and thumb, ``(4, 2)``) and ``elbows`` are optional: without them the nose and
-    the wrist stand in, and without elbows a run is not asked to move the arm.
+    the wrist stand in, and without elbows a run is not asked to move the arm. ``clipped`` and
+    ``spread`` describe the image about the arms (:func:`arm_region_exposure`); None: not known.
     """
 
     nose: np.ndarray
@@ -571,6 +687,8 @@ class BodyKeypoints:
     face: np.ndarray | None = None
     hands: tuple[np.ndarray, np.ndarray] | None = None
     elbows: tuple[np.ndarray, np.ndarray] | None = None  #: the presenter's left, right
+    clipped: float | None = None  #: share of the pixels about the arms black or white (clipped)
+    spread: float | None = None  #: standard deviation of their grey levels
 
     def face_centre(self) -> np.ndarray:
         """The centre of the face keypoints (the nose when there are none)."""
@@ -581,6 +699,89 @@ class BodyKeypoints:
         if self.hands is not None:
             return self.hands[k]
         return self.wrists[k].reshape(1, 2)
+
+
+def arm_region_exposure(
+    gray: np.ndarray, points: np.ndarray, shoulder_width: float
+) -> tuple[float, float]:
+    """How well the arms can be seen: ``(clipped, spread)`` of the grey image about them.
+
+    The region is the box around ``points`` (shoulders, elbows, wrists, nose) grown by half a
+    shoulder width. ``clipped`` is the share of its pixels crushed to black (<= 4) or burnt to
+    white (>= 251), ``spread`` the standard deviation of its grey levels.
+
+    Why the image and not the pose model's own visibility: on a dark copy of ``gestures_a``
+    (brightness -0.35, contrast 0.5) the model kept the wrists' and elbows' visibility at
+    0.6-0.9 while it drew a dark sleeve against a dark sky barely moving (2 of 7 gestures
+    lost). Clipping is what hides a dark arm against a dark background: on 11 darkened or
+    flattened copies of ``gestures_a`` the gestures were lost (5-6 of 7) only on copies where
+    40-75 % of this region was clipped, or its spread was 7 grey levels; on the rendered
+    presenters a-d at most 5.5 % is clipped and the spread is 33 or more.
+    """
+    if gray.ndim != 2:
+        raise ValueError(f"expected a grey image, got shape {gray.shape}")
+    h, w = gray.shape
+    pad = 0.5 * shoulder_width
+    x0, y0 = np.floor(points.min(axis=0) - pad).astype(int)
+    x1, y1 = np.ceil(points.max(axis=0) + pad).astype(int)
+    x0, y0, x1, y1 = max(0, int(x0)), max(0, int(y0)), min(w, int(x1)), min(h, int(y1))
+    if x1 - x0 < 2 or y1 - y0 < 2:
+        return 1.0, 0.0  # the body is outside the frame: nothing of the arms to see
+    r = gray[y0:y1, x0:x1]
+    clipped = float(np.count_nonzero((r <= 4) | (r >= 251))) / r.size
+    return clipped, float(r.std())
+
+
+class PresenterBody:
+    """Is the person the pose model found the presenter? (It finds one person, any person.)
+
+    Session 18: with an audience head in view the pose model left the presenter and drew a
+    body under that head, and its few wrist movements were written as the presenter's rate.
+    With the presenter's face known in the frame (:class:`PresenterFace`), the body is the
+    presenter's when its face keypoints are on that face (the face box grown by
+    ``face_grow`` of its size each side). Without it, the body must continue the last one
+    accepted: shoulders' midpoint within ``max_jump`` shoulder widths and width within a factor
+    ``max_scale`` (a jump to another place or size is another person, for as long as the pose
+    model stays on it); after ``keep_s`` with no body at all, a body anywhere is taken (the
+    presenter left the view and came back elsewhere).
+    """
+
+    def __init__(
+        self,
+        *,
+        face_grow: float = 0.5,
+        max_jump: float = 1.0,
+        max_scale: float = 1.5,
+        keep_s: float = 2.0,
+    ) -> None:
+        self.face_grow = float(face_grow)
+        self.max_jump = float(max_jump)
+        self.max_scale = float(max_scale)
+        self.keep_s = float(keep_s)
+        self._last: tuple[float, np.ndarray, float] | None = None  #: t, midpoint, width
+        self._any_t: float | None = None  #: the last frame with a body, the presenter's or not
+
+    def check(
+        self, t: float, body: BodyKeypoints, face_box: tuple[int, int, int, int] | None
+    ) -> bool:
+        """True when ``body`` is the presenter's (and remember it)."""
+        mid = (body.shoulders[0] + body.shoulders[1]) / 2.0
+        sw = max(float(np.linalg.norm(body.shoulders[0] - body.shoulders[1])), 1.0)
+        gap = self._any_t is None or t - self._any_t > self.keep_s
+        self._any_t = t
+        if face_box is not None:
+            ok = _inside(body.face_centre(), face_box, grow=self.face_grow)
+        elif self._last is not None and not gap:
+            _, last_mid, last_sw = self._last
+            ok = (
+                float(np.linalg.norm(mid - last_mid)) <= self.max_jump * last_sw
+                and 1.0 / self.max_scale <= sw / last_sw <= self.max_scale
+            )
+        else:
+            ok = True
+        if ok:
+            self._last = (t, mid, sw)
+        return ok
 
 
 class BodyTracker:
@@ -621,6 +822,10 @@ class BodyTracker:
             pts = np.array([(lm[i].x * w, lm[i].y * h) for i in idx], dtype=np.float64)
             return pts[0] if len(idx) == 1 else pts
 
+        arm = xy(_NOSE, _SHOULDER_LEFT, _SHOULDER_RIGHT, _ELBOW_LEFT, _ELBOW_RIGHT)
+        arm = np.vstack([arm, xy(_WRIST_LEFT, _WRIST_RIGHT)])
+        gray = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) if bgr.ndim == 3 else bgr
+        clipped, spread = arm_region_exposure(gray, arm, float(np.linalg.norm(arm[1] - arm[2])))
         return BodyKeypoints(
             nose=xy(_NOSE),
             shoulders=(xy(_SHOULDER_LEFT), xy(_SHOULDER_RIGHT)),
@@ -632,6 +837,8 @@ class BodyTracker:
             face=xy(*_FACE).mean(axis=0),
             hands=(xy(*_HAND_LEFT), xy(*_HAND_RIGHT)),
             elbows=(xy(_ELBOW_LEFT), xy(_ELBOW_RIGHT)),
+            clipped=clipped,
+            spread=spread,
         )
 
     def close(self) -> None:
@@ -711,7 +918,15 @@ class BodyGestureDetector:
         window_s: the rate's window.
         min_window_s: no rate until this many seconds have been seen (see :class:`GestureDetector`).
         min_coverage: no rate when fewer than this share of the window's analysed frames had a
-            body in them (the presenter out of view is "not measured", not "no gestures").
+            body in them (the presenter out of view is "not measured", not "no gestures"). A
+            frame counts as without a body too when the body is not the presenter's
+            (``update(..., presenter=False)``) or its hands cannot be seen well enough: more
+            than ``max_clipped`` of the image about the arms clipped, or a grey-level spread
+            below ``min_spread`` (:func:`arm_region_exposure`; session 18: 2 of 7 gestures lost
+            on a dark video and a rate of 0/min written as a measurement); or both wrists'
+            visibility below ``min_hand_visibility`` (the pose model does not see either hand:
+            with half the body covered it drew both wrists at 0.1-0.45 and made 5 false
+            gestures; on the rendered presenters a-d at most 7 % of the frames are below 0.4).
     """
 
     def __init__(
@@ -731,6 +946,9 @@ class BodyGestureDetector:
         visibility_baseline_s: float = 20.0,
         min_coverage: float = 0.5,
         arm_move: float = 0.6,
+        max_clipped: float = 0.25,
+        min_spread: float = 10.0,
+        min_hand_visibility: float = 0.4,
     ) -> None:
         if not window_s > 0.0 or not 0.0 < min_window_s <= window_s:
             raise ValueError(f"need 0 < min_window_s <= window_s, got {min_window_s}, {window_s}")
@@ -748,11 +966,17 @@ class BodyGestureDetector:
         self.visibility_baseline_s = float(visibility_baseline_s)
         self.min_coverage = float(min_coverage)
         self.arm_move = float(arm_move)
+        self.max_clipped = float(max_clipped)
+        self.min_spread = float(min_spread)
+        self.min_hand_visibility = float(min_hand_visibility)
         self.bursts: list[float] = []  #: start times of the counted gestures
         self.first_t: float | None = None
         self._segments: list[list[float]] = []  #: counted gestures' [start, end]
         self._widths: deque[tuple[float, float]] = deque()
-        self._frames: deque[tuple[float, bool]] = deque()  #: (t, body seen), for the coverage
+        #: (t, what the frame gave: one of :data:`FRAME_STATES`), for the coverage
+        self._frames: deque[tuple[float, str]] = deque()
+        #: the image about the arms in the last frame with a body: (clipped, spread)
+        self.last_exposure: tuple[float, float] | None = None
         self._prev: tuple[float, list[np.ndarray | None], list[bool]] | None = None
         self._runs: list[_WristRun | None] = [None, None]
         self._prev_elbows: list[np.ndarray | None] = [None, None]
@@ -795,11 +1019,35 @@ class BodyGestureDetector:
                     st.at_face = False
         return st.at_face
 
-    def update(self, t: float, body: BodyKeypoints | None) -> None:
-        """Feed one analysed frame's keypoints (None: no body found in it)."""
+    def not_seen_well(self, body: BodyKeypoints) -> str | None:
+        """Why ``body``'s hands cannot be seen well enough to count gestures: ``"image"`` (the
+        image about the arms too dark, bright or flat), ``"hands"`` (the pose model sees
+        neither wrist), or None (they can, as far as is known)."""
+        if body.clipped is not None and body.clipped > self.max_clipped:
+            return "image"
+        if body.spread is not None and body.spread < self.min_spread:
+            return "image"
+        if max(body.wrist_visibility) < self.min_hand_visibility:
+            return "hands"
+        return None
+
+    def update(self, t: float, body: BodyKeypoints | None, *, presenter: bool = True) -> None:
+        """Feed one analysed frame's keypoints (None: no body found in it; ``presenter``
+        False: the body found is someone else's)."""
         if self.first_t is None:
             self.first_t = t
-        self._frames.append((t, body is not None))
+        state = "seen"
+        if body is None:
+            state = "none"
+        elif not presenter:
+            state, body = "other", None
+        else:
+            if body.clipped is not None and body.spread is not None:
+                self.last_exposure = (body.clipped, body.spread)
+            why = self.not_seen_well(body)
+            if why is not None:
+                state, body = why, None
+        self._frames.append((t, state))
         while self._frames and self._frames[0][0] <= t - self.window_s:
             self._frames.popleft()
         pos: list[np.ndarray | None] = [None, None]
@@ -878,10 +1126,40 @@ class BodyGestureDetector:
         log.debug("gesture at %.2f s (to %.2f s)", run.start, run.last)
 
     def coverage(self) -> float:
-        """Share of the window's analysed frames that had a body in them."""
+        """Share of the window's analysed frames that had the presenter's body in them, seen
+        well enough."""
         if not self._frames:
             return 0.0
-        return sum(1 for _, seen in self._frames if seen) / len(self._frames)
+        return sum(1 for _, st in self._frames if st == "seen") / len(self._frames)
+
+    def why_not_seen(self) -> str:
+        """Why the window's frames lacked the presenter's body seen well, in words: each reason
+        with its share of the window's frames, the most common first."""
+        counts = {st: 0 for st in FRAME_STATES if st != "seen"}
+        for _, st in self._frames:
+            if st != "seen":
+                counts[st] += 1
+        total = max(len(self._frames), 1)
+        words = {
+            "none": "the presenter's body is out of view",
+            "other": "the pose model follows another person, not the presenter",
+            "hands": (
+                f"the pose model does not see the presenter's hands (both wrists' visibility "
+                f"below {self.min_hand_visibility:g}: covered, or out of the frame)"
+            ),
+            "image": "the presenter's arms cannot be told from the background (the image about "
+            "them too dark, too bright or too flat"
+            + (
+                f": {100 * self.last_exposure[0]:.0f} % black or white, spread "
+                f"{self.last_exposure[1]:.0f} grey levels)"
+                if self.last_exposure is not None
+                else ")"
+            ),
+        }
+        order = sorted((n, st) for st, n in counts.items() if n > 0)[::-1]
+        if not order:
+            return words["none"]
+        return "; ".join(f"{words[st]} in {100 * n / total:.0f} %" for n, st in order)
 
     def rate(self, t: float) -> float | None:
         """Gestures per minute that started in the window ending at ``t``.
@@ -895,6 +1173,20 @@ class BodyGestureDetector:
             return None
         n = sum(1 for b in self.bursts if t - self.window_s < b <= t)
         return n / min(self.window_s, seen) * 60.0
+
+
+def mask_boxes(bgr: np.ndarray, boxes: list[tuple[int, int, int, int]]) -> np.ndarray:
+    """Return a copy of ``bgr`` with each box (grown by a fifth of its size each side) filled
+    with the frame's mean colour."""
+    out = bgr.copy()
+    h, w = out.shape[:2]
+    fill = out.reshape(-1, out.shape[2] if out.ndim == 3 else 1).mean(axis=0)
+    for x0, y0, x1, y1 in boxes:
+        gx, gy = (x1 - x0) // 5, (y1 - y0) // 5
+        xa, ya, xb, yb = max(0, x0 - gx), max(0, y0 - gy), min(w, x1 + gx), min(h, y1 + gy)
+        if xb > xa and yb > ya:
+            out[ya:yb, xa:xb] = fill if out.ndim == 3 else fill[0]
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -1219,6 +1511,9 @@ def run(
                 ", the pose model cannot run here" if opts.gesture_source == "auto" else "",
             )
     source_code = SOURCE_BODY if tracker is not None else SOURCE_MOTION
+    presenter_face = PresenterFace()
+    presenter_body = PresenterBody()
+    last_nose: np.ndarray | None = None  #: the presenter's face keypoints (pose model), last
     write_status(out, opts, head_on=estimator is not None, gesture_source=summary.gesture_source)
     not_measured_since: float | None = None
     streams = StreamSet(out, STREAMS, fresh=fresh).open()
@@ -1247,7 +1542,8 @@ def run(
             next_t = t + step if next_t == -math.inf else max(next_t + step, t)
             last_t = t
             summary.analysed += 1
-            pose = estimator.estimate(frame) if estimator is not None else None
+            faces = estimator.estimate_all(frame) if estimator is not None else []
+            pose = presenter_face.choose(t, faces, frame_height=frame.shape[0], nose=last_nose)
             if pose is not None:
                 summary.faces += 1
             if estimator is not None:
@@ -1255,7 +1551,16 @@ def run(
                     write(HEAD_YAW, tt, yaw)
                     write(HEAD_GAZE, tt, pitch)
             if tracker is not None:
-                body_det.update(t, tracker.keypoints(frame))
+                # The pose model finds one person, and would take another face's: hide the
+                # faces that are not the presenter's from it once the presenter's is known.
+                others = [f.box for f in faces if f is not pose]
+                seen = mask_boxes(frame, others) if others and presenter_face.box else frame
+                body = tracker.keypoints(seen)
+                mine = body is None or presenter_body.check(
+                    t, body, pose.box if pose is not None else None
+                )
+                last_nose = body.face_centre() if body is not None and mine else None
+                body_det.update(t, body, presenter=mine)
             elif opts.gestures:
                 motion.update(t, frame, exclude=pose.box if pose is not None else None)
             if t - next_report > 5.0:  # a jump (a paused camera, a far --t0): no backlog
@@ -1272,20 +1577,27 @@ def run(
                         write(GESTURES, next_report, rate)
                         write(GESTURES_SOURCE, next_report, source_code)
                         if not_measured_since is not None:
-                            log.info("%s: the body is in view again at %.0f s", source.name, t)
+                            log.info(
+                                "%s: gesture rate measured again from %.0f s: the presenter's "
+                                "body is in view and seen well",
+                                source.name,
+                                next_report,
+                            )
                             not_measured_since = None
                     elif det.first_t is not None and next_report - det.first_t >= min_window:
-                        # Seen long enough, but the body was out of view: say so, no number.
+                        # Seen long enough, but the presenter's body was not (out of view, another
+                        # person's, or too dark to see the arms): say so, no number.
                         write(GESTURES_SOURCE, next_report, SOURCE_NOT_MEASURED)
                         if not_measured_since is None:
                             not_measured_since = next_report
                             log.warning(
                                 "%s: gesture rate not measured from %.0f s: the presenter's "
-                                "body is in view in %.0f %% of the last %.0f s",
+                                "body is seen well in %.0f %% of the last %.0f s; %s",
                                 source.name,
                                 next_report,
                                 100.0 * body_det.coverage(),
                                 opts.gesture_window_s,
+                                body_det.why_not_seen(),
                             )
                 next_report += 1.0
             if warn_at == -math.inf:
