@@ -27,7 +27,8 @@ cv_gestures         gestures per minute over the last                     1 Hz, 
                     so far, early in the talk)                            been seen
 cv_gestures_source  where the rate came from: 1 the body's wrists, 2 the  1 Hz, with each
                     frame difference (fallback), 0 not measured (the      cv_gestures, or
-                    body was out of view; no cv_gestures at that t)       instead of one
+                    presenter's body out of view, another person's, or   instead of one
+                    its hands not seen well; no cv_gestures at that t)
 ================== ===================================================== ==================
 
 Head pose (needs ``mediapipe==0.10.21`` in the vision env):
@@ -50,7 +51,14 @@ Gestures from the body (needs mediapipe, as head pose; the default):
     ear) is at the face until it is seen away again, and its movements are not gestures,
     unless its elbow has moved out with it (a gesture beside the head); nor are the jumps of
     a wrist the model has lost (its visibility well below its usual level). A body out of view
-    for half the window is "not measured" (no rate; ``cv_gestures_source`` 0 and a warning).
+    for half the window is "not measured" (no rate; ``cv_gestures_source`` 0 and a warning),
+    and so is a body that is not the presenter's (not under the presenter's face, or jumped
+    to another place or size; the other faces in view are hidden from the pose model) or
+    whose hands cannot be seen (the image about the arms clipped black or white, or flat; or
+    neither wrist seen by the model): the warning says which.
+
+Two faces in view: FaceMesh finds up to 3; head pose follows the presenter's
+    (:class:`PresenterFace`), and a second face is logged once.
 
 Gestures from the frame difference (the fallback: OpenCV only, when mediapipe is not here,
 or ``--gesture-source motion``; the log says so, and ``cv_gestures_source`` is 2):
@@ -651,7 +659,7 @@ class GestureDetector:
 
 #: ``cv_gestures_source`` values: where the ``cv_gestures`` sample written at the same ``t``
 #: came from (a stream line holds one number, so the source is a stream of its own).
-SOURCE_NOT_MEASURED = 0.0  #: no cv_gestures sample at this t: the body was not in view enough
+SOURCE_NOT_MEASURED = 0.0  #: no cv_gestures sample at this t: the body was not seen well enough
 SOURCE_BODY = 1.0  #: wrist keypoints of the pose model
 SOURCE_MOTION = 2.0  #: frame difference (the fallback when the pose model cannot run)
 GESTURES_SOURCE = "cv_gestures_source"
