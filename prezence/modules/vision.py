@@ -1052,9 +1052,10 @@ class BodyGestureDetector:
         else:
             if body.clipped is not None and body.spread is not None:
                 self.last_exposure = (body.clipped, body.spread)
-            why = self.not_seen_well(body)
-            if why is not None:
-                state, body = why, None
+            # Counted as not seen for the coverage; the keypoints still go to the gesture rule
+            # (its own visibility test), so a frame of a poorly seen wrist mid-gesture does not
+            # cut a true gesture in two (gestures_c lost one that way).
+            state = self.not_seen_well(body) or "seen"
         self._frames.append((t, state))
         while self._frames and self._frames[0][0] <= t - self.window_s:
             self._frames.popleft()
