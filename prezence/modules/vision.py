@@ -83,8 +83,10 @@ once a second (:class:`prezence.modules.common.Heartbeat`).
 Live input never drops frames silently: frames the analysis could not keep up with are
 counted, and a warning every 10 s (and at the end) says how many and at what rate.
 
-Exit status: 0 done; 2 bad input (missing, empty, wrong format or truncated video; camera
-that cannot be opened) with ``error: FILE: …`` on stderr, or bad arguments.
+Exit status: 0 done; 2 bad input (missing, empty or wrong-format video, one truncated before
+a frame can be read; a camera that cannot be opened) with ``error: FILE: …`` on stderr, or bad
+arguments; 3 a video that ends before the frames it announces (a truncated recording), with
+``warning: FILE: …`` on stderr once everything read has been analysed and written.
 
 Measured accuracy and cost: see ``bench/bench_vision.py`` and ``tests/modules/test_vision.py``.
 """
@@ -123,6 +125,7 @@ import numpy as np
 
 from prezence.errors import PrezenceError
 from prezence.modules.common import (
+    CUT_SHORT_STATUS,
     Heartbeat,
     ModuleInputError,
     StreamSet,
@@ -1778,12 +1781,14 @@ def main(argv: list[str] | None = None) -> int:
     ended_early = n is not None and source.stats.frames < n - max(2, n // 50)
     whole_file = isinstance(source, FileSource) and opts.duration_s is None and not stop.is_set()
     if whole_file and ended_early:
+        # a recording that breaks off (a phone that died mid-talk) is not a bad input: all of
+        # it that could be read was measured, and rehearse and up go on with that
         print(
-            f"error: {source.name}: the video ended after {source.stats.frames} of the "
+            f"warning: {source.name}: the video ended after {source.stats.frames} of the "
             f"{n} frames it announces (truncated?); the streams hold what was read",
             file=sys.stderr,
         )
-        return 2
+        return CUT_SHORT_STATUS
     if opts.head and not summary.head:
         print(f"vision: head pose was off: {install_hint()}", file=sys.stderr)
     return 0

@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 
+from prezence.modules.common import CUT_SHORT_STATUS
 from prezence.modules.vision import (
     FileSource,
     GazeTracker,
@@ -300,6 +301,39 @@ def test_cli_bad_video_exits_2_naming_the_file(bad_files: dict[str, Path], tmp_p
     proc = run_module(sys.executable, "--video", str(path), "--out", str(tmp_path), "--no-head")
     assert proc.returncode == 2
     assert f"error: {path}:" in proc.stderr
+
+
+def _faststart_copy(src: Path, dst: Path) -> None:
+    """``src`` remuxed with its index first (as phones and ffmpeg's +faststart write it), so
+    that a copy cut short still opens."""
+    import av
+
+    with av.open(str(src)) as i, av.open(str(dst), "w", options={"movflags": "+faststart"}) as o:
+        stream = o.add_stream_from_template(i.streams.video[0])
+        for packet in i.demux(i.streams.video[0]):
+            if packet.dts is None:
+                continue
+            packet.stream = stream
+            o.mux(packet)
+
+
+def test_a_video_that_breaks_off_is_measured_up_to_there_and_says_so(tmp_path: Path) -> None:
+    # A phone that died mid-talk: the video opens and ends early. The module measured what it
+    # read but said "error: ..." and exited 2, so `up` stopped the talk as a bad input and
+    # `rehearse` reported the vision metrics "not measured: the vision module could not run".
+    pytest.importorskip("av", reason="the copy is remuxed with PyAV (the speech extra)")
+    whole = tmp_path / "whole.mp4"
+    _faststart_copy(MATERIAL / GEST["file"], whole)
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
+    out = tmp_path / "s"
+    args = ["--video", str(cut), "--out", str(out), "--no-head", "--gesture-source", "motion"]
+    proc = run_module(sys.executable, *args, "--no-reexec")
+    assert proc.returncode == CUT_SHORT_STATUS, proc.stderr
+    assert f"warning: {cut}: the video ended after " in proc.stderr
+    assert "the streams hold what was read" in proc.stderr and "error:" not in proc.stderr
+    rates = read_stream(out / "streams" / "cv_gestures.txt")
+    assert rates and 0.3 * GEST["duration_s"] < rates[-1][0] < 0.7 * GEST["duration_s"]
 
 
 class _FakeCapture:
