@@ -125,8 +125,8 @@ import numpy as np
 
 from prezence.errors import PrezenceError
 from prezence.modules.common import (
-    CUT_SHORT_STATUS,
     Heartbeat,
+    InputCutShort,
     ModuleInputError,
     StreamSet,
     add_common_arguments,
@@ -769,7 +769,7 @@ class PresenterBody:
         self.max_jump = float(max_jump)
         self.max_scale = float(max_scale)
         self.keep_s = float(keep_s)
-        self._last: tuple[float, np.ndarray, float] | None = None  #: t, midpoint, width
+        self._last: tuple[np.ndarray, float] | None = None  #: shoulders' midpoint, width
         self._any_t: float | None = None  #: the last frame with a body, the presenter's or not
 
     def check(
@@ -783,7 +783,7 @@ class PresenterBody:
         if face_box is not None:
             ok = _inside(body.face_centre(), face_box, grow=self.face_grow)
         elif self._last is not None and not gap:
-            _, last_mid, last_sw = self._last
+            last_mid, last_sw = self._last
             ok = (
                 float(np.linalg.norm(mid - last_mid)) <= self.max_jump * last_sw
                 and 1.0 / self.max_scale <= sw / last_sw <= self.max_scale
@@ -791,7 +791,7 @@ class PresenterBody:
         else:
             ok = True
         if ok:
-            self._last = (t, mid, sw)
+            self._last = (mid, sw)
         return ok
 
 
@@ -1783,12 +1783,14 @@ def main(argv: list[str] | None = None) -> int:
     if whole_file and ended_early:
         # a recording that breaks off (a phone that died mid-talk) is not a bad input: all of
         # it that could be read was measured, and rehearse and up go on with that
-        print(
-            f"warning: {source.name}: the video ended after {source.stats.frames} of the "
-            f"{n} frames it announces (truncated?); the streams hold what was read",
-            file=sys.stderr,
+        return report_error(
+            "vision",
+            InputCutShort(
+                source.name,
+                f"the video ended after {source.stats.frames} of the {n} frames it announces "
+                "(truncated?); the streams hold what was read",
+            ),
         )
-        return CUT_SHORT_STATUS
     if opts.head and not summary.head:
         print(f"vision: head pose was off: {install_hint()}", file=sys.stderr)
     return 0

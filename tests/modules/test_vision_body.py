@@ -335,28 +335,18 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for key in RATE_VIDEOS:
         entry = MANIFEST[key]
-        session = tmp_path_factory.mktemp(key)
-        env = dict(os.environ)
-        env.pop("PREZENCE_VISION_REEXEC", None)
-        proc = subprocess.run(
-            [str(VISION_PY), "-m", "prezence.modules.vision", "-v"]
-            + ["--video", str(MATERIAL / entry["file"]), "--out", str(session)]
-            + ["--gesture-window", str(entry["duration_s"])],
-            capture_output=True,
-            text=True,
-            timeout=600,
-            check=False,
-            env=env,
+        stderr, s = run_module(
+            MATERIAL / entry["file"],
+            "--gesture-window",
+            str(entry["duration_s"]),
+            out=tmp_path_factory.mktemp(key),
         )
-        assert proc.returncode == 0, proc.stderr
-        found = [float(x) for x in re.findall(r"gesture at ([0-9.]+) s", proc.stderr)]
-        streams = session / "streams"
         out[key] = {
             "entry": entry,
-            "stderr": proc.stderr,
-            "found": found,
-            "rate": read_stream(streams / "cv_gestures.txt"),
-            "source": read_stream(streams / "cv_gestures_source.txt"),
+            "stderr": stderr,
+            "found": [float(x) for x in re.findall(r"gesture at ([0-9.]+) s", stderr)],
+            "rate": s["cv_gestures"],
+            "source": s["cv_gestures_source"],
         }
     return out
 
@@ -429,11 +419,12 @@ def test_the_gesture_rate_over_the_whole_video_is_within_one_gesture(
     assert rate == pytest.approx(n_true * one, abs=one + 0.01)  # the stream has 3 decimals
 
 
-def run_module(video: Path, *args: str) -> tuple[str, dict[str, list[tuple[float, float]]]]:
+def run_module(
+    video: Path, *args: str, out: Path
+) -> tuple[str, dict[str, list[tuple[float, float]]]]:
+    """Run the vision module (verbose) on ``video`` into the session folder ``out``; its log
+    and its gesture and head streams."""
     assert VISION_PY is not None
-    import tempfile
-
-    out = Path(tempfile.mkdtemp(prefix="prezence-vision-"))
     env = dict(os.environ)
     env.pop("PREZENCE_VISION_REEXEC", None)
     proc = subprocess.run(
@@ -467,14 +458,14 @@ def no_rate_off_the_truth(rates: list[tuple[float, float]], truth: list[float]) 
 
 @needs_vision_env
 @pytest.mark.slow
-def test_a_second_face_in_view_is_not_measured_as_the_presenter() -> None:
+def test_a_second_face_in_view_is_not_measured_as_the_presenter(tmp_path: Path) -> None:
     # two_faces.mp4: gestures_a's first 30 s with head_astronaut (turning, looped) in the lower
     # right, bigger than the presenter's face (session 18; session 17 saw facing 0.70):
     #   ffmpeg -i gestures_a.mp4 -stream_loop -1 -i head_astronaut.mp4 -filter_complex \
     #     "[1:v]scale=160:120[a];[0:v][a]overlay=160:120:shortest=1" -t 30 \
     #     -c:v libx264 -crf 28 -pix_fmt yuv420p -an two_faces.mp4
     entry = MANIFEST["gestures_a"]
-    stderr, s = run_module(MATERIAL / "two_faces.mp4")
+    stderr, s = run_module(MATERIAL / "two_faces.mp4", out=tmp_path)
     assert "2 faces in view at 0.0 s" in stderr
     moves = [(m["start"] - 0.5, m["end"] + 0.5) for m in entry["head_moves"]]
     still = [y for t, y in s["cv_headYaw"] if not any(a <= t <= b for a, b in moves)]
@@ -497,12 +488,14 @@ def test_a_second_face_in_view_is_not_measured_as_the_presenter() -> None:
 
 @needs_vision_env
 @pytest.mark.slow
-def test_a_video_too_dark_to_see_the_arms_gives_no_gesture_rate_and_says_why() -> None:
+def test_a_video_too_dark_to_see_the_arms_gives_no_gesture_rate_and_says_why(
+    tmp_path: Path,
+) -> None:
     # dark_a.mp4: gestures_a's first 20 s darkened as session 17's dark video (5 of 7 found,
     # 0/min written as a measurement at 10-13 s):
     #   ffmpeg -i gestures_a.mp4 -t 20 -vf "eq=brightness=-0.35:contrast=0.5" \
     #     -c:v libx264 -crf 28 -pix_fmt yuv420p -an dark_a.mp4
-    stderr, s = run_module(MATERIAL / "dark_a.mp4", "--no-head")
+    stderr, s = run_module(MATERIAL / "dark_a.mp4", "--no-head", out=tmp_path)
     assert s["cv_gestures"] == []
     assert s["cv_gestures_source"] and {v for _, v in s["cv_gestures_source"]} == {0.0}
     assert "cannot be told from the background" in stderr
