@@ -175,8 +175,8 @@ def nothing_judged_sentence(report: Mapping[str, Any]) -> str:
         return "I could not judge your delivery: the recording has no audio track."
     if "heard no voice" in whys:
         return (
-            "I heard no voice, only silence or noise, so I could not judge your delivery: "
-            f"check {_inputs_used(report)}."
+            "I heard no voice, only silence, noise or a whisper, so I could not judge your "
+            f"delivery: speak aloud, or check {_inputs_used(report)}."
         )
     if any(m.get("too_brief") for m in metrics):
         return "I measured too little of your delivery to judge it."

@@ -260,6 +260,9 @@ def test_a_recording_with_no_voice_is_said_so_not_praised(tmp_path: Path) -> Non
     said = summary_phrase(report)
     assert "ideal range" not in said
     assert "I heard no voice" in said and "check the recording" in said
+    # session 19: a whispered rehearsal has no pitch and lands here too; the robot says so
+    # rather than blaming the recording alone
+    assert "whisper" in said and "speak aloud" in said
     # a voice heard in one window: the talk is not said to have none
     streams["speech_activity"][20] = (30.0, 0.4)
     again = rehearsal(tmp_path / "t", streams, talk_s=61.0, recording="noise.wav")
