@@ -45,12 +45,11 @@ speech_activity        the fraction of the last ``--window`` seconds with voice 
 A window whose last ``--window`` seconds hold less than :data:`MIN_SPEECH_S` of voice activity
 writes only speech_activity: silence is not slow, quiet or unclear speech (the other streams go
 quiet), and speech_volume would only measure the room's noise. So does a window whose voice
-activity is noise, music or a whisper, not a voice: under :data:`MIN_VOICED_SHARE` of its frames voiced
-(periodic with a pitch of 70-400 Hz, :func:`aperiodicity`); it writes speech_activity 0 and the
-log says "no voice heard". speech_activity goes on, so a
-silent presenter is not mistaken for a hung module; and while the module reads audio it touches
-the launcher's heartbeat file, ``$PREZENCE_HEARTBEAT``, about once a second
-(:class:`prezence.modules.common.Heartbeat`).
+activity is noise, music or a whisper, not a voice: under :data:`MIN_VOICED_SHARE` of its frames
+voiced (periodic with a pitch of 70-400 Hz, :func:`aperiodicity`); it writes speech_activity 0 and
+the log says "no voice heard". speech_activity goes on, so a silent presenter is not mistaken for a
+hung module; and while the module reads audio it touches the launcher's heartbeat file,
+``$PREZENCE_HEARTBEAT``, about once a second (:class:`prezence.modules.common.Heartbeat`).
 
 How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/bench_speech.py``):
 
@@ -920,7 +919,8 @@ class SpeechAnalyser:
             return out
         if not heard:
             # Sound without a voice in it (noise, a fan, music without singing, a whisper):
-            # not voiced speech, so neither quiet nor unclear nor slow speech. Said once per stretch of it.
+            # not voiced speech, so neither quiet nor unclear nor slow speech. Said once per
+            # stretch of it.
             if not self._voiceless:
                 log.warning(
                     "t=%.0f s: no voice heard: the voice-activity detector hears sound, but "
