@@ -57,6 +57,13 @@ Gestures from the body (needs mediapipe, as head pose; the default):
     whose hands cannot be seen (the image about the arms clipped black or white, or flat; or
     neither wrist seen by the model): the warning says which.
 
+Small faces: FaceMesh misses a face of about 30-45 px in a big frame (a presenter in a phone's
+    tall frame). When it finds none in the whole frame and the pose model sees the head's
+    keypoints, FaceMesh looks again in a square about them (2.5 times their extent), scaled up
+    to :data:`CROP_SIZE`; the landmarks are mapped back to the whole frame's pixels (one scale on
+    both axes, so the angles are the same geometry). Not in ``--no-gestures`` runs (the pose
+    model does not run there).
+
 Two faces in view: FaceMesh finds up to 3; head pose follows the presenter's
     (:class:`PresenterFace`), and a second face is logged once.
 
@@ -157,6 +164,10 @@ _FOREHEAD = 10
 _CHIN = 152
 
 _REEXEC_GUARD = "PREZENCE_VISION_REEXEC"
+
+#: The side, pixels, a square about a small face is scaled to before FaceMesh looks again
+#: (:meth:`HeadPoseEstimator.landmarks_in`).
+CROP_SIZE = 256
 
 #: No gesture rate is written before this much video has been seen (or the whole
 #: ``--gesture-window`` when that is shorter).
@@ -259,6 +270,7 @@ class HeadPoseEstimator:
             raise VisionUnavailable(f"{install_hint()} ({type(e).__name__}: {e})") from e
         self.yaw_gain = float(yaw_gain)
         self.pitch_gain = float(pitch_gain)
+        self._static = static
         self._fm: Any = face_mesh.FaceMesh(
             static_image_mode=static,
             max_num_faces=int(max_faces),
@@ -266,17 +278,78 @@ class HeadPoseEstimator:
             min_detection_confidence=0.5,
             min_tracking_confidence=0.5,
         )
+        #: a second FaceMesh for :meth:`estimate_in` (its tracking must not follow the crops'
+        #: coordinates into the whole frame's, nor the other way); made when first needed
+        self._fm_crop: Any = None
+        self._face_mesh = face_mesh
+
+    @staticmethod
+    def _mesh(fm: Any, bgr: np.ndarray) -> list[np.ndarray]:
+        h, w = bgr.shape[:2]
+        res = fm.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        return [
+            np.array([(p.x * w, p.y * h, p.z * w) for p in face.landmark], dtype=np.float64)
+            for face in res.multi_face_landmarks or []
+        ]
 
     def all_landmarks(self, bgr: np.ndarray) -> list[np.ndarray]:
         """Return each face's ``(468, 3)`` landmarks in pixel units (none found: ``[]``)."""
         if self._fm is None:
             raise ValueError("HeadPoseEstimator is closed")
+        return self._mesh(self._fm, bgr)
+
+    def landmarks_in(
+        self, bgr: np.ndarray, square: tuple[int, int, int], *, size: int = CROP_SIZE
+    ) -> np.ndarray | None:
+        """FaceMesh on one square of the frame, scaled to ``size`` pixels: the face's landmarks
+        in the whole frame's pixel units, or None when it finds none.
+
+        Args:
+            bgr: the whole frame.
+            square: ``(x0, y0, side)`` in its pixels; parts outside the frame are padded with
+                its edge.
+            size: the side FaceMesh is given.
+
+        The square is scaled by one factor on both axes, so the landmarks map back exactly:
+        (x, y) to ``(x0, y0) + (x, y) * side / size`` and FaceMesh's depth (in units of the
+        image width) by the same factor, i.e. in the whole frame's pixels as
+        :meth:`all_landmarks` gives them, and :func:`raw_angles` sees the same geometry.
+        """
+        if self._fm is None:
+            raise ValueError("HeadPoseEstimator is closed")
+        x0, y0, side = (int(v) for v in square)
+        if side < 8:
+            return None
         h, w = bgr.shape[:2]
-        res = self._fm.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        return [
-            np.array([(p.x * w, p.y * h, p.z * w) for p in face.landmark], dtype=np.float64)
-            for face in res.multi_face_landmarks or []
-        ]
+        pad = max(0, -x0, -y0, x0 + side - w, y0 + side - h)
+        img = bgr
+        if pad:
+            img = cv2.copyMakeBorder(bgr, pad, pad, pad, pad, cv2.BORDER_REPLICATE)
+        crop = img[y0 + pad : y0 + pad + side, x0 + pad : x0 + pad + side]
+        big = cv2.resize(crop, (size, size), interpolation=cv2.INTER_CUBIC)
+        if self._fm_crop is None:
+            self._fm_crop = self._face_mesh.FaceMesh(
+                static_image_mode=self._static,
+                max_num_faces=1,
+                refine_landmarks=False,
+                min_detection_confidence=0.5,
+                min_tracking_confidence=0.5,
+            )
+        faces = self._mesh(self._fm_crop, big)
+        if not faces:
+            return None
+        pts = faces[0] * (side / size)
+        pts[:, 0] += x0
+        pts[:, 1] += y0
+        return pts
+
+    def estimate_in(
+        self, bgr: np.ndarray, square: tuple[int, int, int], *, size: int = CROP_SIZE
+    ) -> HeadPose | None:
+        """The head pose of the face in ``square`` of the frame (:meth:`landmarks_in`), in the
+        whole frame's pixels, or None."""
+        pts = self.landmarks_in(bgr, square, size=size)
+        return None if pts is None else self._pose(pts)
 
     def landmarks(self, bgr: np.ndarray) -> np.ndarray | None:
         """Return the biggest face's landmarks in pixel units, or None when no face is found."""
@@ -303,10 +376,12 @@ class HeadPoseEstimator:
         return None if pts is None else self._pose(pts)
 
     def close(self) -> None:
-        """Release the graph; a second call does nothing."""
+        """Release the graphs; a second call does nothing."""
         fm, self._fm = self._fm, None
-        if fm is not None:
-            fm.close()
+        crop, self._fm_crop = self._fm_crop, None
+        for g in (fm, crop):
+            if g is not None:
+                g.close()
 
     def __enter__(self) -> HeadPoseEstimator:
         return self
@@ -696,10 +771,26 @@ class BodyKeypoints:
     wrists: tuple[np.ndarray, np.ndarray]  #: the presenter's left, right
     wrist_visibility: tuple[float, float]
     face: np.ndarray | None = None
+    #: the face keypoints the model sees (visibility >= 0.5: nose, eyes, ears, mouth), ``(n, 2)``
+    face_points: np.ndarray | None = None
     hands: tuple[np.ndarray, np.ndarray] | None = None
     elbows: tuple[np.ndarray, np.ndarray] | None = None  #: the presenter's left, right
     clipped: float | None = None  #: share of the pixels about the arms black or white (clipped)
     spread: float | None = None  #: standard deviation of their grey levels
+
+    def head_square(self, *, margin: float = 2.5) -> tuple[int, int, int] | None:
+        """A square ``(x0, y0, side)`` about the head, pixels, from the face keypoints the model
+        sees: centred on them, ``margin`` times their extent (at least a third of the shoulder
+        width, for a head in profile) on a side. None when it sees fewer than three of them.
+        """
+        pts = self.face_points
+        if pts is None or len(pts) < 3:
+            return None
+        sw = float(np.linalg.norm(self.shoulders[0] - self.shoulders[1]))
+        extent = max(float(np.ptp(pts[:, 0])), float(np.ptp(pts[:, 1])), sw / 3.0)
+        side = int(round(margin * extent))
+        c = pts.mean(axis=0)
+        return int(round(c[0] - side / 2)), int(round(c[1] - side / 2)), side
 
     def face_centre(self) -> np.ndarray:
         """The centre of the face keypoints (the nose when there are none)."""
@@ -846,6 +937,7 @@ class BodyTracker:
                 float(lm[_WRIST_RIGHT].visibility),
             ),
             face=xy(*_FACE).mean(axis=0),
+            face_points=xy(*_FACE)[[lm[i].visibility >= 0.5 for i in _FACE]].reshape(-1, 2),
             hands=(xy(*_HAND_LEFT), xy(*_HAND_RIGHT)),
             elbows=(xy(_ELBOW_LEFT), xy(_ELBOW_RIGHT)),
             clipped=clipped,
@@ -1427,6 +1519,7 @@ class RunSummary:
 
     analysed: int = 0
     faces: int = 0
+    close_up_faces: int = 0  #: of ``faces``, found only in a close-up of the head
     samples: dict[str, int] = field(default_factory=lambda: dict.fromkeys(STREAMS, 0))
     bursts: list[float] = field(default_factory=list)
     head: bool = False
@@ -1555,6 +1648,26 @@ def run(
             last_t = t
             summary.analysed += 1
             faces = estimator.estimate_all(frame) if estimator is not None else []
+            body: BodyKeypoints | None = None
+            body_read = False
+            if not faces and estimator is not None and tracker is not None:
+                # A face too small for FaceMesh in the whole frame (session 19: a presenter
+                # in a tall phone frame, no head sample for the first 9.5 s while the pose
+                # model saw the body): look again in a square about the pose model's head
+                # keypoints, scaled up. Only then, so the cost stays bounded.
+                body, body_read = tracker.keypoints(frame), True
+                square = body.head_square() if body is not None else None
+                close_up = estimator.estimate_in(frame, square) if square is not None else None
+                if close_up is not None:
+                    faces = [close_up]
+                    summary.close_up_faces += 1
+                    if summary.close_up_faces == 1:
+                        log.info(
+                            "%s: the face is small in the frame at %.1f s: found in a close-up "
+                            "of the head the pose model sees",
+                            source.name,
+                            t,
+                        )
             pose = presenter_face.choose(t, faces, frame_height=frame.shape[0], nose=last_nose)
             if pose is not None:
                 summary.faces += 1
@@ -1567,7 +1680,8 @@ def run(
                 # faces that are not the presenter's from it once the presenter's is known.
                 others = [f.box for f in faces if f is not pose]
                 seen = mask_boxes(frame, others) if others and presenter_face.box else frame
-                body = tracker.keypoints(seen)
+                if not body_read:
+                    body = tracker.keypoints(seen)
                 mine = body is None or presenter_body.check(
                     t, body, pose.box if pose is not None else None
                 )
