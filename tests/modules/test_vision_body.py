@@ -273,6 +273,34 @@ def test_a_body_whose_wrists_the_pose_model_does_not_see_is_not_measured() -> No
     assert rates[23.875] == 0.0  # one hand seen well (the other in a pocket): measured
 
 
+def test_an_arm_the_pose_model_does_not_see_makes_no_gestures_and_is_not_measured() -> None:
+    # Session 19: an overlay hid the presenter's left arm on two_faces.mp4; the pose model drew
+    # it at wrist visibility 0.1-0.36, elbow 0.2-0.44, swinging it about, and 2 false gestures
+    # were counted (the rule wanted both wrists unseen). Here the right arm is hidden and
+    # "swings" (the model's guess) while the left hand beats out twice, seen well.
+    def hidden(b: BodyKeypoints) -> BodyKeypoints:
+        return seen_as(b, wrist_visibility=(0.9, 0.2), elbow_visibility=(0.9, 0.3))
+
+    guessed = [hidden(b) for b in [*swing(12, side=-1), *rest(8), *swing(12, side=-1)]]
+    det = BodyGestureDetector(window_s=30.0, min_window_s=10.0)
+    frames = [*rest(16), *guessed, *rest(16), *swing(12), *rest(16), *swing(12), *rest(40)]
+    rates_of(det, frames)
+    t_left = [i / 8 for i in (16 + len(guessed) + 16, 16 + len(guessed) + 16 + 12 + 16)]
+    assert len(det.bursts) == 2, det.bursts  # the seen hand's two beats, not the guesses
+    assert all(any(abs(b - t) <= 0.5 for b in det.bursts) for t in t_left), det.bursts
+    # ... and the rate, which cannot count the hidden arm, is not written while it is hidden
+    hid = [seen_as(b, wrist_visibility=(0.9, 0.2), elbow_visibility=(0.9, 0.3)) for b in rest(96)]
+    det = BodyGestureDetector(window_s=30.0, min_window_s=10.0)
+    rates = rates_of(det, hid)
+    assert rates[11.0] is None and "does not see one of the presenter's arms" in det.why_not_seen()
+    # A hand in a pocket: the wrist not seen, its elbow is: still measured.
+    pocket = [
+        seen_as(b, wrist_visibility=(0.9, 0.1), elbow_visibility=(0.9, 0.9)) for b in rest(96)
+    ]
+    rates = rates_of(BodyGestureDetector(window_s=30.0, min_window_s=10.0), pocket)
+    assert rates[11.0] == 0.0
+
+
 def test_a_body_that_jumps_to_another_place_and_size_is_not_the_presenters() -> None:
     # Session 18: the pose model left the presenter for an audience head, and the few wrist
     # movements it drew there were written as the presenter's rate (2.0/min, true 8.9).
@@ -474,16 +502,14 @@ def test_a_second_face_in_view_is_not_measured_as_the_presenter(tmp_path: Path) 
     assert len(turned) <= 0.02 * len(still), turned
     facing = sorted(v for _, v in s["cv_facingAudience"])
     assert facing[len(facing) // 2] >= 0.85
-    # the gesture rate: the presenter's (old: the body under the audience head, 0/min written
-    # with 4 true gestures), or not measured. What is left: the presenter's left arm is under
-    # the overlay, and at 22-24 s the rate reads 2 gestures over (session 18's notes).
-    truth = [g["start"] for g in entry["gestures"]]
-    off = no_rate_off_the_truth(s["cv_gestures"], truth)
-    low = [(t, got, least) for t, got, least, _ in off if got < least]
-    assert low == []
-    t_end, rate = s["cv_gestures"][-1]
-    one = 60.0 / min(30.0, t_end)
-    assert rate == pytest.approx(sum(1 for g in truth if g <= t_end) * one, abs=one + 0.01)
+    # the gesture rate: the presenter's (session 18, old: the body under the audience head,
+    # 0/min written with 4 true gestures), or not measured. Session 19: the presenter's left
+    # arm is under the overlay; the pose model guessed it (2 false gestures, 22-24 s read 2
+    # over, the final rate right by luck). An arm not seen makes no gestures, and a rate that
+    # cannot count it is not written: "not measured", and the log says which part is unseen.
+    assert s["cv_gestures"] == []
+    assert s["cv_gestures_source"] and {v for _, v in s["cv_gestures_source"]} == {0.0}
+    assert "does not see one of the presenter's arms" in stderr
 
 
 @needs_vision_env
