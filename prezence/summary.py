@@ -182,8 +182,8 @@ def measurement_notes(
             if rec.module == "speech":
                 unmeasured.setdefault(
                     name,
-                    "the speech module heard no voice (silence, or noise, music or a whisper "
-                    "without a voice: speech.log says which)",
+                    "the speech module heard no voice (silence, or noise, a hum, music or a "
+                    "whisper without a voice: speech.log says which)",
                 )
     source = _stream_values(root, "speech_speed_source")
     if source and not any(source):  # 0 in every window: no count trusted

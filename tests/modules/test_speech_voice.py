@@ -58,6 +58,13 @@ def voice(f0: float, seconds: float, seed: int) -> np.ndarray:
     return np.asarray(3300.0 * x / np.sqrt(np.mean(x**2)))
 
 
+def hum(f0: float, seconds: float) -> np.ndarray:
+    """A mains-like hum at -20 dBFS: ``f0`` and two harmonics at half and a quarter of it."""
+    t = np.arange(int(seconds * RATE)) / RATE
+    x = sum(a * np.sin(2 * np.pi * f0 * k * t) for k, a in ((1, 1.0), (2, 0.5), (3, 0.25)))
+    return np.asarray(3300.0 * x / np.sqrt(np.mean(x**2)))
+
+
 def frames_voiced(x: np.ndarray) -> np.ndarray:
     """The module's test per 30 ms frame: this frame and the one before, aperiodicity < limit."""
     n = len(x) // FRAME
@@ -124,6 +131,52 @@ def test_noise_alone_is_not_measured_as_quiet_unclear_or_slow_speech(
     said = [r.getMessage() for r in caplog.records if "no voice heard" in r.getMessage()]
     assert len(said) == 1  # once per stretch of noise, not every second
     assert f"under {100 * MIN_VOICED_SHARE:g} %" in said[0]
+
+
+def steady_sound(kind: str) -> np.ndarray:
+    if kind == "hum 100 Hz":  # a fridge or a transformer
+        return hum(100.0, 30.0)
+    if kind == "buzz 120 Hz in noise":  # a projector: its buzz 6 dB over pink noise
+        return hum(120.0, 30.0) + coloured_noise("pink", 30.0, seed=5) * 10 ** (-6 / 20)
+    t = np.arange(30 * RATE) / RATE
+    return 3300.0 * np.sqrt(2.0) * np.sin(2 * np.pi * 240.0 * t)  # a test tone
+
+
+@pytest.mark.parametrize("kind", ["hum 100 Hz", "buzz 120 Hz in noise", "tone 240 Hz"])
+def test_a_steady_hum_or_tone_alone_is_not_heard_as_a_voice(
+    kind: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    # session 19: a hum is periodic, so every frame of it passed the voicing test: 30 s of a
+    # 100 Hz hum alone read speech_volume 62 and speech_accuracy 0.73, and a 120 Hz buzz over
+    # noise clarity 0 (an `articulate` cue for a buzz). A voice's pitch moves; a hum's holds.
+    with caplog.at_level(logging.WARNING, logger="prezence.modules.speech"):
+        got = analyse(steady_sound(kind))
+    assert set(got) == {"speech_activity"}
+    assert len(got["speech_activity"]) >= 20
+    assert all(v == 0.0 for _, v in got["speech_activity"])
+    said = [r.getMessage() for r in caplog.records if "no voice heard" in r.getMessage()]
+    assert len(said) == 1 and "steady hum or tone" in said[0]
+
+
+def test_a_voice_over_a_hum_as_loud_as_itself_is_measured_as_without_the_hum_rule(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # the steady-pitch rule must not take a voice for a hum: its pitch breaks every run, so
+    # with a 120 Hz hum as loud as the voice every window reads what it read without the rule
+    pytest.importorskip("av", reason='needs PyAV: pip install "prezence[speech]"')
+    from pathlib import Path
+
+    import prezence.modules.speech as speech
+    from prezence.modules.audio_io import read_file
+
+    talk = read_file(Path(__file__).parent / "material" / "rate_175.flac").astype(np.float64)
+    level = float(np.sqrt(np.mean(talk[talk != 0] ** 2)))
+    x = talk + hum(120.0, len(talk) / RATE)[: len(talk)] * level / 3300.0
+    with_rule = analyse(x)
+    monkeypatch.setattr(speech, "STEADY_PITCH_S", 1e9)
+    assert analyse(x) == with_rule
+    assert len(with_rule["speech_volume"]) >= 10 and len(with_rule["speech_accuracy"]) >= 5
+    assert all(v > 0.9 for _, v in with_rule["speech_activity"])
 
 
 def test_speech_after_a_stretch_of_noise_is_measured_again_and_not_as_unclear() -> None:
