@@ -63,7 +63,9 @@ Small faces: FaceMesh misses a face of about 30-45 px in a big frame (a presente
     keypoints, FaceMesh looks again in a square about them (2.5 times their extent), scaled up
     to :data:`CROP_SIZE`; the landmarks are mapped back to the whole frame's pixels (one scale on
     both axes, so the angles are the same geometry). Not in ``--no-gestures`` runs (the pose
-    model does not run there).
+    model does not run there). A face it does find but narrower than :data:`SMALL_FACE_SHARE`
+    of the frame's longer side can read far off: it is read from the close-up instead, when
+    the close-up finds a face whose centre is in the whole frame's face box.
 
 Two faces in view: FaceMesh finds up to 3; head pose follows the presenter's
     (:class:`PresenterFace`), and a second face is logged once.
@@ -169,6 +171,12 @@ _REEXEC_GUARD = "PREZENCE_VISION_REEXEC"
 #: The side, pixels, a square about a small face is scaled to before FaceMesh looks again
 #: (:meth:`HeadPoseEstimator.landmarks_in`).
 CROP_SIZE = 256
+
+#: A face the whole frame finds narrower than this share of the frame's longer side is read
+#: from a close-up of the head instead (when the pose model sees it). Not a width in pixels:
+#: the shipped 320x240 videos' faces are 41-57 px and read within 5 deg in the whole frame, the
+#: same faces in a tall 240x426 or 320x568 frame (0.07-0.12 of it) up to 32 deg off.
+SMALL_FACE_SHARE = 0.13
 
 #: No gesture rate is written before this much video has been seen (or the whole
 #: ``--gesture-window`` when that is shorter).
@@ -1709,6 +1717,39 @@ def run(
                             t,
                         )
             pose = presenter_face.choose(t, faces, frame_height=frame.shape[0], nose=last_nose)
+            if (
+                pose is not None
+                and not body_read  # not a face the close-up above found
+                and estimator is not None
+                and tracker is not None
+                and _width(pose.box) < SMALL_FACE_SHARE * max(frame.shape[:2])
+            ):
+                # A small face the whole frame does find can read far off (session 19: up to
+                # 32 deg of yaw, 22 of pitch in tall frames, where a close-up read within 10
+                # and 5): read it from a close-up of the head the pose model sees, when that
+                # finds the same face. A second face FaceMesh puts over the presenter's (a
+                # duplicate, seen in tall frames) is not hidden from the pose model: that would
+                # hide the presenter's head.
+                others = [
+                    f.box for f in faces if f is not pose and not _inside(_centre(f.box), pose.box)
+                ]
+                seen = mask_boxes(frame, others) if others else frame
+                body, body_read = tracker.keypoints(seen), True
+                square = body.head_square() if body is not None else None
+                close_up = estimator.estimate_in(frame, square) if square is not None else None
+                if close_up is not None and _inside(_centre(close_up.box), pose.box):
+                    faces = [close_up if f is pose else f for f in faces]
+                    pose = close_up
+                    summary.close_up_faces += 1
+                    if summary.close_up_faces == 1:
+                        log.info(
+                            "%s: the face is small in the frame at %.1f s (%.0f px, under %.0f "
+                            "%% of its side): read from a close-up of the head the pose model sees",
+                            source.name,
+                            t,
+                            _width(pose.box),
+                            100 * SMALL_FACE_SHARE,
+                        )
             if pose is not None:
                 summary.faces += 1
             if estimator is not None:
