@@ -67,6 +67,12 @@ Small faces: FaceMesh misses a face of about 30-45 px in a big frame (a presente
     of the frame's longer side can read far off: it is read from the close-up instead, when
     the close-up finds a face whose centre is in the whole frame's face box.
 
+Mirrored video (``--mirrored``): a selfie camera or app mirrors the picture, which swaps the
+    presenter's left and right: head yaw's sign flips, and the report's "head turned to your
+    left" would mean their right. Nothing in the picture tells a mirrored video from a plain
+    one, so the module cannot detect it; with ``--mirrored`` each analysed frame is flipped
+    back (``cv2.flip``) before anything reads it, for files and cameras alike.
+
 Two faces in view: FaceMesh finds up to 3; head pose follows the presenter's
     (:class:`PresenterFace`), and a second face is logged once.
 
@@ -1559,6 +1565,8 @@ class VisionOptions:
     #: ``auto``: the body's wrists when the pose model can run, else the frame difference;
     #: ``body`` or ``motion`` force one (``body`` fails without mediapipe).
     gesture_source: str = "auto"
+    #: the video is mirrored (a selfie camera): each frame is flipped back before analysis
+    mirrored: bool = False
 
 
 @dataclass
@@ -1695,6 +1703,8 @@ def run(
             next_t = t + step if next_t == -math.inf else max(next_t + step, t)
             last_t = t
             summary.analysed += 1
+            if opts.mirrored:
+                frame = cv2.flip(frame, 1)  # un-mirror: the presenter's left back on image right
             faces = estimator.estimate_all(frame) if estimator is not None else []
             body: BodyKeypoints | None = None
             body_read = False
@@ -1901,6 +1911,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="body: wrist keypoints of the pose model; motion: frame difference (fallback); "
         "auto: body when mediapipe is here (default)",
     )
+    p.add_argument(
+        "--mirrored",
+        action="store_true",
+        help="the video or camera is mirrored (a selfie view): flip each frame back before "
+        "analysis, or head yaw's sign and the report's left and right are swapped; it cannot "
+        "be told from the picture",
+    )
     return p
 
 
@@ -1947,6 +1964,7 @@ def main(argv: list[str] | None = None) -> int:
             gesture_window_s=args.gesture_window,
             duration_s=args.duration,
             gesture_source=args.gesture_source,
+            mirrored=args.mirrored,
         )
         kind, where = parse_source(args.video)
         source: FileSource | CameraSource

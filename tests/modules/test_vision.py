@@ -422,3 +422,17 @@ def test_a_face_found_late_is_calibrated_on_seconds_of_it_not_its_first_three_fr
     assert g.offset == pytest.approx((1.0, 2.0))
     later = [(y, p) for t, y, p in out if t >= 10.0]
     assert later and all(y == pytest.approx(0.0) and p == pytest.approx(0.0) for y, p in later)
+
+
+def test_mirrored_reaches_the_module_from_rehearse_and_up() -> None:
+    # `prezence rehearse talk.mp4 --vision-args "--mirrored"` and `prezence up ... --vision-args`
+    # both check the words with the module's parser and append them to its command line.
+    from prezence.modules.vision import build_parser
+    from prezence.rehearse import module_args, module_commands
+
+    words = module_args("--vision-args", "vision", "--mirrored")
+    assert words == ["--mirrored"]
+    cmds = module_commands(Path("talk.mp4"), Path("s"), extra={"vision": words})
+    assert cmds["vision"][-1] == "--mirrored"
+    assert build_parser().parse_args(["--video", "x.mp4", "--out", "s", "--mirrored"]).mirrored
+    assert not build_parser().parse_args(["--video", "x.mp4", "--out", "s"]).mirrored

@@ -263,3 +263,61 @@ def test_a_small_face_the_whole_frame_finds_reads_from_the_close_up(tmp_path: Pa
     assert checked >= 60, checked
     assert worst[0] <= 7.0 and worst[1] <= 7.0, worst
     assert "the face is small in the frame" in proc.stderr
+
+
+def _yaw_per_hold(video: Path, out: Path, key: str, *extra: str) -> list[tuple[float, float]]:
+    """(true yaw, median yaw read) of each hold of ``key`` turned 10 deg or more."""
+    assert VISION_PY is not None
+    env = dict(os.environ)
+    env.pop("PREZENCE_VISION_REEXEC", None)
+    proc = subprocess.run(
+        [str(VISION_PY), "-m", "prezence.modules.vision", "--video", str(video)]
+        + ["--out", str(out), "--fps", "0", "--no-gestures", "--calibrate-s", "2", *extra],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+        env=env,
+    )
+    assert proc.returncode == 0, proc.stderr
+    yaw = read_stream(out / "streams" / "cv_headYaw.txt")
+    pairs = []
+    for hold in HEADS[key]["holds"]:
+        if abs(hold["yaw"]) >= 10:
+            read = sorted(y for t, y in yaw if hold["start"] <= t <= hold["end"])
+            assert read, hold
+            pairs.append((float(hold["yaw"]), read[len(read) // 2]))
+    return pairs
+
+
+def test_a_mirrored_video_read_with_mirrored_gives_the_original_yaw_signs(tmp_path: Path) -> None:
+    # A selfie camera mirrors the picture: the presenter's left is on the image left, head yaw's
+    # sign flips and the report's "turned to your left" means their right. Nothing in the
+    # picture tells, so the user says so: --mirrored flips each frame back before analysis.
+    cv2 = pytest.importorskip("cv2")
+    key = "head_kudrow"
+    original = MATERIAL / HEADS[key]["file"]
+    mirrored = tmp_path / "mirrored.mp4"
+    cap = cv2.VideoCapture(str(original))
+    fps = cap.get(cv2.CAP_PROP_FPS)
+    writer = None
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        if writer is None:
+            h, w = frame.shape[:2]
+            writer = cv2.VideoWriter(str(mirrored), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
+        writer.write(cv2.flip(frame, 1))
+    cap.release()
+    assert writer is not None
+    writer.release()
+
+    plain = _yaw_per_hold(original, tmp_path / "plain", key)
+    unmirrored = _yaw_per_hold(mirrored, tmp_path / "unmirrored", key, "--mirrored")
+    as_is = _yaw_per_hold(mirrored, tmp_path / "as_is", key)
+    assert len(plain) >= 4
+    for (truth, a), (_, b), (_, c) in zip(plain, unmirrored, as_is, strict=True):
+        assert a * truth > 0 and b * truth > 0, (truth, a, b)  # the presenter's own side
+        assert c * truth < 0, (truth, c)  # without the option: the other side
+        assert abs(a - b) <= 3.0, (truth, a, b)
