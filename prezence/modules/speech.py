@@ -701,6 +701,7 @@ class SpeechAnalyser:
             self._frame_bands.append(band_energies(tail.astype(np.float64)))
             self._frame_clipped.append(_clipped_share(tail))
             self._frame_voiced.append(False)  # too short to find a pitch in
+            self._frame_steady.append(False)
             self._ring = np.concatenate([self._ring, tail])
         # end_stream needs a non-empty partial frame; one zero sample flushes it all the same.
         speech = self._ep.end_stream(tail.tobytes() if len(tail) else b"\x00\x00")
