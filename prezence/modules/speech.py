@@ -977,7 +977,7 @@ class SpeechAnalyser:
         speech_s = sum(_overlap(a, b, lo, t) for a, b in spans)
         if dur <= 0:
             return []
-        voiced = self._voiced_share(lo, t, spans) if speech_s > 0 else 0.0
+        voiced = self._share(self._frame_voiced, lo, t, spans) if speech_s > 0 else 0.0
         heard = voiced >= MIN_VOICED_SHARE  # voice activity that is a voice
         out = [Sample(SPEECH_ACTIVITY, t, min(1.0, speech_s / dur) if heard else 0.0)]
         if speech_s < min(opt.min_speech_s, 0.5 * dur):
@@ -987,7 +987,7 @@ class SpeechAnalyser:
             # not voiced speech, so neither quiet nor unclear nor slow speech. Said once per
             # stretch of it.
             if not self._voiceless:
-                steady = self._steady_share(lo, t, spans)
+                steady = self._share(self._frame_steady, lo, t, spans)
                 what = (
                     f"a steady hum or tone ({100 * steady:.0f} % of it holds one pitch for "
                     f"{STEADY_PITCH_S:g} s or more)"
@@ -1229,9 +1229,12 @@ class SpeechAnalyser:
             return 1.0
         return float(np.count_nonzero(self._frame_voiced[i0:i1])) / (i1 - i0)
 
-    def _voiced_share(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float:
-        """Share of the voice-activity frames of ``[lo, t)`` that are voiced (periodic); 0
-        without such frames."""
+    def _share(
+        self, flags: list[bool], lo: float, t: float, spans: list[tuple[float, float]]
+    ) -> float:
+        """Share of the voice-activity frames of ``[lo, t)`` whose per-frame flag is set
+        (``_frame_voiced``: periodic; ``_frame_steady``: in a steady run of one pitch, a hum or
+        a tone); 0 without such frames."""
         i0, i1 = self._frames(lo, t)
         if i1 <= i0:
             return 0.0
@@ -1239,19 +1242,7 @@ class SpeechAnalyser:
         n = int(np.count_nonzero(in_speech))
         if n == 0:
             return 0.0
-        voiced = np.asarray(self._frame_voiced[i0:i1], dtype=bool)
-        return float(np.count_nonzero(voiced & in_speech)) / n
-
-    def _steady_share(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float:
-        """Share of the voice-activity frames of ``[lo, t)`` in a steady run of one pitch (a
-        hum or a tone, :data:`STEADY_PITCH_S`); 0 without such frames."""
-        i0, i1 = self._frames(lo, t)
-        if i1 <= i0:
-            return 0.0
-        in_speech = _in_spans(i0, i1, spans)
-        n = int(np.count_nonzero(in_speech))
-        steady = np.asarray(self._frame_steady[i0:i1], dtype=bool)
-        return float(np.count_nonzero(steady & in_speech)) / n if n else 0.0
+        return float(np.count_nonzero(np.asarray(flags[i0:i1], dtype=bool) & in_speech)) / n
 
     def _active_dbfs(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float | None:
         i0, i1 = self._frames(lo, t)

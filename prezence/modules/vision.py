@@ -1333,6 +1333,16 @@ class BodyGestureDetector:
         return n / min(self.window_s, seen) * 60.0
 
 
+def _close_up(
+    estimator: HeadPoseEstimator, tracker: BodyTracker, frame: np.ndarray, seen: np.ndarray
+) -> tuple[BodyKeypoints | None, HeadPose | None]:
+    """The pose model's body in ``seen`` (the frame, other faces hidden or not) and the face
+    FaceMesh finds in a close-up of its head in ``frame`` (None when either finds none)."""
+    body = tracker.keypoints(seen)
+    square = body.head_square() if body is not None else None
+    return body, estimator.estimate_in(frame, square) if square is not None else None
+
+
 def mask_boxes(bgr: np.ndarray, boxes: list[tuple[int, int, int, int]]) -> np.ndarray:
     """Return a copy of ``bgr`` with each box (grown by a fifth of its size each side) filled
     with the frame's mean colour."""
@@ -1713,9 +1723,8 @@ def run(
                 # in a tall phone frame, no head sample for the first 9.5 s while the pose
                 # model saw the body): look again in a square about the pose model's head
                 # keypoints, scaled up. Only then, so the cost stays bounded.
-                body, body_read = tracker.keypoints(frame), True
-                square = body.head_square() if body is not None else None
-                close_up = estimator.estimate_in(frame, square) if square is not None else None
+                body, close_up = _close_up(estimator, tracker, frame, frame)
+                body_read = True
                 if close_up is not None:
                     faces = [close_up]
                     summary.close_up_faces += 1
@@ -1744,9 +1753,8 @@ def run(
                     f.box for f in faces if f is not pose and not _inside(_centre(f.box), pose.box)
                 ]
                 seen = mask_boxes(frame, others) if others else frame
-                body, body_read = tracker.keypoints(seen), True
-                square = body.head_square() if body is not None else None
-                close_up = estimator.estimate_in(frame, square) if square is not None else None
+                body, close_up = _close_up(estimator, tracker, frame, seen)
+                body_read = True
                 if close_up is not None and _inside(_centre(close_up.box), pose.box):
                     faces = [close_up if f is pose else f for f in faces]
                     pose = close_up

@@ -45,6 +45,24 @@ def read_stream(path: Path) -> list[tuple[float, float]]:
     return [(float(t), float(v)) for t, v in (ln.split() for ln in path.read_text().splitlines())]
 
 
+def run_vision(video: Path, out: Path, *args: str) -> str:
+    """Run the vision module in the vision env on ``video`` into ``out``; its log (stderr)."""
+    assert VISION_PY is not None
+    env = dict(os.environ)
+    env.pop("PREZENCE_VISION_REEXEC", None)
+    proc = subprocess.run(
+        [str(VISION_PY), "-m", "prezence.modules.vision", "--video", str(video)]
+        + ["--out", str(out), *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+        env=env,
+    )
+    assert proc.returncode == 0, proc.stderr
+    return proc.stderr
+
+
 _cache: dict[str, dict[str, list[tuple[float, float]]]] = {}
 
 
@@ -56,23 +74,14 @@ def streams_of(
     name = video or key
     if name in _cache:
         return _cache[name]
-    assert VISION_PY is not None
     entry = HEADS[key]
     out = tmp_root / name
-    env = dict(os.environ)
-    env.pop("PREZENCE_VISION_REEXEC", None)
-    proc = subprocess.run(
-        [str(VISION_PY), "-m", "prezence.modules.vision"]
-        + ["--video", str(MATERIAL / (video or entry["file"])), "--out", str(out)]
-        + ["--fps", "0", "--calibrate-s", str(entry["calibration_s"]), "--no-gestures"]
-        + ["--facing-tolerance", "25", "15"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-        env=env,
+    run_vision(
+        MATERIAL / (video or entry["file"]),
+        out,
+        *("--fps", "0", "--calibrate-s", str(entry["calibration_s"]), "--no-gestures"),
+        *("--facing-tolerance", "25", "15"),
     )
-    assert proc.returncode == 0, proc.stderr
     streams = out / "streams"
     _cache[name] = {
         "yaw": read_stream(streams / "cv_headYaw.txt"),
@@ -195,21 +204,9 @@ def test_a_small_face_in_a_tall_frame_gets_head_samples_within_6_degrees(tmp_pat
     # small_face_tall.mp4 = gestures_b.mp4's first 11 s, scaled to 240x180 in a 360x640 frame:
     #   ffmpeg -i gestures_b.mp4 -t 11 -vf "scale=240:180,pad=360:640:60:230:color=black"
     #     -c:v libx264 -crf 28 -pix_fmt yuv420p -an small_face_tall.mp4
-    assert VISION_PY is not None
     moves = MANIFEST["gestures_b"]["head_moves"]
     out = tmp_path / "out"
-    env = dict(os.environ)
-    env.pop("PREZENCE_VISION_REEXEC", None)
-    proc = subprocess.run(
-        [str(VISION_PY), "-m", "prezence.modules.vision"]
-        + ["--video", str(MATERIAL / "small_face_tall.mp4"), "--out", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-        env=env,
-    )
-    assert proc.returncode == 0, proc.stderr
+    run_vision(MATERIAL / "small_face_tall.mp4", out)
     yaw = read_stream(out / "streams" / "cv_headYaw.txt")
     pitch = dict(read_stream(out / "streams" / "cv_headGaze.txt"))
     analysed = 11.0 * 8  # the default --fps 8
@@ -234,21 +231,9 @@ def test_a_small_face_the_whole_frame_finds_reads_from_the_close_up(tmp_path: Pa
     # small_face_found_tall.mp4 = gestures_a.mp4's first 11 s, scaled to 240x180 in 240x426:
     #   ffmpeg -i gestures_a.mp4 -t 11 -vf "scale=240:180,pad=240:426:0:150:color=black"
     #     -c:v libx264 -crf 28 -pix_fmt yuv420p -an small_face_found_tall.mp4
-    assert VISION_PY is not None
     moves = MANIFEST["gestures_a"]["head_moves"]
     out = tmp_path / "out"
-    env = dict(os.environ)
-    env.pop("PREZENCE_VISION_REEXEC", None)
-    proc = subprocess.run(
-        [str(VISION_PY), "-m", "prezence.modules.vision"]
-        + ["--video", str(MATERIAL / "small_face_found_tall.mp4"), "--out", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-        env=env,
-    )
-    assert proc.returncode == 0, proc.stderr
+    log = run_vision(MATERIAL / "small_face_found_tall.mp4", out)
     yaw = read_stream(out / "streams" / "cv_headYaw.txt")
     pitch = dict(read_stream(out / "streams" / "cv_headGaze.txt"))
     assert len(yaw) >= 0.9 * 11.0 * 8, len(yaw)
@@ -262,24 +247,12 @@ def test_a_small_face_the_whole_frame_finds_reads_from_the_close_up(tmp_path: Pa
         checked += 1
     assert checked >= 60, checked
     assert worst[0] <= 7.0 and worst[1] <= 7.0, worst
-    assert "the face is small in the frame" in proc.stderr
+    assert "the face is small in the frame" in log
 
 
 def _yaw_per_hold(video: Path, out: Path, key: str, *extra: str) -> list[tuple[float, float]]:
     """(true yaw, median yaw read) of each hold of ``key`` turned 10 deg or more."""
-    assert VISION_PY is not None
-    env = dict(os.environ)
-    env.pop("PREZENCE_VISION_REEXEC", None)
-    proc = subprocess.run(
-        [str(VISION_PY), "-m", "prezence.modules.vision", "--video", str(video)]
-        + ["--out", str(out), "--fps", "0", "--no-gestures", "--calibrate-s", "2", *extra],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-        env=env,
-    )
-    assert proc.returncode == 0, proc.stderr
+    run_vision(video, out, "--fps", "0", "--no-gestures", "--calibrate-s", "2", *extra)
     yaw = read_stream(out / "streams" / "cv_headYaw.txt")
     pairs = []
     for hold in HEADS[key]["holds"]:
