@@ -802,7 +802,7 @@ def _add_run_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_recorded_args(p: argparse.ArgumentParser) -> None:
+def _add_recorded_args(p: argparse.ArgumentParser, *, allocated_default: str) -> None:
     """``replay`` and ``rehearse``: the coach runs over recorded streams."""
     p.add_argument(
         "--seed", type=non_negative_int, default=0, help="seed of policies that use chance"
@@ -812,15 +812,15 @@ def _add_recorded_args(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="coach at the recording's pace on the wall clock (always on with --backend naoqi)",
     )
-    _add_allocated(p)
+    _add_allocated(p, default=allocated_default)
 
 
-def _add_allocated(p: argparse.ArgumentParser) -> None:
+def _add_allocated(p: argparse.ArgumentParser, *, default: str = "the config's") -> None:
     p.add_argument(
         "--allocated",
         type=parse_seconds,
         metavar="SECONDS",
-        help="time allocated to the talk: seconds, or 10m, 9:30 (default: the config's)",
+        help=f"time allocated to the talk: seconds, or 10m, 9:30 (default: {default})",
     )
 
 
@@ -892,7 +892,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("session", help="a session folder (or any folder with stream files)")
     _add_robot_args(p, out_help="<session>-replay-<policy>, -2, -3 ... when taken")
     _add_force(p)
-    _add_recorded_args(p)
+    _add_recorded_args(p, allocated_default="the recording's")
     p.set_defaults(func=cmd_replay)
 
     p = add(sub, "up", help="live rehearsal: input modules + processor + robot")
@@ -928,7 +928,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_robot_args(p, out_help="sessions/[NAME/]rehearsal-<recording>, -2, -3 ... when taken")
     _add_force(p)
     _add_speaker(p)
-    _add_recorded_args(p)
+    _add_recorded_args(p, allocated_default="the config's")
     p.set_defaults(func=cmd_rehearse)
 
     p = add(sub, "report", help="(re)build the report of a session folder")

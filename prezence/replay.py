@@ -87,6 +87,11 @@ def same_bands(a: Config, b: Config) -> bool:
     return bands(a) == bands(b)
 
 
+def _seconds(s: float | None) -> str:
+    """An allocated time as said in a warning: "540 s", or "no time" for None."""
+    return "no time" if s is None else f"{s:g} s"
+
+
 def replay(
     src: Path,
     *,
@@ -113,7 +118,8 @@ def replay(
             Likewise the gestures: with ``options.gestures`` None, a recording that played a
             library of one's own is replayed with its copy (``src/gestures.toml``).
         backend: robot backend name (see :mod:`prezence.backends.registry`).
-        allocated_s: the time allocated, seconds (None keeps the config's).
+        allocated_s: the time allocated, seconds (None: the recording's, from its
+            ``config.toml``, whatever ``config`` says; else the config's).
 
     Raises:
         ConfigError: ``out`` is ``src``, ``src`` holds no stream file, or a config is invalid.
@@ -132,6 +138,19 @@ def replay(
         config = recorded if recorded is not None else load_config(None)
     if allocated_s is not None:
         config = config.with_allocated(allocated_s)
+    elif recorded is not None and config.time.allocated_s != recorded.time.allocated_s:
+        # The time the speaker had is a fact of the talk, not a rule to try: other rules
+        # (a seed-format rules file has no time at all, so it loads the default 600 s) must
+        # not move the time warnings and the over/under figure (session 20: a 540 s talk
+        # replayed with a rules file read "1 % under" for "10 % over").
+        log.warning(
+            "%s: the recording's talk had %s allocated; kept (the rules given say %s; "
+            "--allocated changes it)",
+            src_session.config,
+            _seconds(recorded.time.allocated_s),
+            _seconds(config.time.allocated_s),
+        )
+        config = config.with_allocated(recorded.time.allocated_s)
     meta = src_session.read_meta()
     paths = find_streams(src, config)
     # the talk's length by its own record (a streams/ folder given: its session's record)

@@ -184,6 +184,63 @@ def test_replay_cli_writes_the_report_with_the_time_allocated(tmp_path: Path) ->
     assert not (out2 / "report").exists()
 
 
+def test_replay_with_a_rules_file_keeps_the_time_the_recorded_talk_had(
+    demo_session: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # Session 20: a 540 s talk replayed with a seed-format rules file (which has no time, so it
+    # loads the default 600 s) read "1 % under" for "10 % over", its time cues moved, and
+    # nothing said so. The time allocated is a fact of the talk, not a rule to try.
+    src = tmp_path / "rec"
+    shutil.copytree(demo_session, src)
+    cfg = src / "config.toml"
+    text = cfg.read_text()
+    assert "allocated_s = 600.0" in text
+    cfg.write_text(text.replace("allocated_s = 600.0", "allocated_s = 540.0"))
+    rules = tmp_path / "rules.txt"
+    rules.write_text("speech_speed inRange 140 180\nspeech_volume min 60 louder\n")
+    with caplog.at_level(logging.WARNING, logger="prezence.replay"):
+        assert (
+            main(
+                [
+                    "replay",
+                    str(src),
+                    "--config",
+                    str(rules),
+                    "--out",
+                    str(tmp_path / "a"),
+                    "--no-report",
+                    "-q",
+                ]
+            )
+            == 0
+        )
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["time"]["allocated_s"] == 540.0
+    talk_s = summary["talk_s"]
+    assert summary["time"]["over_under_pct"] == pytest.approx(100 * (talk_s - 540) / 540, abs=0.01)
+    assert "had 540 s allocated; kept (the rules given say 600 s" in caplog.text
+    # --allocated still decides when given
+    assert (
+        main(
+            [
+                "replay",
+                str(src),
+                "--config",
+                str(rules),
+                "--out",
+                str(tmp_path / "b"),
+                "--allocated",
+                "10m",
+                "--no-report",
+                "-q",
+            ]
+        )
+        == 0
+    )
+    summary = json.loads((tmp_path / "b" / "summary.json").read_text())
+    assert summary["time"]["allocated_s"] == 600.0
+
+
 def test_replay_room_needs_rules(demo_session: Path, tmp_path: Path) -> None:
     room = tmp_path / "room.toml"
     room.write_text('format = 1\n[room]\nname = "hall"\n')
