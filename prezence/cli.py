@@ -10,6 +10,7 @@ import argparse
 import contextlib
 import json
 import logging
+import re
 import shlex
 import signal
 import sys
@@ -1031,8 +1032,24 @@ def list_names(what: str) -> list[str]:
     return list(BACKENDS)
 
 
+def _glue_negative_values(argv: Sequence[str]) -> list[str]:
+    """``--allocated -5m`` as ``--allocated=-5m``: argparse takes a value that starts with a
+    dash and is not a plain number for an option, and says only "expected one argument"; glued,
+    the option's own check names what is wrong ("must be > 0"). No option starts with a digit.
+    """
+    out: list[str] = []
+    for i, a in enumerate(argv):
+        prev = argv[i - 1] if i else ""
+        if out and prev.startswith("--") and "=" not in prev and re.match(r"-[\d.]", a):
+            out[-1] = f"{prev}={a}"
+        else:
+            out.append(a)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
+    argv = _glue_negative_values(sys.argv[1:] if argv is None else list(argv))
     args, extra = parser.parse_known_args(argv)
     if args.list:
         try:

@@ -171,6 +171,9 @@ def test_check_config_warns_about_a_misspelt_metric(
         (["evaluate", "--first-seed", "-1"], "--first-seed: '-1': must be 0 or more"),
         (["evaluate", "--presenters", "cost:-1"], "presenter model 'cost:-1'"),
         (["rehearse", "x.wav", "--allocated", "99:99"], "'99:99' is not a length of time"),
+        # a value with a dash is not taken for an option (argparse said "expected one argument")
+        (["rehearse", "x.wav", "--allocated", "-5m"], "--allocated: '-5m': the time must be > 0"),
+        (["up", "--audio", "x.wav", "--allocated", "-1:30"], "'-1:30': the time must be > 0"),
     ],
 )
 def test_a_bad_value_is_an_error_line_not_a_traceback(
