@@ -67,6 +67,24 @@ def test_replay_of_a_folder_without_streams_names_it(tmp_path: Path) -> None:
         replay(tmp_path / "src", out=tmp_path / "out", options=RunOptions.default())
 
 
+def test_rules_whose_metrics_have_no_stream_show_the_streams_that_are_there(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Session 20: a rules file naming only a misspelt metric said "no stream files found" of a
+    # folder holding the streams; the error now lists them and the close one.
+    src = tmp_path / "rec" / "streams"
+    src.mkdir(parents=True)
+    for name in ("speech_speed", "speech_volume"):
+        (src / f"{name}.txt").write_text("0 150.0\n1 150.0\n")
+    rules = tmp_path / "rules.txt"
+    rules.write_text("speech_sped inRange 140 180 speedUp slowDown\n")
+    argv = ["replay", str(src.parent), "--config", str(rules), "--out", str(tmp_path / "o")]
+    assert main([*argv, "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "holds speech_speed.txt, speech_volume.txt" in err, err
+    assert "did you mean speech_speed.txt for speech_sped.txt?" in err, err
+
+
 def test_replay_cli_on_plain_stream_files(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
