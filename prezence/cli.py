@@ -123,9 +123,10 @@ def format_timeline(summary: dict[str, Any]) -> str:
     lines += [f"  {n}" for n in metric_notes(summary)]  # the dashes and stars, in words
     tm = summary["time"]
     if tm.get("allocated_s"):
+        cut = ", or more: stopped at the time limit" if tm.get("stopped_at_limit") else ""
         lines.append(
             f"time used {_mmss(tm['used_s'])} of {_mmss(tm['allocated_s'])} "
-            f"({tm['over_under_pct']:+.1f}%)"
+            f"({tm['over_under_pct']:+.1f}%{cut})"
         )
     c = summary["counts"]
     cut = f", cut short {c['cues_cut_short']}" if c.get("cues_cut_short") else ""

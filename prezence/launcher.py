@@ -476,17 +476,28 @@ class LiveSource(SourceBase):
     Args:
         modules: the modules to run (names must differ).
         end_at: talk seconds after which the talk ends (None: until stopped).
+        grace_s: ``end_at`` is the allocated time plus this grace (None: a fixed length): a
+            talk still going on there was cut by the time limit, and the summary says so.
     """
 
     kind = "live"
 
-    def __init__(self, modules: Sequence[ModuleSpec], *, end_at: float | None) -> None:
+    def __init__(
+        self,
+        modules: Sequence[ModuleSpec],
+        *,
+        end_at: float | None,
+        grace_s: float | None = None,
+    ) -> None:
         names = [m.name for m in modules]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"two modules are called {', '.join(dup)}: give each its own name")
         self.modules = list(modules)
         self.end_at = end_at
+        self.grace_s = grace_s
+        #: the time limit stopped the talk while an input still went on
+        self.stopped_at_limit = False
         self.t0_epoch = 0.0
         self.procs: list[ModuleProcess] = []
         self._logs: list[IO[str]] = []
@@ -517,7 +528,10 @@ class LiveSource(SourceBase):
             p.start(0.0)
 
     def meta(self) -> dict[str, Any]:
-        return {"t0_epoch": self.t0_epoch}
+        # Every input a file played as if live: the person in it could not hear the robot
+        # (the report then judges no cue by what followed it, as for a rehearsal).
+        recorded = bool(self.modules) and all(m.finite for m in self.modules)
+        return {"t0_epoch": self.t0_epoch, **({"recorded_inputs": True} if recorded else {})}
 
     def poll(self, now: float) -> Sequence[Sample]:
         assert self._tailer is not None
@@ -529,6 +543,19 @@ class LiveSource(SourceBase):
 
     def ended(self, now: float) -> bool:
         if self.end_at is not None and now >= self.end_at:
+            going_on = [p for p in self.procs if not (p.spec.finite and p.finished)]
+            if self.grace_s is not None and going_on and not self.stopped_at_limit:
+                # Session 20: a 360 s file played with --allocated 5m stopped at 5:30 and was
+                # reported as "5:30 used, 10 % over", nothing said it was cut.
+                self.stopped_at_limit = True
+                log.warning(
+                    "the talk reached the allocated time plus the %g s grace (%s) and was "
+                    "stopped while %s still went on: the time used is at least that "
+                    "(--grace gives more time)",
+                    self.grace_s,
+                    f"{int(self.end_at // 60)}:{self.end_at % 60:04.1f}",
+                    ", ".join(p.spec.name for p in going_on),
+                )
             return True
         fatal = next((p for p in self.procs if p.fatal), None)
         if fatal is not None:
@@ -610,6 +637,11 @@ class LiveSource(SourceBase):
             "kind": "live",
             **({"error": self.error} if self.error is not None else {}),
             "modules": modules,
+            **(
+                {"stopped_at_time_limit": {"at_s": self.end_at, "grace_s": self.grace_s}}
+                if self.stopped_at_limit
+                else {}
+            ),
         }
 
 
@@ -654,9 +686,11 @@ def up(
     if problems:
         raise PrezenceError("; ".join(problems))
     end_at = duration_s
+    limit_grace: float | None = None
     if end_at is None and config.time.allocated_s is not None:
         end_at = config.time.allocated_s + grace_s
-    source = LiveSource(modules, end_at=end_at)
+        limit_grace = grace_s
+    source = LiveSource(modules, end_at=end_at, grace_s=limit_grace)
     target = SessionDir(Path(session_dir))
     if target.holds_recording():  # refused before the robot moves
         target.create()  # raises: a recording is never overwritten

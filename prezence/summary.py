@@ -650,6 +650,10 @@ def build_summary(
     time_used: dict[str, Any] = {"used_s": round(talk_s, 3), "allocated_s": allocated}
     if allocated:
         time_used["over_under_pct"] = round(100.0 * (talk_s - allocated) / allocated, 2)
+    if (extra or {}).get("stopped_at_time_limit"):
+        # the talk went on past the allocated time plus its grace and was stopped there: the
+        # time used is at least this
+        time_used["stopped_at_limit"] = True
     malformed = sum(int(s.get("malformed", 0)) for s in (stream_stats or {}).values())
     n_cut = sum(1 for r in cue_rows if "cut_short" in r)
     out: dict[str, Any] = {

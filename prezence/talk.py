@@ -611,9 +611,13 @@ class Talk:
         from prezence.report.speech import summary_phrase
 
         # summary.json is not written yet: the modules' crashes come from the source
-        modules = self.source.summary_extra().get("modules")
-        report = build_report(self.session.root, config=self.config, ended=True, modules=modules)
+        extra = self.source.summary_extra()
+        report = build_report(
+            self.session.root, config=self.config, ended=True, modules=extra.get("modules")
+        )
         report["stopped_repeating"] = notes  # summary.json is written after this
+        if extra.get("stopped_at_time_limit"):  # the time used is at least the talk's length
+            report["time"]["stopped_at_limit"] = True
         phrase = summary_phrase(report)
         try:
             return coach.post_talk(phrase, now, step_s=step_s, pace=pace)

@@ -256,6 +256,12 @@ def heard_cues(
             "a recorded rehearsal is coached after it was recorded, so the speaker heard none "
             "of these cues"
         )
+    if kind == "live" and meta.get("recorded_inputs"):
+        # `up` with files played as if live: the person in them could not hear the robot
+        return [None] * len(cues), (
+            "the talk's inputs were recordings played as if live, so the speaker heard none "
+            "of these cues"
+        )
     if kind != "replay":
         return [own] * len(cues), None
     why = "this is a replay, whose speaker heard the recording's cues, not these"
@@ -733,6 +739,8 @@ def _rebuild(
     helped = [r for r in cue_rows if r.get("improved") is not None]
 
     time_used = dict(summary["time"])
+    if recorded.get("stopped_at_time_limit"):  # cut at the allocated time plus the grace
+        time_used["stopped_at_limit"] = True
     cued = {str(c["metric"]) for c in cues if c.get("metric")}
     # advice only on what was measured long enough, and not by a fallback (MIN_JUDGED_S)
     judged_dev = {k: v for k, v in dev_s.items() if judged(metrics.get(k) or {})}

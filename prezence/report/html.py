@@ -101,6 +101,11 @@ def _time_card(report: Mapping[str, Any]) -> str:
         cls = "ok" if abs(pct) < 5 else "over" if pct > 0 else "under"
         word = "over" if pct > 0 else "under"
         detail = f'<span class="{cls}">{abs(pct):.0f}% {word}</span> the {_mmss(alloc)} allocated'
+        if t.get("stopped_at_limit"):
+            detail = (
+                f'<span class="{cls}">at least {abs(pct):.0f}% over</span> the {_mmss(alloc)} '
+                "allocated: still going when the time limit stopped the talk"
+            )
     else:
         detail = "no time allocated"
     return (

@@ -52,6 +52,11 @@ def time_sentence(report: Mapping[str, Any]) -> str:
         'You used 9 minutes 48 seconds of 10 minutes, 2% under.'
         >>> time_sentence({"time": {"used_s": 300.0, "allocated_s": None}})
         'You spoke for 5 minutes.'
+        >>> cut = {"used_s": 330.0, "allocated_s": 300.0, "over_under_pct": 10.0,
+        ...        "stopped_at_limit": True}
+        >>> print(time_sentence({"time": cut}))  # doctest: +NORMALIZE_WHITESPACE
+        You were still going when the coach stopped at 5 and a half minutes, after the
+        5 minutes allocated: at least 10% over.
     """
     t = report["time"]
     used = float(t["used_s"])
@@ -60,6 +65,11 @@ def time_sentence(report: Mapping[str, Any]) -> str:
         return f"You spoke for {_spoken_minutes(used)}."
     alloc = float(alloc)
     pct = float(t.get("over_under_pct", 0.0))
+    if t.get("stopped_at_limit"):  # cut at the allocated time plus the grace: a lower bound
+        return (
+            f"You were still going when the coach stopped at {_spoken_minutes(used)}, after "
+            f"the {_spoken_minutes(alloc)} allocated: at least {pct:.0f}% over."
+        )
     side = "over" if pct > 0 else "under"
     on_time = abs(pct) < 1.0
     how = "right on time" if on_time else f"{abs(pct):.0f}% {side}"

@@ -73,6 +73,46 @@ def test_up_runs_modules_and_coaches_live(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+def test_a_talk_the_time_limit_stops_says_the_time_used_is_a_lower_bound(tmp_path: Path) -> None:
+    # Session 20, a tester: a 360 s file played with --allocated 5m stopped at 5:30 (the
+    # allocated time plus the grace) and the report said "You used 5 and a half minutes of 5
+    # minutes, 10% over", the console "+10.1%": nothing said the last 30 s were cut. And the
+    # cues of a talk whose inputs are files were judged by what followed them, as if the
+    # person in the recording had heard the robot.
+    from dataclasses import replace
+
+    from prezence.cli import format_timeline
+    from prezence.report.build import build_report
+
+    config = replace(CONFIG, time=TimeSettings(allocated_s=4.0, warn_at_s_left=()))
+    recorded = replace(pace(), finite=True)  # an input file, still playing at the limit
+    result = up(
+        config,
+        session_dir=tmp_path / "s",
+        modules=[recorded],
+        backend=FakeBackend(time_scale=0.01),
+        grace_s=2.0,
+        options=RunOptions.default(report=True),
+    )
+    t = result.summary["time"]
+    assert t["stopped_at_limit"] is True
+    assert 6.0 <= t["used_s"] < 9.0 and t["over_under_pct"] > 0
+    assert "or more: stopped at the time limit" in format_timeline(result.summary)
+    report = build_report(tmp_path / "s")
+    assert report["time"]["stopped_at_limit"] is True
+    spoken = (tmp_path / "s" / "report" / "spoken.txt").read_text()
+    assert spoken.startswith("You were still going when the coach stopped at"), spoken
+    assert "at least" in result.summary["post_talk"]["phrase"]
+    assert (
+        "still going when the time limit stopped"
+        in (tmp_path / "s" / "report" / "report.html").read_text()
+    )
+    assert "inputs were recordings played as if live" in report["effects_not_judged"]
+    cues = [c for c in report["cues"] if c.get("metric") == "speech_speed"]
+    assert cues and all(c.get("heard") is False for c in cues), report["cues"]
+
+
+@pytest.mark.slow
 def test_up_skips_values_outside_the_physical_range_and_says_where(tmp_path: Path) -> None:
     # The walkthrough's bad_speed.py: 5000 wpm was cued as "2678 % above 180 wpm" and the
     # summary's stream problems were empty.
