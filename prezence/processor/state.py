@@ -140,6 +140,12 @@ class MetricState:
             self.late += 1
             return False
         self._move_base(t)  # with the value held until now
+        # After a gap longer than the staleness limit nothing is known of the time between:
+        # an out-of-range stretch starts again at this sample (session 20: a 40 s pause, with
+        # no speed written, counted in "since 22 s, 65 s after onset", and a report's delay
+        # was counted across 28 s without a sample).
+        if t - self.last_sample_t > self.stale_after_s:
+            self.out_since = None
         self.value = value
         self.last_sample_t = t
         self.samples += 1

@@ -423,3 +423,25 @@ def test_weight_at_a_time_does_not_depend_on_the_decision_points_before_it() -> 
     coarse, fine = weights(0.5), weights(0.1)
     assert coarse == fine
     assert max(max(w) for w in coarse.values()) > 600.0  # the weights did grow
+
+
+def test_a_problem_after_a_gap_without_samples_starts_at_the_first_sample_after_it() -> None:
+    # Session 20, a tester: a speaker too fast before a 40 s pause (no speed written in it) was
+    # cued "since 22 s" on resuming, as if the pause had been too fast too; a report's delay
+    # was counted across 28 s without a sample. Nothing is known of a gap longer than the
+    # staleness limit, so the out-of-range stretch starts again after it.
+    p = make(SPEED, threshold=600, policy="weighted:persistence_s=0", stale_after_s=6.0)
+    ds = []
+    t = 0.0
+    while t < 120.0:
+        t = round(t + 0.5, 9)
+        fed = t < 10.0 or t >= 40.0  # silent, no samples, from 10 to 40 s
+        batch = [Sample("speech_speed", t, 225.0)] if fed else []
+        d = p.step(t, batch, free_since=0.0)
+        if d.cue:
+            ds.append(d)
+    assert ds, "the held problem is cued after the gap"
+    first = ds[0].cue
+    assert first.command == "slowDown" and first.t > 40.0
+    assert first.onset == pytest.approx(40.0)
+    assert "since 40.0 s" in ds[0].reason
