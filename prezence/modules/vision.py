@@ -62,10 +62,13 @@ Small faces: FaceMesh misses a face of about 30-45 px in a big frame (a presente
     tall frame). When it finds none in the whole frame and the pose model sees the head's
     keypoints, FaceMesh looks again in a square about them (2.5 times their extent), scaled up
     to :data:`CROP_SIZE`; the landmarks are mapped back to the whole frame's pixels (one scale on
-    both axes, so the angles are the same geometry). Not in ``--no-gestures`` runs (the pose
-    model does not run there). A face it does find but narrower than :data:`SMALL_FACE_SHARE`
-    of the frame's longer side can read far off: it is read from the close-up instead, when
-    the close-up finds a face whose centre is in the whole frame's face box.
+    both axes, so the angles are the same geometry). A face it does find but narrower than
+    :data:`SMALL_FACE_SHARE` of the frame's longer side can read far off: it is read from the
+    close-up instead, when the close-up finds a face whose centre is in the whole frame's face
+    box. With ``--no-gestures`` (no pose model) the square is about the face's own box
+    (:data:`FACE_BOX_MARGIN` times it; the last close-up's box while there is one), and a face
+    the whole frame does not find is looked for about its last box (for
+    :data:`LOST_FACE_SEARCH_S`) or where mediapipe's full-range face detector sees one.
 
 Mirrored video (``--mirrored``): a selfie camera or app mirrors the picture, which swaps the
     presenter's left and right: head yaw's sign flips, and the report's "head turned to your
@@ -184,6 +187,18 @@ CROP_SIZE = 256
 #: same faces in a tall 240x426 or 320x568 frame (0.07-0.12 of it) up to 32 deg off.
 SMALL_FACE_SHARE = 0.13
 
+#: Without the pose model (``--no-gestures``) a small face's close-up is a square about its own
+#: face box (FaceMesh's landmarks), this many times the box's longer side (session 20: 2.0 and
+#: 2.5 read the tuned tall copies of ``gestures_b``/``c`` alike, within 0.5 deg) ...
+FACE_BOX_MARGIN = 2.0
+#: ... or about the box of mediapipe's full-range face detector (eyes to mouth: smaller).
+DETECT_BOX_MARGIN = 2.5
+
+#: Without the pose model, a small face lost in the whole frame is looked for in a close-up about
+#: where it was last seen for this long, seconds, then no more (a presenter who left the view
+#: is not searched for, and the cost stays one close-up a frame).
+LOST_FACE_SEARCH_S = 2.0
+
 #: No gesture rate is written before this much video has been seen (or the whole
 #: ``--gesture-window`` when that is shorter).
 GESTURE_MIN_WINDOW_S = 10.0
@@ -297,6 +312,8 @@ class HeadPoseEstimator:
         #: coordinates into the whole frame's, nor the other way); made when first needed
         self._fm_crop: Any = None
         self._face_mesh = face_mesh
+        #: mediapipe's full-range face detector (:meth:`face_boxes`); made when first needed
+        self._fd: Any = None
 
     @staticmethod
     def _mesh(fm: Any, bgr: np.ndarray) -> list[np.ndarray]:
@@ -358,6 +375,29 @@ class HeadPoseEstimator:
         pts[:, 1] += y0
         return pts
 
+    def face_boxes(self, bgr: np.ndarray) -> list[tuple[int, int, int, int]]:
+        """Boxes ``(x0, y0, x1, y1)``, pixels, of the faces mediapipe's full-range face detector
+        finds in the frame (made for faces far from the camera: it finds the 25-50 px faces of
+        tall frames that FaceMesh's own detector misses). No landmarks: where to look closer."""
+        if self._fm is None:
+            raise ValueError("HeadPoseEstimator is closed")
+        if self._fd is None:
+            import mediapipe as mp
+
+            self._fd = mp.solutions.face_detection.FaceDetection(
+                model_selection=1, min_detection_confidence=0.5
+            )
+        h, w = bgr.shape[:2]
+        res = self._fd.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        boxes = []
+        for d in res.detections or []:
+            b = d.location_data.relative_bounding_box
+            x0, y0 = int(round(b.xmin * w)), int(round(b.ymin * h))
+            x1, y1 = int(round((b.xmin + b.width) * w)), int(round((b.ymin + b.height) * h))
+            if x1 > x0 and y1 > y0:
+                boxes.append((x0, y0, x1, y1))
+        return boxes
+
     def estimate_in(
         self, bgr: np.ndarray, square: tuple[int, int, int], *, size: int = CROP_SIZE
     ) -> HeadPose | None:
@@ -394,7 +434,8 @@ class HeadPoseEstimator:
         """Release the graphs; a second call does nothing."""
         fm, self._fm = self._fm, None
         crop, self._fm_crop = self._fm_crop, None
-        for g in (fm, crop):
+        fd, self._fd = self._fd, None
+        for g in (fm, crop, fd):
             if g is not None:
                 g.close()
 
@@ -443,7 +484,7 @@ class PresenterFace:
         self.max_step = float(max_step)
         self.growth = float(growth)
         self.box: tuple[int, int, int, int] | None = None  #: the presenter's face, last seen
-        self._seen_t = 0.0
+        self.seen_t = 0.0  #: when ``box`` was seen
         self.second_face_at: float | None = None  #: when a second face was first seen
 
     def choose(
@@ -478,12 +519,12 @@ class PresenterFace:
             chosen = self._first(faces, frame_height, nose)
         else:
             last, w = _centre(self.box), _width(self.box)
-            reach = (self.max_step + self.growth * max(0.0, t - self._seen_t)) * w
+            reach = (self.max_step + self.growth * max(0.0, t - self.seen_t)) * w
             dist = [float(np.linalg.norm(_centre(f.box) - last)) for f in faces]
             k = int(np.argmin(dist))
             chosen = faces[k] if dist[k] <= reach else None
         if chosen is not None:
-            self.box, self._seen_t = chosen.box, t
+            self.box, self.seen_t = chosen.box, t
         return chosen
 
     @staticmethod
@@ -1343,6 +1384,98 @@ def _close_up(
     return body, estimator.estimate_in(frame, square) if square is not None else None
 
 
+def _box_square(box: tuple[int, int, int, int], margin: float) -> tuple[int, int, int]:
+    """A square ``(x0, y0, side)`` centred on ``box``, ``margin`` times its longer side."""
+    side = int(round(margin * max(box[2] - box[0], box[3] - box[1])))
+    c = _centre(box)
+    return int(round(c[0] - side / 2)), int(round(c[1] - side / 2)), side
+
+
+def _close_up_no_body(
+    estimator: HeadPoseEstimator,
+    presenter_face: PresenterFace,
+    frame: np.ndarray,
+    t: float,
+    pose: HeadPose | None,
+    faces: list[HeadPose],
+    last_face: tuple[tuple[int, int, int, int] | None, float],
+    summary: RunSummary,
+    name: str,
+) -> tuple[HeadPose | None, list[HeadPose]]:
+    """Small faces without the pose model (``--no-gestures``): the presenter's face and the
+    frame's faces after a close-up about the face's own box.
+
+    A small face the whole frame finds (narrower than :data:`SMALL_FACE_SHARE` of its longer
+    side) is read from a close-up about its box (:data:`FACE_BOX_MARGIN`) when the close-up
+    finds a face whose centre is in that box. A presenter's face not found in the whole frame
+    is looked for in a close-up about its last box (for :data:`LOST_FACE_SEARCH_S` after it
+    was last seen, when it was small), else about the face mediapipe's full-range face
+    detector sees (:meth:`HeadPoseEstimator.face_boxes`; the one nearest the presenter's last
+    face); a face found there is kept when it is small (a bigger one the whole frame would
+    read) and :class:`PresenterFace` takes it (near enough the presenter's last face)."""
+    longer = max(frame.shape[:2])
+    last, last_t = last_face  # the presenter's face before this frame, and when
+    recent = (
+        last is not None
+        and t - last_t <= LOST_FACE_SEARCH_S
+        and _width(last) < SMALL_FACE_SHARE * longer
+    )
+    if pose is not None:
+        if _width(pose.box) >= SMALL_FACE_SHARE * longer:
+            return pose, faces
+        # About the last close-up's box when there is one: the close-up's FaceMesh tracks the
+        # face from crop to crop, and a square that jumps to the whole frame's box (itself off
+        # when the fit is off) made it follow the misfit (session 20: 21 deg of yaw on p240_d)
+        close = estimator.estimate_in(
+            frame, _box_square(last if recent and last is not None else pose.box, FACE_BOX_MARGIN)
+        )
+        if close is None or not _inside(_centre(close.box), pose.box):
+            return pose, faces
+        summary.close_up_faces += 1
+        summary.box_close_ups += 1
+        if summary.box_close_ups == 1:
+            log.info(
+                "%s: the face is small in the frame at %.1f s (%.0f px, under %.0f %% of its "
+                "side): read from a close-up of its box (no pose model with --no-gestures)",
+                name,
+                t,
+                _width(pose.box),
+                100 * SMALL_FACE_SHARE,
+            )
+        presenter_face.box = close.box
+        return close, [close if f is pose else f for f in faces]
+    found: HeadPose | None = None
+    if recent and last is not None:
+        found = estimator.estimate_in(frame, _box_square(last, FACE_BOX_MARGIN))
+    if found is None:
+        # Where the full-range face detector sees a face (the presenter's last place nearest)
+        boxes = estimator.face_boxes(frame)
+        if boxes:
+            if last is not None:
+                box = min(boxes, key=lambda b: float(np.linalg.norm(_centre(b) - _centre(last))))
+            else:
+                box = max(boxes, key=_width)
+            found = estimator.estimate_in(frame, _box_square(box, DETECT_BOX_MARGIN))
+            if found is not None and not _inside(_centre(found.box), box, grow=0.25):
+                found = None
+    if found is None or _width(found.box) >= SMALL_FACE_SHARE * longer:
+        return pose, faces  # none, or not a small face (the whole frame reads those)
+    found = presenter_face.choose(t, [found], frame_height=frame.shape[0])
+    if found is None:
+        return pose, faces  # not near enough the presenter's last face
+    summary.close_up_faces += 1
+    if summary.lost_face_close_ups == 0:
+        log.info(
+            "%s: the face is small in the frame at %.1f s and not found in the whole frame: "
+            "found in a close-up about where it was last seen or where the full-range face "
+            "detector sees it (no pose model with --no-gestures)",
+            name,
+            t,
+        )
+    summary.lost_face_close_ups += 1
+    return found, [*faces, found]
+
+
 def mask_boxes(bgr: np.ndarray, boxes: list[tuple[int, int, int, int]]) -> np.ndarray:
     """Return a copy of ``bgr`` with each box (grown by a fifth of its size each side) filled
     with the frame's mean colour."""
@@ -1586,6 +1719,12 @@ class RunSummary:
     analysed: int = 0
     faces: int = 0
     close_up_faces: int = 0  #: of ``faces``, found only in a close-up of the head
+    #: of ``close_up_faces``, without the pose model: a small face the whole frame found, read
+    #: from a close-up of its box
+    box_close_ups: int = 0
+    #: ... and one the whole frame did not find, found in a close-up (its last box or the face
+    #: detector's)
+    lost_face_close_ups: int = 0
     samples: dict[str, int] = field(default_factory=lambda: dict.fromkeys(STREAMS, 0))
     bursts: list[float] = field(default_factory=list)
     head: bool = False
@@ -1735,6 +1874,7 @@ def run(
                             source.name,
                             t,
                         )
+            last_face = (presenter_face.box, presenter_face.seen_t)
             pose = presenter_face.choose(t, faces, frame_height=frame.shape[0], nose=last_nose)
             if (
                 pose is not None
@@ -1768,6 +1908,18 @@ def run(
                             _width(pose.box),
                             100 * SMALL_FACE_SHARE,
                         )
+            if estimator is not None and tracker is None:
+                pose, faces = _close_up_no_body(
+                    estimator,
+                    presenter_face,
+                    frame,
+                    t,
+                    pose,
+                    faces,
+                    last_face,
+                    summary,
+                    source.name,
+                )
             if pose is not None:
                 summary.faces += 1
             if estimator is not None:
