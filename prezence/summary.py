@@ -103,6 +103,9 @@ SPEECH_STATUS = "speech.json"
 
 #: ``cv_gestures_source``'s value for a rate from the frame difference (the fallback).
 GESTURES_FROM_MOTION = 2.0
+#: ``cv_gestures_source``'s value for a rate from the body whose window had an arm hidden (or the
+#: body out of view) in 10 % or more of its frames: it counts what was seen, and may be low.
+GESTURES_PARTLY_COUNTED = 3.0
 
 
 def _failure_text(msg: str) -> str:
@@ -142,11 +145,22 @@ def _stream_values(folder: Any, metric: str) -> list[float]:
 
 def estimate_notes(root: Any) -> dict[str, str]:
     """Per metric, why its figures are an estimate, as far as the session folder records it
-    (the speech module's ``speech.json``: the volume of an uncalibrated microphone). Unlike
+    (the speech module's ``speech.json``: the volume of an uncalibrated microphone; the gesture
+    rate where ``cv_gestures_source`` says an arm was hidden in part of the window). Unlike
     ``less_reliable`` these keep their advice: a level relative to a guessed offset still says
     louder or quieter, but its dB SPL figure is not a measurement."""
     est = _module_status(root, SPEECH_STATUS).get("estimate")
-    return {str(k): str(v) for k, v in est.items()} if isinstance(est, Mapping) else {}
+    notes = {str(k): str(v) for k, v in est.items()} if isinstance(est, Mapping) else {}
+    source = _stream_values(root, "cv_gestures_source")
+    partly = sum(1 for v in source if v == GESTURES_PARTLY_COUNTED)
+    if partly:
+        written = sum(1 for v in source if v != 0.0)
+        notes["cv_gestures"] = (
+            f"in {partly} of its {written} samples an arm was hidden from the camera (or the "
+            "body out of view) in part of the window, so the rate there counts the gestures "
+            "seen and may be low (vision.log says when)"
+        )
+    return notes
 
 
 def measurement_notes(

@@ -110,6 +110,28 @@ def test_a_video_without_audio_gets_no_praise_for_fallback_gestures(tmp_path: Pa
     assert "Every measured metric" not in text and "Every judged metric" not in text
 
 
+def test_a_gesture_rate_counted_with_an_arm_hidden_is_said_to_be_maybe_low(
+    tmp_path: Path,
+) -> None:
+    # Session 20: where an arm was hidden in part of a window the vision module writes the rate
+    # it counted with cv_gestures_source 3; the report said nothing of it (a rate that may be
+    # low read as any other). It keeps its advice (a rate too high stays too high) with a note.
+    session = rehearsal(tmp_path / "s", {}, talk_s=48.0)
+    rows = range(10, 48)
+    session.stream("cv_gestures.txt").write_text("".join(f"{t} 6.0\n" for t in rows))
+    session.stream("cv_gestures_source.txt").write_text(
+        "".join(f"{t} {3 if 20 <= t < 30 else 1}\n" for t in rows)
+    )
+    report = build_report(session.root)
+    m = report["metrics"]["cv_gestures"]
+    assert "less_reliable" not in m
+    assert m["estimate"].startswith("in 10 of its 38 samples an arm was hidden from the camera")
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert "gestures: in 10 of its 38 samples an arm was hidden" in text
+    assert "may be low (vision.log says when)" in text
+
+
 def test_a_two_second_recording_is_too_short_to_judge(tmp_path: Path) -> None:
     # walk 2, item 6: pace and clarity 'no data', one volume sample, 'stale episodes 2', and
     # 'Everything I could measure stayed in the ideal range. Well done!'
