@@ -33,6 +33,7 @@ import argparse
 import json
 import logging
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -122,15 +123,24 @@ def bench_cpu(scale: int) -> None:
         print(f"  module   {whole:.3f}  (head pose + body gestures at --fps {opts.fps:g}, decode)")
 
 
-def run_module(name: str, opts: vision.VisionOptions) -> tuple[vision.RunSummary, Path, float]:
+def run_module(
+    name: str, opts: vision.VisionOptions
+) -> tuple[vision.RunSummary, dict[str, list[tuple[float, float]]], float]:
+    """One video through the module's loop: its summary, its streams (read, and the session
+    folder removed: each call left one in the temp folder) and the CPU seconds it took."""
     tmp = Path(tempfile.mkdtemp(prefix="bench-vision-"))
-    src = vision.FileSource(MATERIAL / name)
-    t0 = time.process_time()
     try:
-        summary = vision.run(src, tmp, opts)
+        src = vision.FileSource(MATERIAL / name)
+        t0 = time.process_time()
+        try:
+            summary = vision.run(src, tmp, opts)
+        finally:
+            src.close()
+        cpu = time.process_time() - t0
+        streams = {p.stem: read_stream(p) for p in (tmp / "streams").glob("*.txt")}
     finally:
-        src.close()
-    return summary, tmp, time.process_time() - t0
+        shutil.rmtree(tmp, ignore_errors=True)
+    return summary, streams, cpu
 
 
 def bench_gestures() -> None:
@@ -142,11 +152,11 @@ def bench_gestures() -> None:
             opts = vision.VisionOptions(
                 calibrate_s=2.0, gesture_window_s=entry["duration_s"], gesture_source=src
             )
-            summary, out, cpu = run_module(entry["file"], opts)
+            summary, streams, cpu = run_module(entry["file"], opts)
             found = summary.bursts
             hits = sum(1 for s, _ in truth if any(abs(f - s) <= MATCH_S for f in found))
             false = [f for f in found if all(not (s - MATCH_S <= f <= e) for s, e in truth)]
-            t_end, read = read_stream(out / "streams" / "cv_gestures.txt")[-1]
+            t_end, read = streams["cv_gestures"][-1]
             # The last sample's rate is over the video seen until then.
             n_true = sum(1 for s, _ in truth if s <= t_end)
             true = n_true / min(entry["duration_s"], t_end) * 60.0
@@ -169,10 +179,8 @@ def bench_head() -> None:
             if entry["role"] != role:
                 continue
             opts = vision.VisionOptions(fps=0, calibrate_s=entry["calibration_s"], gestures=False)
-            _, out, _ = run_module(entry["file"], opts)
-            streams = out / "streams"
-            est = {"yaw": read_stream(streams / "cv_headYaw.txt")}
-            est["pitch"] = read_stream(streams / "cv_headGaze.txt")
+            _, streams, _ = run_module(entry["file"], opts)
+            est = {"yaw": streams["cv_headYaw"], "pitch": streams["cv_headGaze"]}
             parts = []
             for axis in ("yaw", "pitch"):
                 errs = []
