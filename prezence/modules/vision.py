@@ -1595,6 +1595,10 @@ def open_video(path: Path) -> cv2.VideoCapture:
         raise VisionInputError(path, "not a file")
     if path.stat().st_size == 0:
         raise VisionInputError(path, "empty file (0 bytes), not a video")
+    # OpenCV's FFmpeg backend prints libav's own complaint ("[mov,mp4,…] moov atom not found")
+    # to stderr before the error below says the same in words: quiet it (read when the backend
+    # first opens a file; a user's own setting is kept, e.g. to debug a decoder).
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
         if _sound_only(path):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -380,6 +381,29 @@ def test_up_refuses_a_file_its_module_cannot_read_and_leaves_no_folder(
     assert "Errno" not in captured.err
     assert "time used" not in captured.out  # no results of a talk that never ran
     assert not out.exists()
+
+
+def test_a_text_file_named_mp4_gives_one_error_line_without_the_decoders_own(
+    tmp_path: Path,
+) -> None:
+    # Session 20, a tester: `up --video notes.mp4` (a text file) printed libav's raw
+    # "[mov,mp4,m4a,3gp,3g2,mj2 @ 0x55…] moov atom not found" before the error line. A fresh
+    # process: OpenCV's FFmpeg backend reads its log level once, when it first opens a file.
+    pytest.importorskip("cv2")
+    notes = tmp_path / "notes.mp4"
+    notes.write_text("my speaker notes\n")
+    out = tmp_path / "s"
+    argv = ["up", "--video", str(notes), "--backend", "fake", "--duration", "3", "--out", str(out)]
+    env = {k: v for k, v in os.environ.items() if k != "OPENCV_FFMPEG_LOGLEVEL"}
+    p = subprocess.run(
+        [sys.executable, "-m", "prezence", *argv], capture_output=True, text=True, env=env
+    )
+    assert p.returncode == 2
+    lines = p.stderr.strip().splitlines()
+    assert lines == [
+        f"error: --video {notes}: cannot be read as a video (no video stream, e.g. "
+        "a sound-only recording; a wrong format; or a truncated file)"
+    ], p.stderr
 
 
 def test_rehearse_a_folder_says_it_is_a_folder(
