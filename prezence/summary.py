@@ -46,7 +46,8 @@ def _in_range_time(
     stale_s: float,
     cuts: Sequence[float] = (),
 ) -> dict[str, float]:
-    """Sample-and-hold the values over the talk: seconds in range, out of range, no data.
+    """Sample-and-hold the values over the talk: seconds in range, out of range (and of
+    that, below and above the band), no data.
 
     ``ts`` (sorted) and ``vs`` are the samples' times and values. Each value holds from its
     time until the next sample, the stale time, the talk's end or the next of ``cuts`` (its
@@ -61,11 +62,9 @@ def _in_range_time(
         end = np.minimum(end, hold_ends(t, cuts))
     dt = np.maximum(end - t, 0.0)
     v = vs[:k] + rule.offset
-    out = np.zeros(k, dtype=bool)
-    if rule.low is not None:
-        out |= v < rule.low
-    if rule.high is not None:
-        out |= v > rule.high
+    below = v < rule.low if rule.low is not None else np.zeros(k, dtype=bool)
+    above = v > rule.high if rule.high is not None else np.zeros(k, dtype=bool)
+    out = below | above
     in_s = float(dt[~out].sum())
     out_s = float(dt[out].sum())
     longest_out = 0.0
@@ -79,6 +78,9 @@ def _in_range_time(
     return {
         "in_range_s": round(in_s, 3),
         "out_of_range_s": round(out_s, 3),
+        # each side on its own: a pace both too slow and too fast is two things to say
+        "below_s": round(float(dt[below].sum()), 3),
+        "above_s": round(float(dt[above].sum()), 3),
         "no_data_s": round(max(0.0, talk_s - covered), 3),
         "time_in_range": round(in_s / covered, 4) if covered > 0 else None,  # type: ignore[dict-item]
         "longest_out_of_range_s": round(longest_out, 3),

@@ -317,52 +317,163 @@ def _reaction(summary: Mapping[str, Any], cue: Mapping[str, Any]) -> Mapping[str
     return None
 
 
+#: A metric out of its band for at least this share of the time it was measured needs work,
+#: however little it was off each time: half the talk under 140 wpm is not "a little off"
+#: (:func:`rank_priorities`).
+FAR_OFF_SHARE = 0.5
+#: A metric out of its band for at least this share of its measured time is not "in the ideal
+#: range", even when it was too little off to work on (:func:`slightly_off`).
+SLIGHTLY_OFF_SHARE = 0.2
+
+
+def measured_s(m: Mapping[str, Any]) -> float:
+    """The seconds a metric's values held over the talk (in range or out): what it covered."""
+    return float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
+
+
+def _share_out(m: Mapping[str, Any]) -> float | None:
+    tir = m.get("time_in_range")
+    return 1.0 - float(tir) if isinstance(tir, int | float) else None
+
+
+def off_sides(
+    rule: Rule, d: Mapping[str, float], m: Mapping[str, Any] | None = None
+) -> list[dict[str, Any]]:
+    """Each side of its band a metric was out on, the side with the larger deviation first:
+    ``side``, ``bound``, its own seconds out (``out_s``) and share of the measured time
+    (``share_out``) when the figures say, and ``advice`` for the first side and for any other
+    side out for at least :data:`prezence.summary.MIN_JUDGED_S` (a 3 s burst of speed in a
+    slow talk is said, not advised on).
+
+    Args:
+        d: the metric's :func:`deviation_seconds`.
+        m: the metric's figures (``below_s``, ``above_s``: :func:`prezence.summary.build_summary`).
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
+        >>> m = {"in_range_s": 100.0, "out_of_range_s": 100.0, "below_s": 70.0, "above_s": 30.0}
+        >>> [(x["side"], x["out_s"], x["advice"]) for x in off_sides(r, {"below": 900.0,
+        ...     "above": 400.0}, m)]
+        [('below', 70.0, 'pick up the pace'), ('above', 30.0, 'slow down')]
+    """
+    from prezence.summary import MIN_JUDGED_S
+
+    m = m or {}
+    total = measured_s(m)
+    below, above = float(d.get("below", 0.0)), float(d.get("above", 0.0))
+    order = ["above", "below"] if above > below else ["below", "above"]
+    rows: list[dict[str, Any]] = []
+    for side in order:
+        got = m.get(f"{side}_s")
+        known = isinstance(got, int | float)
+        secs = float(got) if isinstance(got, int | float) else 0.0
+        # a side is out when its seconds say so; without them (a bare deviation), its deviation
+        if not (secs > 0.0 if known else float(d.get(side, 0.0)) > 0.0):
+            continue
+        row: dict[str, Any] = {
+            "side": side,
+            "bound": rule.high if side == "above" else rule.low,
+        }
+        if known:
+            row["out_s"] = round(secs, 1)
+            if total > 0:
+                row["share_out"] = round(secs / total, 3)
+        if not rows or not known or secs >= MIN_JUDGED_S:
+            row["advice"] = advice(rule, side)
+        rows.append(row)
+    return rows
+
+
+def sides_advice(sides: Sequence[Mapping[str, Any]]) -> str:
+    """The advice of each side advised on: ``"pick up the pace, but at times slow down"``."""
+    said = [str(s["advice"]) for s in sides if s.get("advice")]
+    return said[0] + "".join(f", but at times {a}" for a in said[1:])
+
+
+def needs_work(
+    rule: Rule,
+    d: Mapping[str, float],
+    m: Mapping[str, Any] | None,
+    *,
+    threshold: float,
+    cued: Collection[str] = (),
+) -> bool:
+    """Whether a judged metric is a thing to work on: see :func:`rank_priorities`."""
+    score = float(d.get("below", 0.0)) + float(d.get("above", 0.0))
+    if score <= 0.0:
+        return False  # never left its band
+    share = _share_out(m or {})
+    return (
+        score >= threshold
+        or rule.metric in cued
+        or rule.strict
+        or (share is not None and share >= FAR_OFF_SHARE)
+    )
+
+
 def rank_priorities(
     config: Config,
     dev_s: Mapping[str, Mapping[str, float]],
     *,
     talk_s: float,
-    top: int = 2,
+    top: int | None = 2,
     cued: Collection[str] = (),
+    metrics: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> list[dict[str, Any]]:
-    """The things to work on first: metrics ranked by deviation × time out of range.
+    """The things to work on, in order: metrics ranked by deviation × time out of range.
 
-    The score of a metric is its deviation integrated over the talk (%·s), which is the time it
-    spent out of range times its mean deviation while out; the side with the larger share names
-    the advice. Metrics that never left their band are not listed, nor those the coach did not
-    cue whose score over the whole talk adds up to less than one cue's worth (the processor's
-    ``threshold``, 600 %·s by default: 20 % off for 30 s): a glance down for a second is not
-    the first thing to work on. A strict rule's metric is listed when it left its band at all.
+    The rule that sorts each judged metric into one of three classes (the report's text, page
+    and spoken summary word these lists and nothing else, so their words match the numbers):
+
+    - **work on** (this list): it left its band and at least one of: its deviation integrated
+      over the talk (%·s) adds up to one cue's worth (the processor's ``threshold``, 600 %·s
+      by default: 20 % off for 30 s); the coach cued it; it was out of its band for at least
+      :data:`FAR_OFF_SHARE` of the time it was measured (a pace 5 % under the band for half
+      the talk is not "a little off", however small each miss); its rule is strict.
+    - **a little off** (:func:`slightly_off`): none of these, but out of its band for at least
+      :data:`SLIGHTLY_OFF_SHARE` of its measured time: not praised as in range either.
+    - **in range**: the rest (a glance down for a second is not worth a word).
+
+    The score is the deviation integrated over the talk (%·s), the time out of range times
+    the mean deviation while out; the list is ordered by it. Each row names every side the
+    metric was out on with its own seconds (``sides``, :func:`off_sides`: a pace both too slow
+    and too fast is both), the side with the larger deviation first (``side``, ``bound``), and
+    ``advice`` for each side advised on.
 
     Args:
         config: the rules.
-        dev_s: per metric, :func:`deviation_seconds`'s result.
+        dev_s: per metric, :func:`deviation_seconds`'s result (only the judged metrics).
         talk_s: the talk's length (to express the score per minute of talk).
-        top: how many to return.
+        top: how many to return (None: all that need work).
         cued: the metrics the coach cued during the talk.
+        metrics: the report's per-metric figures (``time_in_range``, ``below_s``,
+            ``above_s``); without them only the score and the cues decide.
     """
     rows: list[dict[str, Any]] = []
     for rule in config.rules:
         d = dev_s.get(rule.metric)
         if not d:
             continue
+        m = (metrics or {}).get(rule.metric) or {}
+        threshold = config.processor.threshold
+        if not needs_work(rule, d, m, threshold=threshold, cued=cued):
+            continue
         score = float(d.get("below", 0.0)) + float(d.get("above", 0.0))
-        if score <= 0.0:
+        sides = off_sides(rule, d, m)
+        if not sides:
             continue
-        minor = score < config.processor.threshold and rule.metric not in cued
-        if minor and not rule.strict:
-            continue
-        side = "above" if d.get("above", 0.0) > d.get("below", 0.0) else "below"
         rows.append(
             {
-                **_off_side(rule, side),
+                **_off_side(rule, str(sides[0]["side"])),
                 "score": round(score, 1),
                 "score_per_min": round(60.0 * score / talk_s, 1) if talk_s > 0 else None,
-                "advice": advice(rule, side),
+                "advice": sides_advice(sides),
+                "sides": sides,
             }
         )
     rows.sort(key=lambda r: (-r["score"], r["metric"]))
-    return rows[:top]
+    return rows if top is None else rows[:top]
 
 
 def _off_side(rule: Rule, side: str) -> dict[str, Any]:
@@ -377,11 +488,6 @@ def _off_side(rule: Rule, side: str) -> dict[str, Any]:
     }
 
 
-#: A metric out of its band for at least this share of its measured time is not "in the ideal
-#: range", even when it was too little off to work on first (:func:`slightly_off`).
-SLIGHTLY_OFF_SHARE = 0.2
-
-
 def slightly_off(
     config: Config,
     dev_s: Mapping[str, Mapping[str, float]],
@@ -389,43 +495,42 @@ def slightly_off(
     *,
     listed: Collection[str] = (),
 ) -> list[dict[str, Any]]:
-    """Metrics a little off for a good part of the talk, not listed to work on first.
+    """Metrics a little off for a good part of the talk, not listed to work on.
 
-    :func:`rank_priorities` leaves out what adds up to less than one cue's worth; such a metric
-    may still have been out of its band most of the time (a pace 5 % under the band for the
-    whole talk). It must not then be praised as "in the ideal range": it is listed here when
-    out of its band for at least :data:`SLIGHTLY_OFF_SHARE` of the time it was measured, and
-    when that time may be judged at all (:func:`judged`: 3 s of pace before a Ctrl-C is not).
+    The middle class of :func:`rank_priorities`'s rule: a metric that does not need work (too
+    little off to add up to a cue's worth, never cued, out for less than
+    :data:`FAR_OFF_SHARE` of its measured time) may still have been out of its band for a
+    good part of it. It must not then be praised as "in the ideal range": it is listed here
+    when out of its band for at least :data:`SLIGHTLY_OFF_SHARE` of the time it was measured,
+    and when that time may be judged at all (:func:`judged`: 3 s of pace before a Ctrl-C is
+    not). Each side it was out on is named with its own share (``sides``).
 
     Args:
         config: the rules.
         dev_s: per metric, :func:`deviation_seconds`'s result.
         metrics: the report's per-metric figures (``time_in_range``, ``out_of_range_s``).
-        listed: the metrics already listed as priorities.
+        listed: the metrics already listed to work on.
     """
     rows: list[dict[str, Any]] = []
     for rule in config.rules:
         m = metrics.get(rule.metric) or {}
-        tir = m.get("time_in_range")
+        share = _share_out(m)
         d = dev_s.get(rule.metric) or {}
-        if rule.metric in listed or not isinstance(tir, int | float) or not judged(m):
+        if rule.metric in listed or share is None or not judged(m):
             continue
-        share = 1.0 - float(tir)
         if share < SLIGHTLY_OFF_SHARE:
             continue
-        below, above = float(d.get("below", 0.0)), float(d.get("above", 0.0))
-        side = "above" if above > below else "below"
+        sides = off_sides(rule, d, m)
+        if not sides:
+            continue
         rows.append(
             {
-                **_off_side(rule, side),
+                **_off_side(rule, str(sides[0]["side"])),
                 "share_out": round(share, 3),
-                "advice": advice(rule, side),
+                "advice": sides_advice(sides),
+                "sides": sides,
                 # its module died mid-talk: the share is of the time it was measured
-                **(
-                    {"measured_s": round(float(m["in_range_s"]) + float(m["out_of_range_s"]), 1)}
-                    if m.get("lost")
-                    else {}
-                ),
+                **({"measured_s": round(measured_s(m), 1)} if m.get("lost") else {}),
             }
         )
     rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
@@ -682,7 +787,11 @@ def _rebuild(
             high=rule.high,
             strict=rule.strict,
             deviation_s=dev_s[rule.metric],
+            # what the plots break their line at: longer without a sample is no data
+            stale_after_s=stale_s,
         )
+        if m.get("samples"):  # over how much of the talk it was measured
+            m["measured_s"] = round(measured_s(m), 3)
         metrics[rule.metric] = m
 
     rules = {r.metric: r for r in cfg.rules}
@@ -744,7 +853,10 @@ def _rebuild(
     cued = {str(c["metric"]) for c in cues if c.get("metric")}
     # advice only on what was measured long enough, and not by a fallback (MIN_JUDGED_S)
     judged_dev = {k: v for k, v in dev_s.items() if judged(metrics.get(k) or {})}
-    priorities = rank_priorities(cfg, judged_dev, talk_s=talk_s, cued=cued)
+    # every metric that needs work is listed, in order: one left out would be read as fine
+    priorities = rank_priorities(
+        cfg, judged_dev, talk_s=talk_s, cued=cued, metrics=metrics, top=None
+    )
     a_little_off = slightly_off(cfg, judged_dev, metrics, listed=[p["metric"] for p in priorities])
     counts = dict(summary["counts"])
     counts["cues_improved"] = sum(1 for r in helped if r["improved"])

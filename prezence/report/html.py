@@ -12,11 +12,12 @@ from prezence.report.speech import (
     cue_mark,
     measured_share,
     metric_notes,
-    of_time,
+    off_sides_text,
+    praise_line,
+    priority_sides,
     summary_phrase,
     time_sentence,
     trouble_sentences,
-    was,
 )
 
 _CSS = """
@@ -189,19 +190,18 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         out.append('<ol class="work">')
         for p in pri:
             m = report["metrics"][p["metric"]]
-            limit = "lowest" if p["side"] == "below" else "highest"
+            why = priority_sides(p, m)
             out.append(
-                f"<li><b>{_e(p['advice'].capitalize())}</b> ({_e(p['label'])}). "
-                f'<span class="why">Your {_e(p["label"])} {was(p["label"])} '
-                f"{_e(p['side'])} the {limit} "
-                f"good value ({_e(_num(p['bound']))} {_e(p['unit'] or '')}) for "
-                f"{m.get('out_of_range_s', 0.0):.0f} s in all; the longest stretch lasted "
-                f"{m.get('longest_out_of_range_s', 0.0):.0f} s.</span></li>"
+                f"<li><b>{_e(p['advice'][0].upper() + p['advice'][1:])}</b> "
+                f'({_e(p["label"])}). <span class="why">{_e(why[0].upper() + why[1:])} in all; '
+                f"the longest stretch lasted {m.get('longest_out_of_range_s', 0.0):.0f} s.</span>"
+                "</li>"
             )
         out.append("</ol>")
         out.append(
-            '<p class="sub">First come the metrics that were out of their ideal range the '
-            "longest and the farthest.</p>"
+            '<p class="sub">Listed: every metric cued by the robot, off by a cue\'s worth or '
+            "more, or out of its ideal range for half the time it was measured or more. First "
+            "come those out of their ideal range the longest and the farthest.</p>"
         )
     elif not report.get("slightly_off"):
         out.append(
@@ -217,26 +217,20 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
                     else f"<p>{_e(', '.join(report['logs']))} in the session folder may say "
                     "why.</p>"
                 ),
-                "some": "<p>Every judged metric stayed in its ideal range. Well done.</p>",
-                "all": "<p>Every metric stayed in its ideal range. Well done.</p>",
+                "some": f"<p>{_e(_praised(report, 'some'))}</p>",
+                "all": f"<p>{_e(_praised(report, 'all'))}</p>",
             }[measured_share(report)]
         )
     off = [o for o in report.get("slightly_off") or [] if isinstance(o, dict)]
     if off:
         out.append(
-            "<p>A little off, not enough to work on first:</p>"
+            "<p>A little off, not enough to work on:</p>"
             if pri
             else "<p>Nothing was far off, but:</p>"
         )
         out.append('<ul class="work">')
         for o in off:
-            unit = f" {o['unit']}" if o.get("unit") else ""
-            out.append(
-                f"<li>your {_e(o['label'])} {was(str(o['label']))} {_e(o['side'])} "
-                f"{_e(_num(o['bound']))}{_e(unit)} "
-                f"{100.0 * float(o['share_out']):.0f}% of the {_e(of_time(o))} "
-                f"(<b>{_e(o['advice'])}</b>)</li>"
-            )
+            out.append(f"<li>{_e(off_sides_text(o))} (<b>{_e(o['advice'])}</b>)</li>")
         out.append("</ul>")
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, dict)]
     if stopped:
@@ -267,7 +261,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     out.append("<h2>Overview</h2>")
     out.append(_img(images.get("summary"), "time in range and deviation per metric"))
     out.append(
-        '<table><tr><th class="l">metric</th><th class="l">ideal</th><th>in range</th>'
+        '<table><tr><th class="l">metric</th><th class="l">ideal</th>'
+        f"<th>measured (of {_mmss(report.get('talk_s'))})</th><th>in range</th>"
         "<th>mean</th><th>10th pct</th><th>median</th><th>90th pct</th>"
         "<th>longest out</th><th>samples</th></tr>"
     )
@@ -278,9 +273,14 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             if m.get("samples")
             else f'<span class="nodata">{_e(state)}</span>'
         )
+        covered = (
+            _mmss(float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0))
+            if m.get("samples")
+            else "–"
+        )
         out.append(
             f'<tr><td class="l">{_e(m.get("label"))}</td><td class="l">{_e(_band(m))}</td>'
-            f"<td>{tir}</td><td>{_num(m.get('mean'))}</td>"
+            f"<td>{covered}</td><td>{tir}</td><td>{_num(m.get('mean'))}</td>"
             f"<td>{_num(m.get('p10'))}</td><td>{_num(m.get('p50'))}</td>"
             f"<td>{_num(m.get('p90'))}</td>"
             + (
@@ -298,7 +298,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         out.append("<h2>Timelines</h2>")
         out.append(
             '<p class="sub">Green band: the ideal range. Red dots: samples out of range. '
-            "Blue lines: the robot's cues about that metric.</p>"
+            "Blue lines: the robot's cues about that metric. Grey: no data (nothing measured "
+            "there, the line breaks).</p>"
         )
         for k, png in timelines:
             m = report["metrics"][k]
@@ -372,6 +373,13 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     )
     out.append("</main></body></html>")
     return "\n".join(out) + "\n"
+
+
+def _praised(report: Mapping[str, Any], share: str) -> str:
+    """The written praise (:func:`prezence.report.speech.praise_line`): "Well done" only when
+    every judged metric covered the talk."""
+    line = praise_line(report, share)
+    return line if "while it was measured" in line else f"{line[:-1]}. Well done."
 
 
 def _head_section(head: Mapping[str, Any]) -> str:

@@ -70,6 +70,37 @@ def _minutes_axis(ax: Any, talk_s: float) -> None:
     ax.set_xlim(0.0, max(talk_s, 1.0))
 
 
+def no_data_spans(
+    ts: Sequence[float], talk_s: float, stale_s: float | None, cuts: Sequence[float] = ()
+) -> list[tuple[float, float]]:
+    """The stretches of the talk no sample holds: before the first, and wherever a sample
+    held (until the next, ``stale_s`` after it, the next of ``cuts``: its module died) ends
+    before the next one; the report's time in range counts them as no data. A plot leaves
+    them blank rather than draw a line across them.
+
+    Example:
+        >>> no_data_spans([2.0, 3.0, 20.0, 21.0], 30.0, 6.0)
+        [(0.0, 2.0), (9.0, 20.0), (27.0, 30.0)]
+    """
+    out: list[tuple[float, float]] = []
+    t = sorted(x for x in ts if x < talk_s)
+    if not t:
+        return [(0.0, talk_s)] if talk_s > 0 else []
+    if t[0] > 0.0:
+        out.append((0.0, t[0]))
+    stale = float("inf") if stale_s is None else float(stale_s)
+    ends = sorted(cuts)
+    for i, a in enumerate(t):
+        nxt = t[i + 1] if i + 1 < len(t) else talk_s
+        held = min(nxt, a + stale, talk_s)
+        died = [c for c in ends if c >= a]
+        if died:
+            held = min(held, died[0])
+        if held < nxt:
+            out.append((held, nxt))
+    return out
+
+
 def timeline_png(
     metric: Mapping[str, Any],
     samples: Sequence[Sample],
@@ -116,7 +147,19 @@ def timeline_png(
             out |= v < low
         if high is not None:
             out |= v > high
-        ax.plot(t, v, color=NEUTRAL, lw=0.8, alpha=0.8)
+        cuts = [float(sp["from"]) for sp in metric.get("lost") or () if "from" in sp]
+        gaps = no_data_spans(t.tolist(), talk_s, metric.get("stale_after_s"), cuts)
+        # the line breaks where no sample held: a straight line across a silence would read
+        # as measured
+        line_t, line_v = t.tolist(), v.tolist()
+        for a, _ in reversed(gaps):
+            i = int(np.searchsorted(t, a, side="right"))
+            if 0 < i < len(t):
+                line_t.insert(i, a)
+                line_v.insert(i, float("nan"))
+        ax.plot(line_t, line_v, color=NEUTRAL, lw=0.8, alpha=0.8)
+        for j, (a, b) in enumerate(gaps):
+            ax.axvspan(a, b, color=NEUTRAL, alpha=0.12, lw=0, label="no data" if j == 0 else None)
         ax.scatter(t[out], v[out], s=6, color=BAD, zorder=3, label="out of range")
     last_x: float | None = None
     row = 0

@@ -199,6 +199,101 @@ def of_time(row: Mapping[str, Any], measured: str = "it was measured") -> str:
     return "time" if s is None else f"{float(s):.0f} s {measured}"
 
 
+def _sides(row: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """A work-on or a-little-off row's sides (:func:`prezence.report.build.off_sides`); a
+    report written before sides were kept has its one ``side``."""
+    sides: list[Mapping[str, Any]] = [x for x in row.get("sides") or () if isinstance(x, Mapping)]
+    return sides or [{"side": row.get("side"), "bound": row.get("bound")}]
+
+
+def _unit(row: Mapping[str, Any]) -> str:
+    return f" {row['unit']}" if row.get("unit") else ""
+
+
+def priority_sides(row: Mapping[str, Any], m: Mapping[str, Any]) -> str:
+    """What a thing to work on was, side by side, each with its own seconds out of range.
+
+    Example:
+        >>> row = {"label": "pace", "unit": "wpm", "sides": [
+        ...     {"side": "below", "bound": 140.0, "out_s": 173.0},
+        ...     {"side": "above", "bound": 180.0, "out_s": 71.0}]}
+        >>> priority_sides(row, {})
+        'your pace was below the lowest good value, 140 wpm, for 173 s and above the highest good value, 180 wpm, for 71 s'
+    """  # noqa: E501 - a doctest output line
+    parts = []
+    for x in _sides(row):
+        limit = "lowest" if x.get("side") == "below" else "highest"
+        secs = x.get("out_s")
+        if not isinstance(secs, int | float):  # one side only: all the time out was on it
+            secs = float(m.get("out_of_range_s") or 0.0)
+        parts.append(
+            f"{x.get('side')} the {limit} good value, {_num(x.get('bound'))}{_unit(row)}, "
+            f"for {float(secs):.0f} s"
+        )
+    return f"your {row['label']} {was(str(row['label']))} {' and '.join(parts)}"
+
+
+def off_sides_text(row: Mapping[str, Any]) -> str:
+    """A metric a little off, side by side, each with its own share of the measured time.
+
+    Example:
+        >>> row = {"label": "pace", "unit": "wpm", "share_out": 0.4, "sides": [
+        ...     {"side": "below", "bound": 140.0, "share_out": 0.3},
+        ...     {"side": "above", "bound": 180.0, "share_out": 0.1}]}
+        >>> off_sides_text(row)
+        'your pace was below 140 wpm 30% and above 180 wpm 10% of the time'
+    """
+    parts = []
+    for x in _sides(row):
+        share = x.get("share_out")
+        if not isinstance(share, int | float):
+            share = float(row.get("share_out") or 0.0)
+        parts.append(
+            f"{x.get('side')} {_num(x.get('bound'))}{_unit(row)} {100.0 * float(share):.0f}%"
+        )
+    return (
+        f"your {row['label']} {was(str(row['label']))} {' and '.join(parts)} of the {of_time(row)}"
+    )
+
+
+#: A judged metric measured over less of the talk than this share is named when the report
+#: says everything stayed in range: the praise covers only the time it was measured.
+COVERED_SHARE = 0.9
+
+
+def coverage_gaps(report: Mapping[str, Any]) -> list[tuple[str, float]]:
+    """The judged metrics measured over less than :data:`COVERED_SHARE` of the talk, with the
+    seconds they were measured (a video whose picture stops at 0:20 of a 0:54 talk)."""
+    talk = _talk_s(report)
+    out = []
+    for k, m in (report.get("metrics") or {}).items():
+        if not isinstance(m, Mapping) or not _judged(m) or talk <= 0 or "in_range_s" not in m:
+            continue  # not judged, or its coverage not recorded
+        secs = float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
+        if secs < COVERED_SHARE * talk:
+            out.append((str(m.get("label") or k), secs))
+    return out
+
+
+def coverage_words(report: Mapping[str, Any]) -> str:
+    """``"gestures measured over 0:15 of 0:54, head pitch measured over 0:26 of 0:54"`` (""
+    when every judged metric covered the talk)."""
+    talk = _mmss(_talk_s(report))
+    return ", ".join(
+        f"{label} measured over {_mmss(secs)} of {talk}" for label, secs in coverage_gaps(report)
+    )
+
+
+def praise_line(report: Mapping[str, Any], share: str) -> str:
+    """The report's written praise when nothing was off: ``share`` is :func:`measured_share`
+    (``"all"`` or ``"some"``); qualified by what was measured over only part of the talk."""
+    every = "Every metric" if share == "all" else "Every judged metric"
+    gaps = coverage_words(report)
+    if gaps:
+        return f"{every} stayed in its ideal range while it was measured: {gaps}."
+    return f"{every} stayed in its ideal range."
+
+
 def _talk_s(report: Mapping[str, Any]) -> float:
     return float(report.get("talk_s") or (report.get("time") or {}).get("used_s") or 0.0)
 
@@ -447,17 +542,23 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
     if not pri and off:  # too little to work on first, too much to call in range
         o = off[0]
         lead = "Your" if lost else "Nothing was far off, but your"  # room for what was lost
+        said = []
+        for i, x in enumerate(_sides(o)):
+            share = x.get("share_out")
+            share = float(o["share_out"]) if not isinstance(share, int | float) else share
+            where = ("under" if x.get("side") == "below" else "over") + (
+                " the ideal range" if i == 0 else " it"
+            )
+            said.append(f"{where} {100.0 * float(share):.0f}%")
         parts.append(
-            f"{lead} {o['label']} {was(o['label'])} a little "
-            f"{'under' if o['side'] == 'below' else 'over'} the ideal range "
-            f"{100.0 * float(o['share_out']):.0f}% of the {of_time(o, 'I could measure it')}: "
-            f"{o['advice']}."
+            f"{lead} {o['label']} {was(o['label'])} a little {' and '.join(said)} "
+            f"of the {of_time(o, 'I could measure it')}: {o['advice']}."
         )
     elif not pri:
         share = measured_share(report)
         if share == "none":
             parts.append(nothing_judged_sentence(report))
-        elif share == "some":
+        elif share == "some" or coverage_gaps(report):
             parts.append(_some_praise(report))
         else:
             parts.append("Your delivery stayed in the ideal range. Well done!")
@@ -488,6 +589,19 @@ def _why_pointer(report: Mapping[str, Any]) -> str:
 def _some_praise(report: Mapping[str, Any]) -> str:
     """Praise for the metrics judged, naming them when others were measured but not judged."""
     rest = unjudged_labels(report)
+    part = [label for label, _ in coverage_gaps(report)]
+    if not rest and part:  # praise for the time it was measured only, and said so
+        judged_n = sum(
+            1
+            for m in (report.get("metrics") or {}).values()
+            if isinstance(m, Mapping) and _judged(m)
+        )
+        what = (
+            "only part of your talk"
+            if len(part) == judged_n
+            else f"your {_and(part)} for only part of the talk"
+        )
+        return f"Everything I could measure stayed in the ideal range, but I measured {what}."
     if not rest:
         return "Everything I could measure stayed in the ideal range. Well done!"
     good = [
@@ -532,13 +646,7 @@ def format_text(report: Mapping[str, Any]) -> str:
         lines.append("  Work on, first:")
         for i, p in enumerate(pri, 1):
             m = report["metrics"].get(p["metric"], {})
-            limit = "lowest" if p["side"] == "below" else "highest"
-            lines.append(
-                f"    {i}. {p['advice']} (your {p['label']} {was(p['label'])} {p['side']} "
-                f"the {limit} good "
-                f"value, {_num(p['bound'])} {p.get('unit') or ''}, for "
-                f"{m.get('out_of_range_s', 0.0):.0f} s in all)".replace(" ,", ",")
-            )
+            lines.append(f"    {i}. {p['advice']} ({priority_sides(p, m)} in all)")
     elif not report.get("slightly_off"):
         lines.append(
             {
@@ -549,29 +657,34 @@ def format_text(report: Mapping[str, Any]) -> str:
                 )
                 + _why_pointer(report)
                 + ".",
-                "some": "  Every judged metric stayed in its ideal range.",
-                "all": "  Every metric stayed in its ideal range.",
+                "some": "  " + praise_line(report, "some"),
+                "all": "  " + praise_line(report, "all"),
             }[measured_share(report)]
         )
     off = report.get("slightly_off") or []
     if off:
         lines.append(
-            "  A little off, not enough to work on first:" if pri else "  Nothing was far off, but:"
+            "  A little off, not enough to work on:" if pri else "  Nothing was far off, but:"
         )
         for o in off:
-            unit = f" {o['unit']}" if o.get("unit") else ""
-            lines.append(
-                f"    - your {o['label']} {was(o['label'])} {o['side']} {_num(o['bound'])}{unit} "
-                f"{100.0 * float(o['share_out']):.0f}% of the {of_time(o)} ({o['advice']})"
-            )
+            lines.append(f"    - {off_sides_text(o)} ({o['advice']})")
     lines.append("")
     lines.append(
-        f"  {'metric':<12} {'in range':>12} {'mean':>7} {'p10':>7} {'p90':>7} {'longest out':>12}"
+        f"  {'metric':<12} {'measured':>13} {'in range':>12} {'mean':>7} {'p10':>7} {'p90':>7} "
+        f"{'longest out':>12}"
     )
+    talk = _mmss(_talk_s(report))
     for name, m in report["metrics"].items():
         tir = _pct(m.get("time_in_range")) if m.get("samples") else m.get("data") or "no data"
+        # over how much of the talk its figures hold: "0:15 of 0:54" is not the whole talk
+        covered = (
+            f"{_mmss(float(m.get('in_range_s') or 0.0) + float(m.get('out_of_range_s') or 0.0))}"
+            f" of {talk}"
+            if m.get("samples")
+            else "-"
+        )
         lines.append(
-            f"  {m.get('label', name):<12} {tir:>12} "
+            f"  {m.get('label', name):<12} {covered:>13} {tir:>12} "
             f"{_num(m.get('mean')):>7} {_num(m.get('p10')):>7} {_num(m.get('p90')):>7} "
             + (  # nothing measured: no stretch out of range to speak of
                 f"{m.get('longest_out_of_range_s', 0.0):>10.0f} s"
