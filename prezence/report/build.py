@@ -326,6 +326,24 @@ FAR_OFF_SHARE = 0.5
 SLIGHTLY_OFF_SHARE = 0.2
 
 
+#: A voice first heard this many seconds or more into the talk is said with the time used
+#: (session 20: a recording that began with 60 s of silence was told "1:51 used of 2:00", the
+#: robot said "1 min left" before a word was spoken, and nothing said where speech began).
+LATE_START_S = 20.0
+
+
+def first_voice_s(session: SessionDir, limit: float | None = None) -> float | None:
+    """When the speech module first heard a voice (``speech_activity`` above 0), seconds into
+    the talk; None without that stream or a voice in it."""
+    from prezence.streams.tail import read_stream
+
+    path = session.stream("speech_activity.txt")
+    if not path.is_file():
+        return None
+    samples, _ = read_stream(path, "speech_activity", max_t=limit, problems=[])
+    return next((s.t for s in sorted(samples, key=lambda s: s.t) if s.value > 0.0), None)
+
+
 def measured_s(m: Mapping[str, Any]) -> float:
     """The seconds a metric's values held over the talk (in range or out): what it covered."""
     return float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
@@ -850,6 +868,9 @@ def _rebuild(
     time_used = dict(summary["time"])
     if recorded.get("stopped_at_time_limit"):  # cut at the allocated time plus the grace
         time_used["stopped_at_limit"] = True
+    first = first_voice_s(session, limit)
+    if first is not None and first >= LATE_START_S:
+        time_used["first_voice_s"] = round(first, 1)
     cued = {str(c["metric"]) for c in cues if c.get("metric")}
     # advice only on what was measured long enough, and not by a fallback (MIN_JUDGED_S)
     judged_dev = {k: v for k, v in dev_s.items() if judged(metrics.get(k) or {})}

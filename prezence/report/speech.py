@@ -38,12 +38,13 @@ def _spoken_exact(s: float) -> str:
     return " ".join(parts)
 
 
-def time_sentence(report: Mapping[str, Any]) -> str:
+def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str:
     """One sentence on time used vs allocated.
 
     Lengths are said to the half minute; when that would make the two sound equal while the
     talk was over or under, both are said to the second, so the words never contradict the
-    percentage.
+    percentage. With ``first_words``, a voice first heard late into the talk
+    (``time.first_voice_s``: :data:`prezence.report.build.LATE_START_S` or more) is said too.
 
     Example:
         >>> time_sentence({"time": {"used_s": 630.0, "allocated_s": 600.0, "over_under_pct": 5.0}})
@@ -62,7 +63,7 @@ def time_sentence(report: Mapping[str, Any]) -> str:
     used = float(t["used_s"])
     alloc = t.get("allocated_s")
     if not alloc:
-        return f"You spoke for {_spoken_minutes(used)}."
+        return f"You spoke for {_spoken_minutes(used)}.{_late_start(t) if first_words else ''}"
     alloc = float(alloc)
     pct = float(t.get("over_under_pct", 0.0))
     if t.get("stopped_at_limit"):  # cut at the allocated time plus the grace: a lower bound
@@ -76,7 +77,18 @@ def time_sentence(report: Mapping[str, Any]) -> str:
     said_used, said_alloc = _spoken_minutes(used), _spoken_minutes(alloc)
     if said_used == said_alloc and not on_time:
         said_used, said_alloc = _spoken_exact(used), _spoken_exact(alloc)
-    return f"You used {said_used} of {said_alloc}, {how}."
+    return f"You used {said_used} of {said_alloc}, {how}.{_late_start(t) if first_words else ''}"
+
+
+def _late_start(t: Mapping[str, Any]) -> str:
+    """ " Your first words came 1 minute in: …" when the voice began late (else "")."""
+    first = t.get("first_voice_s")
+    if not isinstance(first, int | float):
+        return ""
+    return (
+        f" Your first words came {_spoken_minutes(float(first))} in, and the time counts from "
+        "the start."
+    )
 
 
 def was(label: str) -> str:
@@ -526,10 +538,13 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         >>> summary_phrase(r)
         'You used 10 minutes of 10 minutes, right on time. Work first on this: slow down. Then: look up at your audience.'
     """  # noqa: E501 - a doctest output line
-    parts = [time_sentence(report)]
+    parts = [time_sentence(report, first_words=False)]
     lost = lost_sentences(report)
     parts += lost
     droppable: list[str] = []  # least important last
+    late = _late_start(report["time"]).strip()
+    if late:  # after the advice, and the first thing left out when the phrase is long
+        droppable.append(late)
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, Mapping)]
     if stopped:  # the coach stopped repeating these during the talk: said once, here
         from prezence.report.build import metric_label
@@ -567,12 +582,20 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         if len(pri) > 1:
             parts.append(f"Then: {pri[1]['advice']}.")
             droppable.append(parts[-1])
-    while lost and droppable and len(" ".join(parts).split()) > MAX_SPOKEN_WORDS:
+    if late:
+        parts.append(late)
+    # whole sentences go first, least important first, so that nothing is cut mid-sentence
+    # (session 20: "…but I measured only part of.")
+    while droppable and len(" ".join(parts).split()) > MAX_SPOKEN_WORDS:
         parts.remove(droppable.pop())
     text = " ".join(parts)
     words = text.split()
     if len(words) > MAX_SPOKEN_WORDS:  # custom advice texts could be long: never ramble
-        text = " ".join(words[:MAX_SPOKEN_WORDS]).rstrip(",.;:") + "."
+        kept = words[:MAX_SPOKEN_WORDS]
+        # at the last whole sentence that fits, else at the word limit
+        ends = [i for i, w in enumerate(kept) if w.endswith((".", "!", "?"))]
+        kept = kept[: ends[-1] + 1] if ends else kept
+        text = " ".join(kept).rstrip(",.;:") + ("" if kept[-1].endswith(("!", "?")) else ".")
     return text
 
 

@@ -213,3 +213,52 @@ def test_the_timeline_breaks_its_line_where_there_was_no_data(
     ]
     assert not any(a < 35.0 and b > 65.0 for a, b in segments)
     assert any(math.isnan(y) for y in ys)
+
+
+def test_a_voice_first_heard_a_minute_in_is_said_with_the_time_used(tmp_path: Path) -> None:
+    # Session 20, a tester: 60 s of silence, then 51 s of speech: "You used 1:51 of 2:00", and
+    # nothing said that speech began at 1:00 (the robot said "1 min left" before a word).
+    session = talk(
+        tmp_path / "s",
+        111,
+        {
+            "speech_activity": (range(1, 112), lambda t: 0.0 if t < 61 else 0.9),
+            "speech_speed": (range(70, 112), lambda t: 160.0),
+        },
+    )
+    session.config.write_text(dumps_config(Config(rules=(SPEED,), time=TimeSettings(120.0))))
+    report = build_report(session.root)
+    assert report["time"]["first_voice_s"] == 61.0
+    text = format_text(report)
+    assert "Your first words came 1 minute in, and the time counts from the start." in text
+    # a voice from the start is not remarked on
+    early = talk(
+        tmp_path / "e",
+        111,
+        {
+            "speech_activity": (range(1, 112), lambda t: 0.9),
+            "speech_speed": (range(10, 112), lambda t: 160.0),
+        },
+    )
+    assert "first_voice_s" not in build_report(early.root)["time"]
+    assert "first words" not in format_text(build_report(early.root))
+
+
+def test_the_spoken_summary_drops_whole_sentences_never_half_of_one() -> None:
+    # Session 20: a long phrase was cut at 40 words, "…but I measured only part of."
+    report = {
+        "time": {
+            "used_s": 111.0,
+            "allocated_s": 120.0,
+            "over_under_pct": -7.5,
+            "first_voice_s": 61.0,
+        },
+        "priorities": [
+            {"advice": "pick up the pace and say each sentence as if to the back row of the hall"},
+            {"advice": "look up at your audience from your notes at the end of each sentence"},
+        ],
+    }
+    said = summary_phrase(report)
+    assert len(said.split()) <= 40
+    assert said.endswith(("row of the hall.", "each sentence.")), said
+    assert "first words" not in said  # the least important sentence went first
