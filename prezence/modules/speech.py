@@ -361,6 +361,9 @@ DECODER_CONFIG: dict[str, Any] = {
 _ORDER = {m: i for i, m in enumerate(METRICS)}
 _FRAME = 480  # 30 ms at 16 kHz: the endpointer's frame
 _FRAME_S = _FRAME / SAMPLE_RATE
+#: words known up to this far into a stretch of speech are none of its own (the endpointer's
+#: utterance may open a little after the stretch)
+_NEW_STRETCH_S = 0.5
 _BAND_TAPER = np.hanning(_FRAME)
 _BAND_FREQS = np.fft.rfftfreq(512, 1.0 / SAMPLE_RATE)
 _BAND_LOW = (_BAND_FREQS >= 100.0) & (_BAND_FREQS < 1000.0)
@@ -678,6 +681,8 @@ class SpeechAnalyser:
         self._last_t = 0.0  # end of the last window written
         self._finished = False
         self._last_source: float | None = None
+        #: the word-based metrics wait for the first words after a long pause (since when)
+        self._resumed_at: float | None = None
         self._cal_words = 0.0  # recognised words and syllables in trusted windows
         self._cal_syl = 0.0
         #: Set to a list to collect each window's counts (bench and tests).
@@ -1096,8 +1101,41 @@ class SpeechAnalyser:
         if lufs is not None:
             out.append(Sample(SPEECH_LOUDNESS, t, lufs))
         words_until = t if final else min(t, max(0.0, self._finalised_until()))
+        if not final and self._before_a_long_pause(t, words_until, spans):
+            return sorted(out, key=lambda smp: _ORDER[smp.metric])
         out += self._word_samples(t, words_until, spans, final=final)
         return sorted(out, key=lambda smp: _ORDER[smp.metric])
+
+    def _before_a_long_pause(
+        self, t: float, words_until: float, spans: list[tuple[float, float]]
+    ) -> bool:
+        """Whether every word known yet was said before a pause of ``window_s`` or more that
+        the speaker has since broken: the word-based metrics then wait for the new words.
+
+        While a pause lasts that long nothing is written (the window holds too little speech),
+        and the word window is counted in talk time; so on resuming, the first values would be
+        the pace from before the pause stamped now (session 20: a speaker at 193 wpm before a
+        40 s pause read 193 for the first 6 s of a new speaker at 158, and a `slowDown` came).
+        """
+        # the stretch of speech going on past the known words, and the pause before it
+        cur = next((a for a, b in spans if b > words_until + 1e-9), None)
+        before = [b for _, b in spans if cur is not None and b <= cur + 1e-9]
+        pause = cur - max(before) if cur is not None and before else 0.0
+        # no word of that stretch known yet (its first utterance is not decoded: a cut
+        # utterance later in a stretch leaves the known words inside it)
+        fresh = cur is not None and words_until <= cur + _NEW_STRETCH_S
+        if not (fresh and pause >= self.options.window_s - 1e-9):
+            self._resumed_at = None
+            return False
+        if self._resumed_at is None:
+            self._resumed_at = t
+            log.info(
+                "t=%.0f s: speech again after a %.0f s pause: speech_speed, articulation and "
+                "clarity wait for its first words (the last ones were said before the pause)",
+                t,
+                pause,
+            )
+        return True
 
     def _word_samples(
         self, t_out: float, t: float, spans: list[tuple[float, float]], *, final: bool

@@ -286,3 +286,23 @@ def test_a_hop_that_would_flood_the_streams_is_refused(
 
     assert speech.main(["--audio", "missing.wav", "--out", "unused", "--hop", hop]) == 2
     assert "hop_s" in capsys.readouterr().err
+
+
+def test_after_a_long_pause_the_pace_waits_for_new_words() -> None:
+    # Session 20, a tester: 193 wpm before a 40 s pause was written again, stamped 80-86 s,
+    # for a speaker at 158 who had just begun: the word window is counted in talk time, and
+    # its newest words were still those from before the pause. A `slowDown` followed.
+    fast = read_file(MATERIAL / "rate_225.flac")
+    slow = read_file(MATERIAL / "rate_130.flac")
+    pause_s = 30.0
+    x = np.concatenate([fast, np.zeros(int(pause_s * 16000), dtype=np.int16), slow])
+    blocks = [x[i : i + 1600] for i in range(0, len(x), 1600)]
+    samples, _ = speech.analyse(blocks, SpeechOptions(), loudness=False)
+    speed = [(s.t, s.value) for s in samples if s.metric == "speech_speed"]
+    resume = len(fast) / 16000 + pause_s
+    before = [v for t, v in speed if t < resume]
+    after = [v for t, v in speed if t > resume]
+    assert before and after
+    # nothing from before the pause is written again as the pace after it
+    assert all(v != before[-1] for v in after), (before[-1], after[:5])
+    assert after[0] < before[-1]  # the slow reader's words are in the first value after it
