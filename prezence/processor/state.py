@@ -146,6 +146,9 @@ class MetricState:
         # was counted across 28 s without a sample).
         if t - self.last_sample_t > self.stale_after_s:
             self.out_since = None
+            self.in_range_since = None  # nor is a stretch back in range known across it
+            if self.strict_pending:
+                self.strict_onset = t
         self.value = value
         self.last_sample_t = t
         self.samples += 1

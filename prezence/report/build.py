@@ -269,10 +269,13 @@ def heard_cues(
     if src is None:
         return [None] * len(cues), f"{why} (the recording's folder is not found)"
     try:
-        src_kind = src.read_meta().get("kind")
+        src_meta = src.read_meta()
     except PrezenceError:
-        src_kind = None
+        src_meta = {}
+    src_kind = src_meta.get("kind")
     if src_kind not in HEARD_KINDS:
+        return [None] * len(cues), why
+    if src_meta.get("recorded_inputs"):  # an `up` from files: nobody heard its cues either
         return [None] * len(cues), why
     given = read_jsonl(src.cues, require=CUE_KEYS, skipped=[]) if src.cues.is_file() else []
     src_summary = _read_summary(src)

@@ -542,9 +542,7 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
     lost = lost_sentences(report)
     parts += lost
     droppable: list[str] = []  # least important last
-    late = _late_start(report["time"]).strip()
-    if late:  # after the advice, and the first thing left out when the phrase is long
-        droppable.append(late)
+    late = _late_start(report["time"]).strip()  # after the advice; the first left out
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, Mapping)]
     if stopped:  # the coach stopped repeating these during the talk: said once, here
         from prezence.report.build import metric_label
@@ -584,6 +582,7 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
             droppable.append(parts[-1])
     if late:
         parts.append(late)
+        droppable.append(late)  # last in: the first dropped
     # whole sentences go first, least important first, so that nothing is cut mid-sentence
     # (session 20: "…but I measured only part of.")
     while droppable and len(" ".join(parts).split()) > MAX_SPOKEN_WORDS:

@@ -259,6 +259,24 @@ def test_replay_with_a_rules_file_keeps_the_time_the_recorded_talk_had(
     assert summary["time"]["allocated_s"] == 600.0
 
 
+def test_a_replay_of_a_talk_played_from_files_judges_no_cue_by_what_followed(
+    demo_session: Path, tmp_path: Path
+) -> None:
+    # Session 20, review: `up` from files marks its cues as not heard, but a replay of it judged
+    # them by what followed, as if the person in the recording had heard the robot.
+    from prezence.report.build import build_report
+
+    src = tmp_path / "rec"
+    shutil.copytree(demo_session, src)
+    meta = json.loads((src / "session.json").read_text())
+    (src / "session.json").write_text(json.dumps({**meta, "kind": "live", "recorded_inputs": True}))
+    out = tmp_path / "r"
+    assert main(["replay", str(src), "--out", str(out), "--no-report", "-q"]) == 0
+    report = build_report(out)
+    assert "heard the recording's cues, not these" in report["effects_not_judged"]
+    assert all(c.get("heard") is False for c in report["cues"] if c.get("metric"))
+
+
 def test_replay_room_needs_rules(demo_session: Path, tmp_path: Path) -> None:
     room = tmp_path / "room.toml"
     room.write_text('format = 1\n[room]\nname = "hall"\n')

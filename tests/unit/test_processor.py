@@ -445,3 +445,21 @@ def test_a_problem_after_a_gap_without_samples_starts_at_the_first_sample_after_
     assert first.command == "slowDown" and first.t > 40.0
     assert first.onset == pytest.approx(40.0)
     assert "since 40.0 s" in ds[0].reason
+
+
+def test_a_strict_warning_pending_over_a_gap_without_samples_dates_from_after_it() -> None:
+    # Session 20, review: a strict warning pending (the robot busy) kept its onset from before
+    # a gap longer than the staleness limit, so the cue said "since 2 s" of a problem seen
+    # again from 30 s.
+    p = make(STRICT_CLARITY, stale_after_s=6.0)
+    ds = []
+    t = 0.0
+    while t < 60.0:
+        t = round(t + 0.5, 9)
+        fed = t < 5.0 or t >= 30.0
+        batch = [Sample("speech_accuracy", t, 0.5)] if fed else []
+        d = p.step(t, batch, free_since=None if t < 35.0 else 35.0)
+        if d.cue:
+            ds.append(d)
+    assert ds and ds[0].cue.command == "articulate"
+    assert ds[0].cue.onset == pytest.approx(30.0), ds[0].reason

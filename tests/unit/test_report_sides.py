@@ -262,3 +262,23 @@ def test_the_spoken_summary_drops_whole_sentences_never_half_of_one() -> None:
     assert len(said.split()) <= 40
     assert said.endswith(("row of the hall.", "each sentence.")), said
     assert "first words" not in said  # the least important sentence went first
+
+
+def test_the_late_first_words_are_the_first_sentence_left_out() -> None:
+    # Session 20, review: the late-start sentence was dropped last, after "Then: …".
+    report = {
+        "time": {
+            "used_s": 111.0,
+            "allocated_s": 120.0,
+            "over_under_pct": -7.5,
+            "first_voice_s": 61.0,
+        },
+        "priorities": [
+            {"advice": "pick up the pace a little and breathe between sentences"},
+            {"advice": "look up at your audience"},
+        ],
+    }
+    said = summary_phrase(report)
+    assert "Then: look up at your audience." in said, said
+    assert "first words" not in said
+    assert len(said.split()) <= 40
