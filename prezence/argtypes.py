@@ -35,3 +35,14 @@ def speed_fraction(text: str) -> float:
     if not (math.isfinite(value) and 0.0 < value <= 1.0):
         raise argparse.ArgumentTypeError(f"{text!r}: the speed fraction must be in (0, 1]")
     return value
+
+
+def non_negative_float(text: str) -> float:
+    """A finite number >= 0 (seconds of grace)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be 0 or more")
+    return value

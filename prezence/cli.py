@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from prezence import __version__
-from prezence.argtypes import non_negative_int, speed_fraction
+from prezence.argtypes import non_negative_float, non_negative_int, speed_fraction
 from prezence.errors import PrezenceError
 from prezence.sessiondir import drop_if_left_empty
 from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION, Terminated
@@ -911,7 +911,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_allocated(p)
     p.add_argument(
         "--grace",
-        type=float,
+        type=non_negative_float,
         default=30.0,
         help="seconds after the allocated time (default 30)",
     )
@@ -1033,15 +1033,24 @@ def list_names(what: str) -> list[str]:
     return list(BACKENDS)
 
 
+#: Options whose value is a number or a length of time (a value with a dash is one for them).
+_NUMBER_OPTIONS = frozenset(
+    ("--allocated", "--grace", "--duration", "--seed", "--speed", "--minutes", "--port")
+)
+
+
 def _glue_negative_values(argv: Sequence[str]) -> list[str]:
     """``--allocated -5m`` as ``--allocated=-5m``: argparse takes a value that starts with a
     dash and is not a plain number for an option, and says only "expected one argument"; glued,
-    the option's own check names what is wrong ("must be > 0"). No option starts with a digit.
+    the option's own check names what is wrong ("must be > 0"). Only after the options that take
+    a number or a time (:data:`_NUMBER_OPTIONS`), and nothing after ``--``.
     """
     out: list[str] = []
     for i, a in enumerate(argv):
         prev = argv[i - 1] if i else ""
-        if out and prev.startswith("--") and "=" not in prev and re.match(r"-[\d.]", a):
+        if "--" in argv[:i]:
+            out.append(a)
+        elif prev in _NUMBER_OPTIONS and re.match(r"-[\d.:]", a):
             out[-1] = f"{prev}={a}"
         else:
             out.append(a)

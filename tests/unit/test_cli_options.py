@@ -174,6 +174,7 @@ def test_check_config_warns_about_a_misspelt_metric(
         # a value with a dash is not taken for an option (argparse said "expected one argument")
         (["rehearse", "x.wav", "--allocated", "-5m"], "--allocated: '-5m': the time must be > 0"),
         (["up", "--audio", "x.wav", "--allocated", "-1:30"], "'-1:30': the time must be > 0"),
+        (["up", "--audio", "x.wav", "--grace", "-30"], "--grace: '-30': must be 0 or more"),
     ],
 )
 def test_a_bad_value_is_an_error_line_not_a_traceback(
@@ -215,3 +216,12 @@ def test_a_room_file_with_another_table_is_refused_naming_it(
     cap = capsys.readouterr()
     assert f"{room}:{line}: {says}" in cap.err
     assert ": ok" not in cap.out
+
+
+def test_only_a_number_option_takes_a_dashed_value_and_nothing_after_a_double_dash() -> None:
+    from prezence.cli import _glue_negative_values as glue
+
+    assert glue(["up", "--allocated", "-5m"]) == ["up", "--allocated=-5m"]
+    assert glue(["up", "--realtime", "-1"]) == ["up", "--realtime", "-1"]  # a flag takes none
+    assert glue(["evaluate", "--", "-1"]) == ["evaluate", "--", "-1"]
+    assert glue(["run", "x", "--", "--seed", "-1"]) == ["run", "x", "--", "--seed", "-1"]
