@@ -613,11 +613,13 @@ class Talk:
         # summary.json is not written yet: the modules' crashes come from the source
         extra = self.source.summary_extra()
         report = build_report(
-            self.session.root, config=self.config, ended=True, modules=extra.get("modules")
+            self.session.root,
+            config=self.config,
+            ended=True,
+            modules=extra.get("modules"),
+            stopped_at_limit=bool(extra.get("stopped_at_time_limit")),
         )
         report["stopped_repeating"] = notes  # summary.json is written after this
-        if extra.get("stopped_at_time_limit"):  # the time used is at least the talk's length
-            report["time"]["stopped_at_limit"] = True
         phrase = summary_phrase(report)
         try:
             return coach.post_talk(phrase, now, step_s=step_s, pace=pace)

@@ -335,16 +335,36 @@ SLIGHTLY_OFF_SHARE = 0.2
 LATE_START_S = 20.0
 
 
-def first_voice_s(session: SessionDir, limit: float | None = None) -> float | None:
-    """When the speech module first heard a voice (``speech_activity`` above 0), seconds into
-    the talk; None without that stream or a voice in it."""
+#: A talk the time limit stopped was still going on when a voice was heard this close to the
+#: stop (the speech module's activity window is 10 s).
+STILL_GOING_S = 15.0
+
+
+def voice_times(session: SessionDir, limit: float | None = None) -> list[float] | None:
+    """When the speech module heard a voice (``speech_activity`` above 0), seconds into the
+    talk, in order; None without that stream."""
     from prezence.streams.tail import read_stream
 
     path = session.stream("speech_activity.txt")
     if not path.is_file():
         return None
     samples, _ = read_stream(path, "speech_activity", max_t=limit, problems=[])
-    return next((s.t for s in sorted(samples, key=lambda s: s.t) if s.value > 0.0), None)
+    return sorted(s.t for s in samples if s.value > 0.0)
+
+
+def first_voice_s(session: SessionDir, limit: float | None = None) -> float | None:
+    """When the speech module first heard a voice, seconds into the talk; None without that
+    stream or a voice in it."""
+    heard = voice_times(session, limit)
+    return heard[0] if heard else None
+
+
+def still_going(session: SessionDir, talk_s: float) -> bool:
+    """Whether a talk the time limit stopped was still going on: a voice heard within
+    :data:`STILL_GOING_S` of the stop, or no speech module to say (an input still ran). A
+    microphone keeps its module running after the speaker has finished (session 20 review)."""
+    heard = voice_times(session, talk_s + 1.0)
+    return heard is None or (bool(heard) and heard[-1] >= talk_s - STILL_GOING_S)
 
 
 def measured_s(m: Mapping[str, Any]) -> float:
@@ -641,6 +661,7 @@ def build_report(
     config: Config | None = None,
     ended: bool | None = None,
     modules: Mapping[str, Any] | None = None,
+    stopped_at_limit: bool | None = None,
 ) -> dict[str, Any]:
     """Rebuild the report of one talk from its session folder.
 
@@ -652,6 +673,9 @@ def build_report(
             when the talk ended, as a finished talk's does).
         modules: the launcher's record of the modules' crashes (None: ``summary.json``'s,
             which a talk still running has not written yet).
+        stopped_at_limit: the time limit stopped the talk while an input still ran (None:
+            ``summary.json``'s ``stopped_at_time_limit``); said as a lower bound of the time
+            used only when the talk was still going on (:func:`still_going`).
 
     Returns:
         The report as a JSON-ready dict: ``time`` (used vs allocated), ``metrics`` (the
@@ -663,7 +687,7 @@ def build_report(
         ConfigError: the folder does not exist, its ``config.toml`` is invalid, or it is not a
             session folder (no ``session.json`` nor ``cues.jsonl``) and holds no stream file.
     """
-    return _rebuild(session_dir, config, ended, modules)[0]
+    return _rebuild(session_dir, config, ended, modules, stopped_at_limit)[0]
 
 
 def _read_summary(session: SessionDir) -> dict[str, Any]:
@@ -710,6 +734,7 @@ def _rebuild(
     config: Config | None,
     ended: bool | None = None,
     modules: Mapping[str, Any] | None = None,
+    stopped_at_limit: bool | None = None,
 ) -> tuple[dict[str, Any], dict[str, list[Sample]]]:
     session = SessionDir(Path(session_dir))
     if not session.root.is_dir():
@@ -869,7 +894,9 @@ def _rebuild(
     helped = [r for r in cue_rows if r.get("improved") is not None]
 
     time_used = dict(summary["time"])
-    if recorded.get("stopped_at_time_limit"):  # cut at the allocated time plus the grace
+    if stopped_at_limit is None:  # as summary.json says (a talk that ended wrote it)
+        stopped_at_limit = bool(recorded.get("stopped_at_time_limit"))
+    if stopped_at_limit and still_going(session, talk_s):  # cut at allocated time + grace
         time_used["stopped_at_limit"] = True
     first = first_voice_s(session, limit)
     if first is not None and first >= LATE_START_S:

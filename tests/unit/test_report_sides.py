@@ -282,3 +282,28 @@ def test_the_late_first_words_are_the_first_sentence_left_out() -> None:
     assert "Then: look up at your audience." in said, said
     assert "first words" not in said
     assert len(said.split()) <= 40
+
+
+@pytest.mark.parametrize(("last_voice", "still"), [(118, True), (60, False)])
+def test_a_talk_the_time_limit_stopped_is_said_to_go_on_only_if_a_voice_was_still_heard(
+    tmp_path: Path, last_voice: int, still: bool
+) -> None:
+    # Session 20, review: a microphone's module runs on after the speaker has finished, so a
+    # live talk left running to the limit was told "You were still going" minutes after the
+    # last word.
+    session = talk(
+        tmp_path / "s",
+        120,
+        {
+            "speech_activity": (range(1, 121), lambda t: 0.9 if t <= last_voice else 0.0),
+            "speech_speed": (range(30, last_voice + 1), lambda t: 160.0),
+        },
+    )
+    session.config.write_text(dumps_config(Config(rules=(SPEED,), time=TimeSettings(90.0))))
+    session.summary.write_text(
+        json.dumps({"ended_at_s": 120.0, "stopped_at_time_limit": {"at_s": 120.0, "grace_s": 30.0}})
+    )
+    report = build_report(session.root)
+    assert bool(report["time"].get("stopped_at_limit")) is still
+    said = summary_phrase(report)
+    assert said.startswith("You were still going") is still, said
