@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from prezence.backends.registry import make_backend
-from prezence.config.load import load_config
+from prezence.config.load import keep_recorded_time, load_config
 from prezence.config.model import Config
 from prezence.errors import ConfigError
 from prezence.samples import Sample
@@ -87,11 +87,6 @@ def same_bands(a: Config, b: Config) -> bool:
     return bands(a) == bands(b)
 
 
-def _seconds(s: float | None) -> str:
-    """An allocated time as said in a warning: "540 s", or "no time" for None."""
-    return "no time" if s is None else f"{s:g} s"
-
-
 def replay(
     src: Path,
     *,
@@ -133,30 +128,19 @@ def replay(
             path=out,
         )
     src_session = SessionDir(src)
-    recorded = load_config(src_session.config) if src_session.config.exists() else None
+    # the talk's own record (a streams/ folder given: its session's)
+    rec = src_session
+    if not rec.meta.exists() and src.name == "streams" and SessionDir(src.parent).meta.exists():
+        rec = SessionDir(src.parent)
+    recorded = load_config(rec.config) if rec.config.exists() else None
     if config is None:
         config = recorded if recorded is not None else load_config(None)
     if allocated_s is not None:
         config = config.with_allocated(allocated_s)
-    elif recorded is not None and config.time.allocated_s != recorded.time.allocated_s:
-        # The time the speaker had is a fact of the talk, not a rule to try: other rules
-        # (a seed-format rules file has no time at all, so it loads the default 600 s) must
-        # not move the time warnings and the over/under figure (session 20: a 540 s talk
-        # replayed with a rules file read "1 % under" for "10 % over").
-        log.warning(
-            "%s: the recording's talk had %s allocated; kept (the rules given say %s; "
-            "--allocated changes it)",
-            src_session.config,
-            _seconds(recorded.time.allocated_s),
-            _seconds(config.time.allocated_s),
-        )
-        config = config.with_allocated(recorded.time.allocated_s)
+    else:
+        config = keep_recorded_time(config, recorded, rec.config)
     meta = src_session.read_meta()
     paths = find_streams(src, config)
-    # the talk's length by its own record (a streams/ folder given: its session's record)
-    rec = src_session
-    if not rec.meta.exists() and src.name == "streams" and SessionDir(src.parent).meta.exists():
-        rec = SessionDir(src.parent)
     rec_meta = rec.read_meta()
     limit = sample_time_limit(rec, rec_meta)
     if options.gestures is None and rec_meta.get("gestures"):

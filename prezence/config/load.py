@@ -66,6 +66,26 @@ def load_config(path: str | Path | None = None, *, room: RoomProfile | None = No
     return dataclasses.replace(config, rules=rules)
 
 
+def keep_recorded_time(config: Config, recorded: Config | None, where: Path) -> Config:
+    """``config`` with the recorded talk's allocated time (``recorded``, read from ``where``):
+    the time a speaker had is a fact of the talk, not a rule to try, so rules given to judge a
+    recording again (a rules file of the seed's format has no time and loads the default 600
+    s) must not move the time warnings and the over/under figure. Warns when it differs."""
+    if recorded is None or config.time.allocated_s == recorded.time.allocated_s:
+        return config
+
+    def said(s: float | None) -> str:
+        return "no time" if s is None else f"{s:g} s"
+
+    log.warning(
+        "%s: the recording's talk had %s allocated; kept (the rules given say %s)",
+        where,
+        said(recorded.time.allocated_s),
+        said(config.time.allocated_s),
+    )
+    return config.with_allocated(recorded.time.allocated_s)
+
+
 def complete_rules(rules: Sequence[Rule]) -> tuple[tuple[Rule, ...], list[str]]:
     """Fill in what the seed's short lines leave out, and flag likely typos.
 

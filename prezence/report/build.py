@@ -14,6 +14,7 @@ on, and the talk's length when the record ends early.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 from collections.abc import Callable, Collection, Mapping, Sequence
@@ -741,6 +742,12 @@ def _rebuild(
         raise ConfigError("no such session folder", path=session.root)
     meta = _read_meta(session)
     cfg = config if config is not None else _load_session_config(session)
+    if config is not None and session.config.is_file():
+        # rules given to judge the talk again keep its allocated time (replay does the same)
+        from prezence.config.load import keep_recorded_time, load_config
+
+        with contextlib.suppress(ConfigError):  # a damaged record: the rules given decide
+            cfg = keep_recorded_time(cfg, load_config(session.config), session.config)
     from prezence.streams.locate import locate_streams, no_streams_error
     from prezence.streams.tail import read_stream
 

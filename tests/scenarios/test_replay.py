@@ -236,7 +236,30 @@ def test_replay_with_a_rules_file_keeps_the_time_the_recorded_talk_had(
     assert summary["time"]["allocated_s"] == 540.0
     talk_s = summary["talk_s"]
     assert summary["time"]["over_under_pct"] == pytest.approx(100 * (talk_s - 540) / 540, abs=0.01)
-    assert "had 540 s allocated; kept (the rules given say 600 s" in caplog.text
+    assert "had 540 s allocated; kept (the rules given say 600 s)" in caplog.text
+    # the same from the session's streams/ folder, and for a report judged by the rules file
+    assert (
+        main(
+            [
+                "replay",
+                str(src / "streams"),
+                "--config",
+                str(rules),
+                "--out",
+                str(tmp_path / "c"),
+                "--no-report",
+                "-q",
+            ]
+        )
+        == 0
+    )
+    summary = json.loads((tmp_path / "c" / "summary.json").read_text())
+    assert summary["time"]["allocated_s"] == 540.0
+    from prezence.config.load import load_config
+    from prezence.report.build import build_report
+
+    report = build_report(src, config=load_config(rules))
+    assert report["time"]["allocated_s"] == 540.0
     # --allocated still decides when given
     assert (
         main(
