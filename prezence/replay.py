@@ -11,6 +11,7 @@ loop is open.
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import os
 from collections.abc import Iterator, Mapping
@@ -85,6 +86,20 @@ def same_bands(a: Config, b: Config) -> bool:
         return {r.metric: (r.check, r.low, r.high, r.offset) for r in c.rules}
 
     return bands(a) == bands(b)
+
+
+#: Streams no rule judges that the report reads, copied into a replay when the recording has
+#: them: when a voice was heard, and whether a gesture rate counted every arm.
+CONTEXT_STREAMS = ("speech_activity.txt", "cv_gestures_source.txt")
+
+
+def _read_json_or_empty(path: Path) -> dict[str, Any]:
+    """A JSON object file, or {} when it is missing or unreadable (a recording's summary)."""
+    try:
+        value = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return value if isinstance(value, dict) else {}
 
 
 def replay(
@@ -174,6 +189,17 @@ def replay(
         )
         extra["truth_dropped"] = why
         truth = None
+    # what the report reads besides the rules' streams: when the voice was heard (late first
+    # words, a time-limit stop's wording) and whether the gesture rate counted every arm
+    context = {
+        name: folder / name
+        for name in CONTEXT_STREAMS
+        for folder in (rec.streams, src)
+        if (folder / name).is_file() and not any(r.stream == name for r in config.rules)
+    }
+    stopped = _read_json_or_empty(rec.summary).get("stopped_at_time_limit")
+    if stopped:  # the recorded talk was cut at its time limit: so is its replay
+        extra["stopped_at_time_limit"] = stopped
     session = SessionDir(out)
     return process_recorded(
         session,
@@ -185,6 +211,7 @@ def replay(
         backend=backend,
         backend_kwargs=backend_kwargs,
         copy_streams=paths,
+        context_streams=context,
         readings=readings,
         meta={
             "source": source,
@@ -306,6 +333,7 @@ def process_recorded(
     backend: str = "fake",
     backend_kwargs: dict[str, Any] | None = None,
     copy_streams: dict[str, Path] | None = None,
+    context_streams: dict[str, Path] | None = None,
     readings: dict[str, Reading] | None = None,
     kind: str = "replay",
     meta: dict[str, Any] | None = None,
@@ -320,6 +348,8 @@ def process_recorded(
         copy_streams: stream files to copy into the new session (metric → file), so that
             its summary and report read what the coach read. None: the samples were read
             from ``session``'s own stream files (a rehearsal), which are kept.
+        context_streams: stream files no rule judges that the report reads (file name → file),
+            copied too.
         readings: the stream files as read (:func:`read_streams`): the summary then does not
             read them again.
         kind: the session's kind (``replay``, ``rehearsal``).
@@ -332,7 +362,10 @@ def process_recorded(
         truth=truth,
         meta=meta,
         extra=extra,
-        copy_streams={config.rule(m).stream: p for m, p in (copy_streams or {}).items()},
+        copy_streams={
+            **(context_streams or {}),
+            **{config.rule(m).stream: p for m, p in (copy_streams or {}).items()},
+        },
         keep_streams=copy_streams is None,
         kind=kind,
         readings=readings,

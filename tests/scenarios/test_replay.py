@@ -300,6 +300,32 @@ def test_a_replay_of_a_talk_played_from_files_judges_no_cue_by_what_followed(
     assert all(c.get("heard") is False for c in report["cues"] if c.get("metric"))
 
 
+def test_a_replay_keeps_what_the_report_reads_beyond_the_rules(
+    demo_session: Path, tmp_path: Path
+) -> None:
+    # Session 20, review: a replay copied the rules' streams only, so its report lost when the
+    # voice was first heard ("Your first words came 1 minute in") and that the recorded talk
+    # was cut at its time limit ("at least N% over").
+    from prezence.report.build import build_report
+
+    src = tmp_path / "rec"
+    shutil.copytree(demo_session, src)
+    talk_s = json.loads((src / "session.json").read_text())["talk_s"]
+    end = int(talk_s)
+    (src / "streams" / "speech_activity.txt").write_text(
+        "".join(f"{t} {0.0 if t < 61 else 0.9}\n" for t in range(1, end + 1))
+    )
+    summary = json.loads((src / "summary.json").read_text())
+    summary["stopped_at_time_limit"] = {"at_s": talk_s, "grace_s": 30.0}
+    (src / "summary.json").write_text(json.dumps(summary))
+    assert build_report(src)["time"]["first_voice_s"] == 61.0
+    out = tmp_path / "r"
+    assert main(["replay", str(src), "--out", str(out), "--no-report", "-q"]) == 0
+    time_used = build_report(out)["time"]
+    assert time_used["first_voice_s"] == 61.0
+    assert time_used["stopped_at_limit"] is True
+
+
 def test_replay_room_needs_rules(demo_session: Path, tmp_path: Path) -> None:
     room = tmp_path / "room.toml"
     room.write_text('format = 1\n[room]\nname = "hall"\n')
