@@ -24,7 +24,7 @@ from typing import Any
 from prezence.config.model import Config, Rule
 from prezence.errors import ConfigError, PrezenceError
 from prezence.metrics import METRICS
-from prezence.report.speech import was
+from prezence.report.speech import measured_s, was
 from prezence.samples import Sample
 from prezence.session import (
     CUE_KEYS,
@@ -366,11 +366,6 @@ def still_going(session: SessionDir, talk_s: float) -> bool:
     microphone keeps its module running after the speaker has finished (session 20 review)."""
     heard = voice_times(session, talk_s + 1.0)
     return heard is None or (bool(heard) and heard[-1] >= talk_s - STILL_GOING_S)
-
-
-def measured_s(m: Mapping[str, Any]) -> float:
-    """The seconds a metric's values held over the talk (in range or out): what it covered."""
-    return float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
 
 
 def _share_out(m: Mapping[str, Any]) -> float | None:

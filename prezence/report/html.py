@@ -10,6 +10,7 @@ from typing import Any
 from prezence.report.speech import (
     cue_count_parts,
     cue_mark,
+    measured_s,
     measured_share,
     metric_notes,
     off_sides_text,
@@ -273,11 +274,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             if m.get("samples")
             else f'<span class="nodata">{_e(state)}</span>'
         )
-        covered = (
-            _mmss(float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0))
-            if m.get("samples")
-            else "–"
-        )
+        covered = _mmss(measured_s(m)) if m.get("samples") else "–"
         out.append(
             f'<tr><td class="l">{_e(m.get("label"))}</td><td class="l">{_e(_band(m))}</td>'
             f"<td>{covered}</td><td>{tir}</td><td>{_num(m.get('mean'))}</td>"

@@ -38,6 +38,11 @@ def _spoken_exact(s: float) -> str:
     return " ".join(parts)
 
 
+def measured_s(m: Mapping[str, Any]) -> float:
+    """The seconds a metric's values held over the talk (in range or out): what it covered."""
+    return float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
+
+
 def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str:
     """One sentence on time used vs allocated.
 
@@ -158,7 +163,7 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
         elif m.get("samples") and m.get("estimate"):
             out.append(f"{label}: {m['estimate']}")
         if m.get("samples") and m.get("too_brief") and not m.get("less_reliable"):
-            s = float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
+            s = measured_s(m)
             # 9.9 s is not "10 s, under the 10 s needed": a tenth, rounded down, near the limit
             shown = f"{s:.0f}" if s < MIN_JUDGED_S - 0.5 else f"{math.floor(s * 10) / 10:.1f}"
             out.append(
@@ -281,7 +286,7 @@ def coverage_gaps(report: Mapping[str, Any]) -> list[tuple[str, float]]:
     for k, m in (report.get("metrics") or {}).items():
         if not isinstance(m, Mapping) or not _judged(m) or talk <= 0 or "in_range_s" not in m:
             continue  # not judged, or its coverage not recorded
-        secs = float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
+        secs = measured_s(m)
         if secs < COVERED_SHARE * talk:
             out.append((str(m.get("label") or k), secs))
     return out
@@ -699,12 +704,7 @@ def format_text(report: Mapping[str, Any]) -> str:
     for name, m in report["metrics"].items():
         tir = _pct(m.get("time_in_range")) if m.get("samples") else m.get("data") or "no data"
         # over how much of the talk its figures hold: "0:15 of 0:54" is not the whole talk
-        covered = (
-            f"{_mmss(float(m.get('in_range_s') or 0.0) + float(m.get('out_of_range_s') or 0.0))}"
-            f" of {talk}"
-            if m.get("samples")
-            else "-"
-        )
+        covered = f"{_mmss(measured_s(m))} of {talk}" if m.get("samples") else "-"
         lines.append(
             f"  {m.get('label', name):<12} {covered:>13} {tir:>12} "
             f"{_num(m.get('mean')):>7} {_num(m.get('p10')):>7} {_num(m.get('p90')):>7} "
