@@ -353,18 +353,11 @@ def voice_times(session: SessionDir, limit: float | None = None) -> list[float] 
     return sorted(s.t for s in samples if s.value > 0.0)
 
 
-def first_voice_s(session: SessionDir, limit: float | None = None) -> float | None:
-    """When the speech module first heard a voice, seconds into the talk; None without that
-    stream or a voice in it."""
-    heard = voice_times(session, limit)
-    return heard[0] if heard else None
-
-
-def still_going(session: SessionDir, talk_s: float) -> bool:
-    """Whether a talk the time limit stopped was still going on: a voice heard within
-    :data:`STILL_GOING_S` of the stop, or no speech module to say (an input still ran). A
-    microphone keeps its module running after the speaker has finished (session 20 review)."""
-    heard = voice_times(session, talk_s + 1.0)
+def still_going(heard: Sequence[float] | None, talk_s: float) -> bool:
+    """Whether a talk the time limit stopped was still going on: a voice heard (``heard``:
+    :func:`voice_times`) within :data:`STILL_GOING_S` of the stop, or no speech module to say
+    (an input still ran). A microphone keeps its module running after the speaker has finished
+    (session 20 review)."""
     return heard is None or (bool(heard) and heard[-1] >= talk_s - STILL_GOING_S)
 
 
@@ -898,11 +891,11 @@ def _rebuild(
     time_used = dict(summary["time"])
     if stopped_at_limit is None:  # as summary.json says (a talk that ended wrote it)
         stopped_at_limit = bool(recorded.get("stopped_at_time_limit"))
-    if stopped_at_limit and still_going(session, talk_s):  # cut at allocated time + grace
+    voiced = voice_times(session, limit)  # read once: the stop's wording, the first words
+    if stopped_at_limit and still_going(voiced, talk_s):  # cut at allocated time + grace
         time_used["stopped_at_limit"] = True
-    first = first_voice_s(session, limit)
-    if first is not None and first >= LATE_START_S:
-        time_used["first_voice_s"] = round(first, 1)
+    if voiced and voiced[0] >= LATE_START_S:
+        time_used["first_voice_s"] = round(voiced[0], 1)
     cued = {str(c["metric"]) for c in cues if c.get("metric")}
     # advice only on what was measured long enough, and not by a fallback (MIN_JUDGED_S)
     judged_dev = {k: v for k, v in dev_s.items() if judged(metrics.get(k) or {})}

@@ -6,6 +6,7 @@ import json
 import logging
 import shutil
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -216,70 +217,28 @@ def test_replay_with_a_rules_file_keeps_the_time_the_recorded_talk_had(
     cfg.write_text(text.replace("allocated_s = 600.0", "allocated_s = 540.0"))
     rules = tmp_path / "rules.txt"
     rules.write_text("speech_speed inRange 140 180\nspeech_volume min 60 louder\n")
-    with caplog.at_level(logging.WARNING, logger="prezence.replay"):
-        assert (
-            main(
-                [
-                    "replay",
-                    str(src),
-                    "--config",
-                    str(rules),
-                    "--out",
-                    str(tmp_path / "a"),
-                    "--no-report",
-                    "-q",
-                ]
-            )
-            == 0
-        )
-    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+
+    def replayed(source: Path, out: str, *extra: str) -> dict[str, Any]:
+        argv = ["replay", str(source), "--config", str(rules), "--out", str(tmp_path / out)]
+        assert main([*argv, *extra, "--no-report", "-q"]) == 0
+        summary: dict[str, Any] = json.loads((tmp_path / out / "summary.json").read_text())
+        return summary
+
+    with caplog.at_level(logging.WARNING, logger="prezence.config.load"):
+        summary = replayed(src, "a")
     assert summary["time"]["allocated_s"] == 540.0
     talk_s = summary["talk_s"]
     assert summary["time"]["over_under_pct"] == pytest.approx(100 * (talk_s - 540) / 540, abs=0.01)
     assert "had 540 s allocated; kept (the rules given say 600 s)" in caplog.text
+    # --allocated still decides when given
+    assert replayed(src, "b", "--allocated", "10m")["time"]["allocated_s"] == 600.0
     # the same from the session's streams/ folder, and for a report judged by the rules file
-    assert (
-        main(
-            [
-                "replay",
-                str(src / "streams"),
-                "--config",
-                str(rules),
-                "--out",
-                str(tmp_path / "c"),
-                "--no-report",
-                "-q",
-            ]
-        )
-        == 0
-    )
-    summary = json.loads((tmp_path / "c" / "summary.json").read_text())
-    assert summary["time"]["allocated_s"] == 540.0
+    assert replayed(src / "streams", "c")["time"]["allocated_s"] == 540.0
     from prezence.config.load import load_config
     from prezence.report.build import build_report
 
     report = build_report(src, config=load_config(rules))
     assert report["time"]["allocated_s"] == 540.0
-    # --allocated still decides when given
-    assert (
-        main(
-            [
-                "replay",
-                str(src),
-                "--config",
-                str(rules),
-                "--out",
-                str(tmp_path / "b"),
-                "--allocated",
-                "10m",
-                "--no-report",
-                "-q",
-            ]
-        )
-        == 0
-    )
-    summary = json.loads((tmp_path / "b" / "summary.json").read_text())
-    assert summary["time"]["allocated_s"] == 600.0
 
 
 def test_a_replay_of_a_talk_played_from_files_judges_no_cue_by_what_followed(

@@ -244,21 +244,23 @@ def test_a_voice_first_heard_a_minute_in_is_said_with_the_time_used(tmp_path: Pa
     assert "first words" not in format_text(build_report(early.root))
 
 
+def _said_with_late_start(first: str, then: str) -> str:
+    """The spoken summary of a talk whose voice began 61 s in, with two things to work on."""
+    time_used = {"used_s": 111.0, "allocated_s": 120.0, "over_under_pct": -7.5}
+    return summary_phrase(
+        {
+            "time": {**time_used, "first_voice_s": 61.0},
+            "priorities": [{"advice": first}, {"advice": then}],
+        }
+    )
+
+
 def test_the_spoken_summary_drops_whole_sentences_never_half_of_one() -> None:
     # Session 20: a long phrase was cut at 40 words, "…but I measured only part of."
-    report = {
-        "time": {
-            "used_s": 111.0,
-            "allocated_s": 120.0,
-            "over_under_pct": -7.5,
-            "first_voice_s": 61.0,
-        },
-        "priorities": [
-            {"advice": "pick up the pace and say each sentence as if to the back row of the hall"},
-            {"advice": "look up at your audience from your notes at the end of each sentence"},
-        ],
-    }
-    said = summary_phrase(report)
+    said = _said_with_late_start(
+        "pick up the pace and say each sentence as if to the back row of the hall",
+        "look up at your audience from your notes at the end of each sentence",
+    )
     assert len(said.split()) <= 40
     assert said.endswith(("row of the hall.", "each sentence.")), said
     assert "first words" not in said  # the least important sentence went first
@@ -266,19 +268,9 @@ def test_the_spoken_summary_drops_whole_sentences_never_half_of_one() -> None:
 
 def test_the_late_first_words_are_the_first_sentence_left_out() -> None:
     # Session 20, review: the late-start sentence was dropped last, after "Then: …".
-    report = {
-        "time": {
-            "used_s": 111.0,
-            "allocated_s": 120.0,
-            "over_under_pct": -7.5,
-            "first_voice_s": 61.0,
-        },
-        "priorities": [
-            {"advice": "pick up the pace a little and breathe between sentences"},
-            {"advice": "look up at your audience"},
-        ],
-    }
-    said = summary_phrase(report)
+    said = _said_with_late_start(
+        "pick up the pace a little and breathe between sentences", "look up at your audience"
+    )
     assert "Then: look up at your audience." in said, said
     assert "first words" not in said
     assert len(said.split()) <= 40
