@@ -144,6 +144,9 @@ METRICS: Mapping[str, Metric] = {
         Metric("speech_speed_syllables", "syllables/min", "syllable rate", "speech", _SPEECH),
         # where pace and articulation came from: 1 recogniser, 2 syllable nuclei, 0 not measured
         Metric("speech_speed_source", "code", "pace source", "speech", _SPEECH),
+        # the word window's estimated signal-to-noise ratio, written with speed and clarity:
+        # no rule judges it; the coach and the report say a low clarity came in noise
+        Metric("speech_snr", "dB", "estimated SNR", "speech", _SPEECH),
         Metric("speech_articulation", "syllables/s", "articulation rate", "speech", _SPEECH),
         Metric(
             "speech_volume",

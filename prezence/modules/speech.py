@@ -24,6 +24,11 @@ speech_speed_syllables the ASR-free estimate: syllable nuclei / :data:`NUCLEI_PE
 speech_speed_source    where the speech_speed and speech_articulation of the same ``t`` came
                        from: 1 = recogniser words, 2 = syllable nuclei, 0 = neither could be
                        trusted (and those two streams have no line at that ``t``)
+speech_snr             the word window's estimated SNR, dB (loud p90 over quiet p10 30 ms
+                       frames, :meth:`SpeechAnalyser._snr_db`): what speed and clarity were
+                       measured in. The coach reads it to say the room is noisy when it cues
+                       clarity there (:data:`prezence.coach.NOISY_SNR_DB`), the report to say
+                       how much of a low clarity fell in noise; no rule judges it
 speech_articulation    words per *speaking* minute (the same words / the time the recognised
                        words cover; with syllables: / voice-activity time)
 speech_volume          active-speech level in estimated dB SPL: RMS dBFS of the speech frames
@@ -168,6 +173,8 @@ SPEECH_CONFIDENCE = "speech_confidence"
 SPEECH_LOUDNESS = "speech_loudness"
 SPEECH_SPEED_SYLLABLES = "speech_speed_syllables"
 SPEECH_SPEED_SOURCE = "speech_speed_source"
+#: The word window's estimated SNR (dB), written with the word-based metrics.
+SPEECH_SNR = "speech_snr"
 #: speech_speed_source values: where the speech_speed and speech_articulation written at the
 #: same ``t`` came from (a stream line carries one number, so the source is a stream of its own).
 SOURCE_RECOGNISER = 1.0
@@ -179,6 +186,8 @@ METRICS = (
     SPEECH_SPEED,
     SPEECH_SPEED_SYLLABLES,
     SPEECH_SPEED_SOURCE,
+    # before speech_accuracy: a reader that sees a window's clarity sees its SNR too
+    SPEECH_SNR,
     SPEECH_ARTICULATION,
     SPEECH_VOLUME,
     SPEECH_LOUDNESS,
@@ -1251,6 +1260,7 @@ class SpeechAnalyser:
         out = [
             Sample(SPEECH_SPEED_SYLLABLES, t_out, n_syl / opt.nuclei_per_word / talk_s * 60.0),
             Sample(SPEECH_SPEED_SOURCE, t_out, source),
+            Sample(SPEECH_SNR, t_out, snr),
         ]
         if source == SOURCE_RECOGNISER:
             words = n_asr
