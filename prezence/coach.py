@@ -3,27 +3,112 @@
 Each :meth:`Coach.tick` moves the robot to ``now``, hands the new samples to the processor,
 writes the decision, and, when a cue is chosen, has the robot perform it (gesture and phrase
 together). The robot is asked only when it is free, so no cue ever waits in a queue.
+
+A clarity cue in a noisy room names the noise (session 21). Clarity (``speech_accuracy``)
+falls where the speech is hard to hear, noise included, so "speak more clearly" would blame
+the presenter's articulation for the room. When the processor cues ``speech_accuracy`` and
+the speech module's latest fresh ``speech_snr`` (the same word window's estimated SNR) is
+under :data:`NOISY_SNR_DB`, the cue gets the parameters ``noisy`` and ``snr_db`` and a reason
+that says so, and the robot says the command's ``phrase_noisy`` ("It is noisy here: ...").
+The processor decides as before; only the cue's words change. The SNR is read from the
+session's own ``streams/speech_snr.txt`` when such a cue comes, never per decision point, so
+``up``, ``rehearse`` and ``replay`` (which copies the stream) read the same value; a talk
+without the stream (synthetic, or recorded before session 21) is coached as before. A cue on
+another metric, ``articulate`` on a metric of one's own included, is not about the noise.
 """
 
 from __future__ import annotations
 
 import logging
+import math
+from bisect import bisect_right, insort
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from os import PathLike
 from typing import TYPE_CHECKING, Any
 
 from prezence.backends.base import Backend, Motion
 from prezence.errors import BackendUnavailable
 from prezence.feedback.commands import get_command
 from prezence.feedback.trajectory import Trajectory
-from prezence.processor import Cue, Decision, Processor
-from prezence.samples import Sample
+from prezence.processor import Cue, Decision, Kind, Processor
+from prezence.samples import SPEECH_ACCURACY, Sample
 from prezence.session import JsonlWriter, SessionDir
+from prezence.streams.tail import StreamTailer
 
 if TYPE_CHECKING:
     from prezence.feedback.gestures import GestureLibrary
 
 log = logging.getLogger(__name__)
+
+#: The speech module's estimate of each word window's SNR (dB), written with its clarity.
+SNR_METRIC = "speech_snr"
+#: A clarity cue given while the latest fresh speech_snr is under this (dB) names the noise.
+#: The speech module's estimate reads 8-10 dB for white noise at a true SNR of 5 dB, 13-14 at
+#: 10 dB, 22-24 at 20 dB and 28 or more on clean speech; clarity falls at a true 10 dB and
+#: below, where the module already withholds the recogniser's speed (its
+#: MIN_RECOGNISER_SNR_DB, 15). Chosen on the corpus's festival voices (README, session 21):
+#: their articulate cues came at an estimated 7.8-10.1 dB (true SNR 5 and 10 dB), their
+#: clean, reverberant and low-passed windows read 20 dB or more.
+NOISY_SNR_DB = 15.0
+#: The cues that ask for clearer speech: a strict or weighted cue on this metric.
+NOISY_METRIC = SPEECH_ACCURACY
+
+
+class RoomNoise:
+    """The speech module's newest ``speech_snr`` at a time, read from its stream file when
+    asked (a clarity cue), so that a decision point without one costs nothing.
+
+    Args:
+        path: ``streams/speech_snr.txt`` of the session (it may not exist yet, or ever).
+        stale_after_s: a value older than this is not the room's state now (the speech
+            metrics' staleness).
+    """
+
+    def __init__(self, path: str | PathLike[str], *, stale_after_s: float) -> None:
+        self._tailer = StreamTailer(path, SNR_METRIC)
+        self.stale_after_s = stale_after_s
+        self._t: list[float] = []
+        self._v: list[float] = []
+
+    def snr_db(self, now: float) -> float | None:
+        """The newest SNR stamped at or before ``now`` and at most ``stale_after_s`` old;
+        None without one."""
+        for s in self._tailer.poll(now):
+            if not math.isfinite(s.value):
+                continue
+            if self._t and s.t < self._t[-1]:  # out of order: kept in time order
+                i = bisect_right(self._t, s.t)
+                self._t.insert(i, s.t)
+                self._v.insert(i, s.value)
+            else:
+                self._t.append(s.t)
+                self._v.append(s.value)
+        i = bisect_right(self._t, now)
+        if i == 0 or now - self._t[i - 1] > self.stale_after_s:
+            return None
+        return self._v[i - 1]
+
+
+def name_the_noise(cue: Cue, snr_db: float | None) -> Cue:
+    """``cue`` as given in a room whose estimated SNR is ``snr_db``: a clarity cue under
+    :data:`NOISY_SNR_DB` says the room is noisy (parameters ``noisy`` and ``snr_db``, and its
+    reason); any other cue, or no SNR, is returned as it is."""
+    if (
+        snr_db is None
+        or not snr_db < NOISY_SNR_DB
+        or cue.metric != NOISY_METRIC
+        or cue.kind not in (Kind.STRICT, Kind.WEIGHTED)
+    ):
+        return cue
+    snr = round(snr_db, 1)
+    return replace(
+        cue,
+        params={**cue.params, "noisy": True, "snr_db": snr},
+        reason=f"{cue.reason}; the room is noisy (estimated SNR {snr:g} dB, under "
+        f"{NOISY_SNR_DB:g} dB): the noise may be why clarity reads low",
+    )
+
 
 #: Plans the gesture of a command: (gesture name, cue params) → trajectory.
 GesturePlanner = Callable[[str, Mapping[str, Any]], Trajectory]
@@ -113,6 +198,8 @@ class Coach:
             ``off`` writes none. Views are the metrics' state after the decision (a metric
             just cued shows its weight spent and its refractory time begun).
             :attr:`decisions` counts every decision point.
+        noise: the room's estimated SNR (the session's ``speech_snr`` stream): a clarity cue
+            given in noise names it (:func:`name_the_noise`); None: never.
     """
 
     def __init__(
@@ -124,6 +211,7 @@ class Coach:
         planner: GesturePlanner,
         on_cue: Callable[[Cue], None] | None = None,
         log_mode: str = "changes",
+        noise: RoomNoise | None = None,
     ) -> None:
         if log_mode not in ("changes", "every", "off"):
             raise ValueError(f"log_mode: changes, every or off, not {log_mode!r}")
@@ -133,6 +221,7 @@ class Coach:
         self.planner = planner
         self.on_cue = on_cue
         self.log_mode = log_mode
+        self.noise = noise
         self._decisions = JsonlWriter(session.decisions, flush=False)
         self._last_logged: tuple[Any, ...] | None = None
         self._cues = JsonlWriter(session.cues)
@@ -148,6 +237,11 @@ class Coach:
         free_since = self._free_since if not self.backend.busy else None
         decision = self.processor.step(now, samples, free_since=free_since, with_views=False)
         self.decisions += 1
+        cue = decision.cue
+        if cue is not None and cue.metric == NOISY_METRIC and self.noise is not None:
+            named = name_the_noise(cue, self.noise.snr_db(now))
+            if named is not cue:
+                decision = decision._replace(cue=named, reason=named.reason)
         if self.log_mode == "every":
             rec = decision.to_dict()
             rec["metrics"] = [m.to_dict() for m in self.processor.views(now)]

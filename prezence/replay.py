@@ -88,9 +88,10 @@ def same_bands(a: Config, b: Config) -> bool:
     return bands(a) == bands(b)
 
 
-#: Streams no rule judges that the report reads, copied into a replay when the recording has
-#: them: when a voice was heard, and whether a gesture rate counted every arm.
-CONTEXT_STREAMS = ("speech_activity.txt", "cv_gestures_source.txt")
+#: Streams no rule judges that the coach or the report reads, copied into a replay when the
+#: recording has them: when a voice was heard, whether a gesture rate counted every arm, and
+#: the room's estimated SNR (a clarity cue in noise names it, as it did in the recorded talk).
+CONTEXT_STREAMS = ("speech_activity.txt", "cv_gestures_source.txt", "speech_snr.txt")
 
 
 def _read_json_or_empty(path: Path) -> dict[str, Any]:
@@ -189,8 +190,9 @@ def replay(
         )
         extra["truth_dropped"] = why
         truth = None
-    # what the report reads besides the rules' streams: when the voice was heard (late first
-    # words, a time-limit stop's wording) and whether the gesture rate counted every arm
+    # what the coach and the report read besides the rules' streams: when the voice was heard
+    # (late first words, a time-limit stop's wording), whether the gesture rate counted every
+    # arm, and the room's SNR (a clarity cue names the noise, as in the recorded talk)
     context = {
         name: folder / name
         for name in CONTEXT_STREAMS

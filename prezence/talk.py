@@ -34,10 +34,11 @@ from typing import Any, Protocol
 
 from prezence.backends.base import Backend
 from prezence.clock import ManualClock, MonotonicClock
-from prezence.coach import Coach, default_planner
+from prezence.coach import SNR_METRIC, Coach, RoomNoise, default_planner
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.feedback.gestures import library_for_talk
+from prezence.metrics import default_stale_after_s
 from prezence.processor import Cue, Decision, Processor, end_of_talk_notes, make_policy
 from prezence.samples import Sample
 from prezence.session import CUE_KEYS, FolderLock, SessionDir, dumps, read_jsonl
@@ -442,6 +443,13 @@ class Talk:
                 planner=default_planner(self.options.speed_fraction, library=self.library),
                 on_cue=self.source.on_cue,
                 log_mode=self.options.decision_log,
+                # the speech module's own file (up, rehearse) or the recording's copy (replay)
+                noise=RoomNoise(
+                    self.session.stream(f"{SNR_METRIC}.txt"),
+                    stale_after_s=default_stale_after_s(
+                        SNR_METRIC, self.config.processor.stale_after_s
+                    ),
+                ),
             )
         except BaseException:
             try:

@@ -24,6 +24,9 @@ class Command:
     gesture: str
     phrase: str
     phrase_one: str | None = None
+    #: Said instead of ``phrase`` when the cue's ``noisy`` parameter is set: a clarity cue in
+    #: a noisy room (:func:`prezence.coach.name_the_noise`).
+    phrase_noisy: str | None = None
     #: The parameters the processor gives each cue of this command (``minutes``).
     params: tuple[str, ...] = ()
 
@@ -38,11 +41,14 @@ class Command:
         params = dict(params or {})
         if self.phrase_one is not None and params.get("minutes") == 1:
             return self.phrase_one
+        phrase = self.phrase
+        if self.phrase_noisy is not None and params.get("noisy"):
+            phrase = self.phrase_noisy
         try:
-            return self.phrase.format(**params)
+            return phrase.format(**params)
         except (KeyError, IndexError, ValueError) as e:
             raise ConfigError(
-                f"command '{self.name}': phrase {self.phrase!r} needs a parameter the cue lacks "
+                f"command '{self.name}': phrase {phrase!r} needs a parameter the cue lacks "
                 f"({e}); cue parameters: {sorted(params)}",
                 path=COMMANDS_FILE,
             ) from e
@@ -62,6 +68,7 @@ def _parse(doc: Mapping[str, Any], path: str) -> dict[str, Command]:
                 gesture=str(entry["gesture"]),
                 phrase=str(entry["phrase"]),
                 phrase_one=entry.get("phrase_one"),
+                phrase_noisy=entry.get("phrase_noisy"),
                 params=tuple(str(p) for p in entry.get("params", ())),
             )
         except KeyError as e:
