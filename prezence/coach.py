@@ -8,8 +8,9 @@ A clarity cue in a noisy room names the noise (session 21). Clarity (``speech_ac
 falls where the speech is hard to hear, noise included, so "speak more clearly" would blame
 the presenter's articulation for the room. When the processor cues ``speech_accuracy`` and
 the speech module's latest fresh ``speech_snr`` (the same word window's estimated SNR) is
-under :data:`NOISY_SNR_DB`, the cue gets the parameters ``noisy`` and ``snr_db`` and a reason
-that says so, and the robot says the command's ``phrase_noisy`` ("It is noisy here: ...").
+under :data:`prezence.metrics.NOISY_SNR_DB`, the cue gets the parameters ``noisy`` and
+``snr_db`` and a reason that says so, and the robot says the command's ``phrase_noisy``
+("It is noisy here: ...").
 The processor decides as before; only the cue's words change. The SNR is read from the
 session's own ``streams/speech_snr.txt`` when such a cue comes, never per decision point, so
 ``up``, ``rehearse`` and ``replay`` (which copies the stream) read the same value; a talk
@@ -21,7 +22,7 @@ from __future__ import annotations
 
 import logging
 import math
-from bisect import bisect_right, insort
+from bisect import bisect_right
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from os import PathLike
@@ -31,8 +32,9 @@ from prezence.backends.base import Backend, Motion
 from prezence.errors import BackendUnavailable
 from prezence.feedback.commands import get_command
 from prezence.feedback.trajectory import Trajectory
+from prezence.metrics import NOISY_METRIC, NOISY_SNR_DB, SNR_METRIC
 from prezence.processor import Cue, Decision, Kind, Processor
-from prezence.samples import SPEECH_ACCURACY, Sample
+from prezence.samples import Sample
 from prezence.session import JsonlWriter, SessionDir
 from prezence.streams.tail import StreamTailer
 
@@ -40,19 +42,6 @@ if TYPE_CHECKING:
     from prezence.feedback.gestures import GestureLibrary
 
 log = logging.getLogger(__name__)
-
-#: The speech module's estimate of each word window's SNR (dB), written with its clarity.
-SNR_METRIC = "speech_snr"
-#: A clarity cue given while the latest fresh speech_snr is under this (dB) names the noise.
-#: The speech module's estimate reads 8-10 dB for white noise at a true SNR of 5 dB, 13-14 at
-#: 10 dB, 22-24 at 20 dB and 28 or more on clean speech; clarity falls at a true 10 dB and
-#: below, where the module already withholds the recogniser's speed (its
-#: MIN_RECOGNISER_SNR_DB, 15). Chosen on the corpus's festival voices (README, session 21):
-#: their articulate cues came at an estimated 7.8-10.1 dB (true SNR 5 and 10 dB), their
-#: clean, reverberant and low-passed windows read 20 dB or more.
-NOISY_SNR_DB = 15.0
-#: The cues that ask for clearer speech: a strict or weighted cue on this metric.
-NOISY_METRIC = SPEECH_ACCURACY
 
 
 class RoomNoise:
@@ -92,8 +81,8 @@ class RoomNoise:
 
 def name_the_noise(cue: Cue, snr_db: float | None) -> Cue:
     """``cue`` as given in a room whose estimated SNR is ``snr_db``: a clarity cue under
-    :data:`NOISY_SNR_DB` says the room is noisy (parameters ``noisy`` and ``snr_db``, and its
-    reason); any other cue, or no SNR, is returned as it is."""
+    :data:`prezence.metrics.NOISY_SNR_DB` says the room is noisy (parameters ``noisy`` and
+    ``snr_db``, and its reason); any other cue, or no SNR, is returned as it is."""
     if (
         snr_db is None
         or not snr_db < NOISY_SNR_DB

@@ -21,6 +21,19 @@ from dataclasses import dataclass, field
 #: A metric is stale after this many of its module's write periods without a sample.
 STALE_CADENCES = 3.0
 
+#: The speech module's estimate of each word window's SNR (dB), written with its clarity.
+SNR_METRIC = "speech_snr"
+#: A room is noisy where speech_snr is under this (dB): a clarity cue given there names the
+#: noise (:func:`prezence.coach.name_the_noise`), and the report says how much of a low clarity
+#: came in noise. The estimate reads 8-10 dB for white noise at a true SNR of 5 dB, 13-14 at
+#: 10 dB, 22-24 at 20 dB and 28 or more on clean speech; clarity falls at a true 10 dB and
+#: below, where the speech module already withholds the recogniser's speed
+#: (MIN_RECOGNISER_SNR_DB, the same 15). Chosen on the corpus's festival voices (README,
+#: session 21).
+NOISY_SNR_DB = 15.0
+#: The metric whose cues ask for clearer speech (a strict or weighted cue on it).
+NOISY_METRIC = "speech_accuracy"
+
 
 @dataclass(frozen=True)
 class Metric:

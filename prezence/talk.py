@@ -34,11 +34,11 @@ from typing import Any, Protocol
 
 from prezence.backends.base import Backend
 from prezence.clock import ManualClock, MonotonicClock
-from prezence.coach import SNR_METRIC, Coach, RoomNoise, default_planner
+from prezence.coach import Coach, RoomNoise, default_planner
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.feedback.gestures import library_for_talk
-from prezence.metrics import default_stale_after_s
+from prezence.metrics import SNR_METRIC, default_stale_after_s
 from prezence.processor import Cue, Decision, Processor, end_of_talk_notes, make_policy
 from prezence.samples import Sample
 from prezence.session import CUE_KEYS, FolderLock, SessionDir, dumps, read_jsonl

@@ -17,14 +17,15 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+from bisect import bisect_right
 from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from prezence.config.model import Config, Rule
 from prezence.errors import ConfigError, PrezenceError
-from prezence.metrics import METRICS
-from prezence.report.speech import measured_s, was
+from prezence.metrics import METRICS, NOISY_METRIC, NOISY_SNR_DB, SNR_METRIC
+from prezence.report.speech import _mmss, measured_s, was
 from prezence.samples import Sample
 from prezence.session import (
     CUE_KEYS,
@@ -351,6 +352,77 @@ def voice_times(session: SessionDir, limit: float | None = None) -> list[float] 
         return None
     samples, _ = read_stream(path, "speech_activity", max_t=limit, problems=[])
     return sorted(s.t for s in samples if s.value > 0.0)
+
+
+def room_snr(session: SessionDir, limit: float | None = None) -> list[Sample] | None:
+    """The speech module's estimated SNR per word window (``speech_snr``), in time order;
+    None without that stream (a recording made before session 21, a synthetic talk)."""
+    from prezence.streams.tail import read_stream
+
+    path = session.stream(f"{SNR_METRIC}.txt")
+    if not path.is_file():
+        return None
+    samples, _ = read_stream(path, SNR_METRIC, max_t=limit, problems=[])
+    return sorted(samples, key=lambda s: s.t)
+
+
+def noisy_low_seconds(
+    rule: Rule,
+    samples: Sequence[Sample],
+    snr: Sequence[Sample],
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float] = (),
+) -> float:
+    """Of the time ``rule``'s metric read below its band (each value held as in
+    :func:`deviation_seconds`, so the whole is the summary's ``below_s``), the seconds whose
+    newest SNR, at most ``stale_s`` old, was under :data:`prezence.metrics.NOISY_SNR_DB`.
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_accuracy", Check.MIN, low=0.5)
+        >>> acc = [Sample("speech_accuracy", t, v) for t, v in ((10, 0.2), (20, 0.3), (30, 0.9))]
+        >>> snr = [Sample("speech_snr", t, v) for t, v in ((10, 9.0), (20, 30.0), (30, 9.0))]
+        >>> noisy_low_seconds(r, acc, snr, talk_s=40.0, stale_s=60.0)
+        10.0
+    """
+    ts = [s.t for s in snr]
+    ends = hold_ends([s.t for s in samples], cuts) if cuts else None
+    out = 0.0
+    for i, s in enumerate(samples):
+        if s.t >= talk_s:
+            break
+        if rule.side(s.value) != "below":
+            continue
+        j = bisect_right(ts, s.t)
+        if j == 0 or s.t - ts[j - 1] > stale_s or not snr[j - 1].value < NOISY_SNR_DB:
+            continue
+        nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
+        if ends is not None:
+            nxt = min(nxt, float(ends[i]))
+        out += max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
+    return round(out, 3)
+
+
+def name_the_noise(row: dict[str, Any], m: Mapping[str, Any], noisy_s: float) -> None:
+    """Say in ``row`` (a priority's or a "little off" one, clarity's) that ``noisy_s`` of the
+    time clarity read low the room was noisy: ``noise`` is the sentence, and where the noise
+    covers half that time or more the advice is the room's, not the articulation's."""
+    low_s = float(m.get("below_s") or m.get("out_of_range_s") or 0.0)
+    if not noisy_s > 0.0 or not low_s > 0.0:
+        return
+    noisy_s = min(noisy_s, low_s)
+    row["noisy_s"] = round(noisy_s, 1)
+    row["noise"] = (
+        f"{row.get('label', 'clarity')} read low for {_mmss(low_s)}; for "
+        f"{'all' if noisy_s >= low_s - 0.05 else _mmss(noisy_s)} of it the room was noisy "
+        f"(estimated SNR under {NOISY_SNR_DB:g} dB): the noise, not your articulation, may be "
+        "the cause"
+    )
+    if noisy_s >= 0.5 * low_s:
+        row["advice"] = "speak up, and rehearse somewhere quieter or nearer the microphone"
+    else:
+        row["noise"] += "; rehearse somewhere quieter or nearer the microphone"
 
 
 def still_going(heard: Sequence[float] | None, talk_s: float) -> bool:
@@ -904,6 +976,16 @@ def _rebuild(
         cfg, judged_dev, talk_s=talk_s, cued=cued, metrics=metrics, top=None
     )
     a_little_off = slightly_off(cfg, judged_dev, metrics, listed=[p["metric"] for p in priorities])
+    snr = room_snr(session, limit) or []
+    for row in [*priorities, *a_little_off] if snr else ():
+        if row["metric"] != NOISY_METRIC:
+            continue  # a cue on another metric is not about the noise
+        rule = cfg.rule(NOISY_METRIC)
+        m = metrics[NOISY_METRIC]
+        stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
+        cuts = [float(sp["from"]) for sp in m.get("lost") or ()]
+        noisy = noisy_low_seconds(rule, streams[NOISY_METRIC], snr, talk_s, stale_s, cuts)
+        name_the_noise(row, m, noisy)
     counts = dict(summary["counts"])
     counts["cues_improved"] = sum(1 for r in helped if r["improved"])
     counts["cues_judged"] = len(helped)

@@ -196,7 +196,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
                 f"<li><b>{_e(p['advice'][0].upper() + p['advice'][1:])}</b> "
                 f'({_e(p["label"])}). <span class="why">{_e(why[0].upper() + why[1:])} in all; '
                 f"the longest stretch lasted {m.get('longest_out_of_range_s', 0.0):.0f} s.</span>"
-                "</li>"
+                + (f" {_e(p['noise'][0].upper() + p['noise'][1:])}." if p.get("noise") else "")
+                + "</li>"
             )
         out.append("</ol>")
         out.append(
@@ -231,7 +232,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         )
         out.append('<ul class="work">')
         for o in off:
-            out.append(f"<li>{_e(off_sides_text(o))} (<b>{_e(o['advice'])}</b>)</li>")
+            noise = f" {_e(o['noise'][0].upper() + o['noise'][1:])}." if o.get("noise") else ""
+            out.append(f"<li>{_e(off_sides_text(o))} (<b>{_e(o['advice'])}</b>){noise}</li>")
         out.append("</ul>")
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, dict)]
     if stopped:

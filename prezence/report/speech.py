@@ -674,6 +674,8 @@ def format_text(report: Mapping[str, Any]) -> str:
         for i, p in enumerate(pri, 1):
             m = report["metrics"].get(p["metric"], {})
             lines.append(f"    {i}. {p['advice']} ({priority_sides(p, m)} in all)")
+            if p.get("noise"):
+                lines.append(f"       {p['noise']}")
     elif not report.get("slightly_off"):
         lines.append(
             {
@@ -695,6 +697,8 @@ def format_text(report: Mapping[str, Any]) -> str:
         )
         for o in off:
             lines.append(f"    - {off_sides_text(o)} ({o['advice']})")
+            if o.get("noise"):
+                lines.append(f"      {o['noise']}")
     lines.append("")
     lines.append(
         f"  {'metric':<12} {'measured':>13} {'in range':>12} {'mean':>7} {'p10':>7} {'p90':>7} "
