@@ -507,3 +507,67 @@ def test_the_session_says_when_the_volume_is_not_calibrated(
     assert "an estimate" not in capsys.readouterr().out
     assert main(["rehearse", str(FAST), "--out", str(tmp_path / "t")]) == 0
     assert f"speech_volume: {note}" in capsys.readouterr().out
+
+
+def _talk_wav(tmp_path: Path, name: str, *, snr_db: float | None, lowpass_hz: float | None) -> Path:
+    """A ~60 s festival talk (the shipped sentences) with white noise or low-passed, as WAV."""
+    import importlib.util
+    import wave
+
+    import numpy as np
+
+    from prezence.modules.audio_io import read_file
+
+    spec = importlib.util.spec_from_file_location(
+        "make_test_audio", HERE.parents[1] / "tools" / "make_test_audio.py"
+    )
+    assert spec is not None and spec.loader is not None
+    mta = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault(spec.name, mta)
+    spec.loader.exec_module(mta)
+    y, _ = mta.long_talk(read_file(HERE / "material" / "rate_175.flac"), min_s=60.0)
+    x = np.asarray(y, dtype=np.float64)
+    if snr_db is not None:
+        x = mta.with_noise(y, snr_db, np.random.default_rng(5))
+    if lowpass_hz is not None:
+        spectrum = np.fft.rfft(x)
+        spectrum[np.fft.rfftfreq(len(x), 1 / 16000) > lowpass_hz] = 0
+        x = np.fft.irfft(spectrum, len(x))
+    path = tmp_path / f"{name}.wav"
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(16000)
+        w.writeframes(np.clip(np.round(x), -32768, 32767).astype(np.int16).tobytes())
+    return path
+
+
+def test_in_a_noisy_room_the_robot_names_the_noise_and_a_replay_says_the_same(
+    tmp_path: Path,
+) -> None:
+    # session 20's walkthrough: a stretch at SNR 5 dB read clarity 0.07-0.25 and the robot
+    # said "Speak more clearly", blaming the articulation for the room's noise
+    noisy = _talk_wav(tmp_path, "noisy", snr_db=5.0, lowpass_hz=None)
+    out = tmp_path / "noisy_s"
+    assert main(["-q", "rehearse", str(noisy), "--out", str(out), "--no-report"]) == 0
+    assert (out / "streams" / "speech_snr.txt").read_text().strip()
+    said = [c for c in read_jsonl(out / "cues.jsonl") if c["command"] == "articulate"]
+    assert said, "a voice at SNR 5 dB reads low clarity and is cued"
+    assert all(c["phrase"].startswith("It is noisy here") for c in said)
+    assert all(c["params"]["snr_db"] < 15.0 for c in said)
+    again = tmp_path / "replayed"
+    assert main(["-q", "replay", str(out), "--out", str(again), "--no-report"]) == 0
+    replayed = [c for c in read_jsonl(again / "cues.jsonl") if c["command"] == "articulate"]
+    assert [(c["t"], c["phrase"], c["params"]) for c in replayed] == [
+        (c["t"], c["phrase"], c["params"]) for c in said
+    ]
+
+
+def test_a_muffled_voice_in_a_quiet_room_is_still_asked_to_speak_clearly(tmp_path: Path) -> None:
+    # low-passed at 800 Hz (a voice into a scarf): clarity falls, the room is quiet
+    muffled = _talk_wav(tmp_path, "muffled", snr_db=None, lowpass_hz=800.0)
+    out = tmp_path / "muffled_s"
+    assert main(["-q", "rehearse", str(muffled), "--out", str(out), "--no-report"]) == 0
+    said = [c for c in read_jsonl(out / "cues.jsonl") if c["command"] == "articulate"]
+    assert said and all(c["phrase"] == "Speak more clearly." for c in said)
+    assert all("noisy" not in c["params"] for c in said)

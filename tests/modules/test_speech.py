@@ -605,3 +605,11 @@ def test_live_input_that_falls_behind_says_so(
     assert totals.duration_s == pytest.approx(len(read_file(MATERIAL / "gain_0.flac")) / 16000)
     first = (tmp_path / "streams" / "speech_speed.txt").read_text().splitlines()[0]
     assert parse_line(first)[0] > 100.0
+
+
+def test_the_word_windows_snr_is_written_with_its_clarity() -> None:
+    # session 21: the coach and the report need to know when a low clarity came in noise
+    for name, lo, hi in (("rate_175.flac", 20.0, 99.0), ("snr_0.flac", -99.0, 10.0)):
+        got = measure(name)[0]
+        assert [s.t for s in got["speech_snr"]] == [s.t for s in got["speech_accuracy"]]
+        assert all(lo <= s.value < hi for s in got["speech_snr"]), name
