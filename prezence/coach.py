@@ -10,7 +10,8 @@ the presenter's articulation for the room. When the processor cues ``speech_accu
 the speech module's latest fresh ``speech_snr`` (the same word window's estimated SNR) is
 under :data:`prezence.metrics.NOISY_SNR_DB`, the cue gets the parameters ``noisy`` and
 ``snr_db`` and a reason that says so, and the robot says the command's ``phrase_noisy``
-("It is noisy here: ...").
+("This room is noisy or echoing: ..."; the SNR estimate cannot tell noise from an echo
+filling the pauses).
 The processor decides as before; only the cue's words change. The SNR is read from the
 session's own ``streams/speech_snr.txt`` when such a cue comes, never per decision point, so
 ``up``, ``rehearse`` and ``replay`` (which copies the stream) read the same value; a talk
@@ -94,8 +95,8 @@ def name_the_noise(cue: Cue, snr_db: float | None) -> Cue:
     return replace(
         cue,
         params={**cue.params, "noisy": True, "snr_db": snr},
-        reason=f"{cue.reason}; the room is noisy (estimated SNR {snr:g} dB, under "
-        f"{NOISY_SNR_DB:g} dB): the noise may be why clarity reads low",
+        reason=f"{cue.reason}; the room is noisy or echoing (estimated SNR {snr:g} dB, under "
+        f"{NOISY_SNR_DB:g} dB): the room may be why clarity reads low",
     )
 
 

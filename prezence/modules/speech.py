@@ -27,7 +27,7 @@ speech_speed_source    where the speech_speed and speech_articulation of the sam
 speech_snr             the word window's estimated SNR, dB (loud p90 over quiet p10 30 ms
                        frames, :meth:`SpeechAnalyser._snr_db`): what speed and clarity were
                        measured in. The coach reads it to say the room is noisy when it cues
-                       clarity there (:data:`prezence.coach.NOISY_SNR_DB`), the report to say
+                       clarity there (:data:`prezence.metrics.NOISY_SNR_DB`), the report to say
                        how much of a low clarity fell in noise; no rule judges it
 speech_articulation    words per *speaking* minute (the same words / the time the recognised
                        words cover; with syllables: / voice-activity time)

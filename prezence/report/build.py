@@ -25,7 +25,7 @@ from typing import Any
 from prezence.config.model import Config, Rule
 from prezence.errors import ConfigError, PrezenceError
 from prezence.metrics import METRICS, NOISY_METRIC, NOISY_SNR_DB, SNR_METRIC
-from prezence.report.speech import _mmss, measured_s, was
+from prezence.report.speech import measured_s, mmss, was
 from prezence.samples import Sample
 from prezence.session import (
     CUE_KEYS,
@@ -414,10 +414,10 @@ def name_the_noise(row: dict[str, Any], m: Mapping[str, Any], noisy_s: float) ->
     noisy_s = min(noisy_s, low_s)
     row["noisy_s"] = round(noisy_s, 1)
     row["noise"] = (
-        f"{row.get('label', 'clarity')} read low for {_mmss(low_s)}; for "
-        f"{'all' if noisy_s >= low_s - 0.05 else _mmss(noisy_s)} of it the room was noisy "
-        f"(estimated SNR under {NOISY_SNR_DB:g} dB): the noise, not your articulation, may be "
-        "the cause"
+        f"{row.get('label', 'clarity')} read low for {mmss(low_s)}; for "
+        f"{'all' if noisy_s >= low_s - 0.05 else mmss(noisy_s)} of it the room was noisy "
+        f"or echoing (estimated SNR under {NOISY_SNR_DB:g} dB): the room, not your "
+        "articulation, may be the cause"
     )
     if noisy_s >= 0.5 * low_s:
         row["advice"] = "speak up, and rehearse somewhere quieter or nearer the microphone"

@@ -10,7 +10,7 @@ from typing import Any
 MAX_SPOKEN_WORDS = 40
 
 
-def _mmss(t: float | None) -> str:
+def mmss(t: float | None) -> str:
     if t is None:
         return "-"
     # halves up: round() takes them to even, so 325.5 s read "5:26" but 522.5 s "8:42"
@@ -295,9 +295,9 @@ def coverage_gaps(report: Mapping[str, Any]) -> list[tuple[str, float]]:
 def coverage_words(report: Mapping[str, Any]) -> str:
     """``"gestures measured over 0:15 of 0:54, head pitch measured over 0:26 of 0:54"`` (""
     when every judged metric covered the talk)."""
-    talk = _mmss(_talk_s(report))
+    talk = mmss(_talk_s(report))
     return ", ".join(
-        f"{label} measured over {_mmss(secs)} of {talk}" for label, secs in coverage_gaps(report)
+        f"{label} measured over {mmss(secs)} of {talk}" for label, secs in coverage_gaps(report)
     )
 
 
@@ -350,15 +350,15 @@ def module_sentences(
         what: list[str] = []
         crashes, hangs = int(n.get("crashes") or 0), int(n.get("hangs") or 0)
         if crashes:
-            what.append(f"crashed {_times(crashes)} (first at {_mmss(n.get('first_crash_t'))})")
+            what.append(f"crashed {_times(crashes)} (first at {mmss(n.get('first_crash_t'))})")
         if hangs == 1:
             what.append(
-                f"hung at {_mmss(n.get('first_hang_t'))} (killed at {_mmss(n.get('first_kill_t'))})"
+                f"hung at {mmss(n.get('first_hang_t'))} (killed at {mmss(n.get('first_kill_t'))})"
             )
         elif hangs:
             what.append(
-                f"hung {hangs} times (first at {_mmss(n.get('first_hang_t'))}, killed at "
-                f"{_mmss(n.get('first_kill_t'))})"
+                f"hung {hangs} times (first at {mmss(n.get('first_hang_t'))}, killed at "
+                f"{mmss(n.get('first_kill_t'))})"
             )
         restarts = int(n.get("restarts") or 0)
         if restarts >= crashes + hangs:
@@ -375,8 +375,8 @@ def module_sentences(
             parts = []
             for sp in spans:
                 to = float(sp["to"])
-                end = f"the end ({_mmss(to)})" if to >= talk_s - 0.5 else _mmss(to)
-                parts.append(f"from {_mmss(sp['from'])} to {end}")
+                end = f"the end ({mmss(to)})" if to >= talk_s - 0.5 else mmss(to)
+                parts.append(f"from {mmss(sp['from'])} to {end}")
             name = label(metric)
             text += f"; {name} {was(name)} not measured {' and '.join(parts)}"
         if n.get("metrics_unknown"):
@@ -471,7 +471,7 @@ def cut_sentences(report: Mapping[str, Any]) -> list[str]:
     dropped = [c for c in report.get("cues") or () if c.get("dropped")]
     if dropped:
         which = "; ".join(
-            f"{_mmss(c['t'])} {c['command']}: {c.get('drop_reason') or 'dropped'}" for c in dropped
+            f"{mmss(c['t'])} {c['command']}: {c.get('drop_reason') or 'dropped'}" for c in dropped
         )
         n = len(dropped)
         out.append(
@@ -481,7 +481,7 @@ def cut_sentences(report: Mapping[str, Any]) -> list[str]:
         )
     cut = [c for c in report.get("cues") or () if c.get("cut_short")]
     if cut:
-        which = "; ".join(f"{_mmss(c['t'])} {c['command']}: {c['cut_short']}" for c in cut)
+        which = "; ".join(f"{mmss(c['t'])} {c['command']}: {c['cut_short']}" for c in cut)
         out.append(f"{len(cut)} cue{'s' if len(cut) != 1 else ''} cut short ({which})")
     post = report.get("post_talk") or {}
     if post.get("ok") is False:
@@ -663,8 +663,8 @@ def format_text(report: Mapping[str, Any]) -> str:
     lines.append(head)
     if not report.get("complete", True):
         lines.append(
-            f"  note: the record stops at {_mmss(report['talk_s'])} of a planned "
-            f"{_mmss(report.get('planned_s'))}; figures cover what was recorded"
+            f"  note: the record stops at {mmss(report['talk_s'])} of a planned "
+            f"{mmss(report.get('planned_s'))}; figures cover what was recorded"
         )
     lines += [f"  note: {sentence}" for sentence in trouble_sentences(report)]
     lines.append("  " + time_sentence(report))
@@ -704,11 +704,11 @@ def format_text(report: Mapping[str, Any]) -> str:
         f"  {'metric':<12} {'measured':>13} {'in range':>12} {'mean':>7} {'p10':>7} {'p90':>7} "
         f"{'longest out':>12}"
     )
-    talk = _mmss(_talk_s(report))
+    talk = mmss(_talk_s(report))
     for name, m in report["metrics"].items():
         tir = _pct(m.get("time_in_range")) if m.get("samples") else m.get("data") or "no data"
         # over how much of the talk its figures hold: "0:15 of 0:54" is not the whole talk
-        covered = f"{_mmss(measured_s(m))} of {talk}" if m.get("samples") else "-"
+        covered = f"{mmss(measured_s(m))} of {talk}" if m.get("samples") else "-"
         lines.append(
             f"  {m.get('label', name):<12} {covered:>13} {tir:>12} "
             f"{_num(m.get('mean')):>7} {_num(m.get('p10')):>7} {_num(m.get('p90')):>7} "
@@ -732,7 +732,7 @@ def format_text(report: Mapping[str, Any]) -> str:
         # a time warning has no problem whose onset it follows (its "latency" is 0 by design)
         lat = c.get("latency_s") if c.get("metric") else None
         lat_s = f" {int(lat + 0.5)} s after onset" if lat is not None else ""  # halves up
-        lines.append(f"    {_mmss(c['t']):>5}  {c['command']:<12}{lat_s:<20} {mark}")
+        lines.append(f"    {mmss(c['t']):>5}  {c['command']:<12}{lat_s:<20} {mark}")
     return "\n".join(lines) + "\n"
 
 

@@ -553,7 +553,7 @@ def test_in_a_noisy_room_the_robot_names_the_noise_and_a_replay_says_the_same(
     assert (out / "streams" / "speech_snr.txt").read_text().strip()
     said = [c for c in read_jsonl(out / "cues.jsonl") if c["command"] == "articulate"]
     assert said, "a voice at SNR 5 dB reads low clarity and is cued"
-    assert all(c["phrase"].startswith("It is noisy here") for c in said)
+    assert all(c["phrase"].startswith("This room is noisy or echoing") for c in said)
     assert all(c["params"]["snr_db"] < 15.0 for c in said)
     again = tmp_path / "replayed"
     assert main(["-q", "replay", str(out), "--out", str(again), "--no-report"]) == 0

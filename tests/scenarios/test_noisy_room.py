@@ -48,16 +48,18 @@ def test_a_clarity_cue_in_a_noisy_room_names_the_noise(tmp_path: Path) -> None:
         d for d in read_jsonl(tmp_path / "out" / "decisions.jsonl") if d["winner"] == "articulate"
     ]
     assert len(logged) == len(said)
-    assert all("the room is noisy (estimated SNR 9 dB" in str(d["reason"]) for d in logged)
+    assert all(
+        "the room is noisy or echoing (estimated SNR 9 dB" in str(d["reason"]) for d in logged
+    )
     assert all(d["cue"]["params"]["snr_db"] == 9.0 for d in logged)
     report = json.loads((tmp_path / "out" / "report" / "report.json").read_text())
     (row,) = [p for p in report["priorities"] if p["metric"] == "speech_accuracy"]
     # all of the low clarity came in noise: the advice is the room's, not the articulation's
     assert "quieter" in row["advice"] and "articulate" not in row["advice"]
-    assert "for all of it the room was noisy" in row["noise"]
+    assert "for all of it the room was noisy or echoing" in row["noise"]
     assert "not your articulation" in row["noise"]
     text = (tmp_path / "out" / "report" / "summary.txt").read_text()
-    assert "the room was noisy (estimated SNR under 15 dB)" in text
+    assert "the room was noisy or echoing (estimated SNR under 15 dB)" in text
     assert "quieter" in (tmp_path / "out" / "report" / "spoken.txt").read_text()
 
 
@@ -78,7 +80,9 @@ def test_the_report_says_how_much_of_a_low_clarity_came_in_noise(tmp_path: Path)
     (row,) = [p for p in report["priorities"] if p["metric"] == "speech_accuracy"]
     assert row["advice"] == "articulate more clearly"
     assert row["noisy_s"] == 30.0
-    assert row["noise"].startswith("clarity read low for 1:20; for 0:30 of it the room was noisy")
+    assert row["noise"].startswith(
+        "clarity read low for 1:20; for 0:30 of it the room was noisy or echoing"
+    )
     assert row["noise"].endswith("rehearse somewhere quieter or nearer the microphone")
 
 
