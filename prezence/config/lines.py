@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from prezence.config.model import Check, Direction, RoomProfile, Rule
+from prezence.config.model import LISTENER, Check, Direction, RoomProfile, Rule
 from prezence.errors import ConfigError, unknown_message
 from prezence.metrics import METRICS
 
@@ -509,6 +509,7 @@ def parse_rule_line(
                 f"at=listener needs the room's farthest_listener_m (room '{room.name}' has none)",
             )
         offset = room.listener_offset_db()
+    at = LISTENER if "at" in kv else ""
     low = values[0] if "low" in bounds else None
     high = values[-1] if "high" in bounds else None
     rule = Rule(
@@ -522,6 +523,7 @@ def parse_rule_line(
         scale=nums.get("scale", named_scale),
         gain=nums.get("gain", 1.0),
         offset=offset,
+        at=at,
         stream=kv.get("stream", ""),
         stale_after_s=nums.get("stale"),
         unit=kv.get("unit", ""),

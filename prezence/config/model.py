@@ -33,6 +33,26 @@ class Check(enum.Enum):
     IN_RANGE = "inRange"
 
 
+#: :attr:`Rule.at` of a rule judged at the room's farthest listener (``at=listener``).
+LISTENER = "listener"
+
+
+def signed(x: float) -> str:
+    """``x`` with its sign, a real minus for a negative one: ``−25.5``, ``+3``."""
+    return f"−{-x:g}" if x < 0 else f"+{x:g}"
+
+
+def band_words(offset: float, at: str) -> str:
+    """Where a band applies, after its bound, for a rule's ``offset`` and ``at`` (as
+    ``summary.json`` keeps them): "" with no offset. See :meth:`Rule.band_words`."""
+    if not offset:
+        return ""
+    if at == LISTENER:
+        less = "less" if offset < 0 else "more"
+        return f" at the farthest listener ({abs(offset):.1f} dB {less} than at your microphone)"
+    return f" after the rule's offset of {signed(offset)}"
+
+
 @dataclass(frozen=True)
 class Rule:
     """One production rule: a metric, its ideal band and the commands that correct it.
@@ -48,7 +68,11 @@ class Rule:
         scale: deviation scale in the metric's unit; None means "the crossed bound".
         gain: multiplies weight growth for this rule (1.0 = the default rate).
         offset: added to every value before it is judged (e.g. the inverse-square estimate
-            at the farthest listener, a negative number of dB).
+            at the farthest listener, a negative number of dB). Whatever shows a judged value
+            shows it with the offset added and names it (:meth:`shift_words`).
+        at: ``"listener"`` when ``offset`` is the room's estimate at the farthest listener
+            (``at=listener``), so that it can be said so; "" for a plain offset or none. Not
+            part of equality: the offset is what judges.
         stream: stream file name, relative to the session's ``streams/`` folder.
         stale_after_s: the metric is excluded from decisions once its newest sample is older
             than this; None uses the processor setting.
@@ -74,6 +98,7 @@ class Rule:
     stale_after_s: float | None = None
     unit: str = ""
     physical_range: tuple[float, float] | None = None
+    at: str = field(default="", compare=False)
     source: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
@@ -140,11 +165,46 @@ class Rule:
             return self.above
         return None
 
+    def band_words(self) -> str:
+        """Where the band applies, after a bound: "" with no offset.
+
+        Example:
+            >>> r = Rule("speech_volume", Check.MIN, low=60, offset=-25.46, unit="dB SPL")
+            >>> r.band_words()
+            " after the rule's offset of −25.46"
+            >>> replace(r, at=LISTENER).band_words()
+            ' at the farthest listener (25.5 dB less than at your microphone)'
+        """
+        return band_words(self.offset, self.at)
+
+    def shift_words(self, measured: float) -> str:
+        """How a judged value came from the ``measured`` one, after the judged value in a
+        reason: "" with no offset.
+
+        Example:
+            >>> r = Rule("speech_volume", Check.MIN, low=60, offset=-25.46, unit="dB SPL")
+            >>> r.shift_words(73.21)
+            " after the rule's offset of −25.46 (73.21 measured)"
+            >>> replace(r, at=LISTENER).shift_words(73.21)
+            ' at the farthest listener (73.21 at the microphone − 25.5 dB)'
+        """
+        if not self.offset:
+            return ""
+        if self.at == LISTENER:
+            sign = "−" if self.offset < 0 else "+"
+            return (
+                f" at the farthest listener ({measured:.4g} at the microphone {sign} "
+                f"{abs(self.offset):.1f} dB)"
+            )
+        return f" after the rule's offset of {signed(self.offset)} ({measured:.4g} measured)"
+
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"metric": self.metric, "check": self.check.value}
         for f in fields(self):
             if f.name in ("metric", "check", "source"):
                 continue
+            if f.name == "offset" and self.at:
+                continue  # said by ``at``, which the room resolves to the same number
             v = getattr(self, f.name)
             if f.name == "stream" and v == f"{self.metric}.txt":
                 continue

@@ -41,6 +41,7 @@ from prezence.config.lines import (
 from prezence.config.model import (
     DAY_S,
     FORMAT,
+    LISTENER,
     SETTING_BOUNDS,
     ZERO_IS_OFF,
     Config,
@@ -409,6 +410,7 @@ def _rule(raw: object, kp: KeyPath, room: RoomProfile, ctx: _Ctx) -> Rule:
         scale=nums["scale"] if nums["scale"] is not None else named_scale,
         gain=gain if gain is not None else 1.0,
         offset=offset,
+        at=LISTENER if "at" in table else "",
         stream=texts["stream"],
         stale_after_s=nums["stale_after_s"],
         unit=texts["unit"],
@@ -610,8 +612,9 @@ def _table_lines(header: str, d: Mapping[str, Any]) -> list[str]:
 def dumps_config(config: Config) -> str:
     """The configuration as TOML text; :func:`loads_config` of it gives an equal Config.
 
-    Named values are written as the numbers they resolved to, and ``at = "listener"`` as its
-    ``offset``.
+    Named values are written as the numbers they resolved to; ``at = "listener"`` is kept as
+    such (the [room] written with it gives the same offset), so that what reads the file back
+    (a report, a replay) can still say the band applies at the farthest listener.
     """
     d = config.to_dict()
     out = ["# Prezence configuration", f"format = {FORMAT}"]

@@ -230,14 +230,16 @@ class Processor:
         return status
 
     def _view(self, st: MetricState, now: float) -> MetricView:
+        offset = st.rule.offset
         return MetricView(
             metric=st.rule.metric,
-            value=st.value,
+            value=st.value + offset if offset and st.value is not None else st.value,
             deviation=st.deviation(),
             weight=st.weight_at(now),
             stale=st.stale(now),
             refractory=now - st.last_fired < self.settings.refractory_s,
             strict_pending=st.strict_pending,
+            offset=offset,
         )
 
     def _candidates(self, now: float) -> list[Candidate]:
@@ -284,10 +286,11 @@ class Processor:
                         eligible=True,
                         weight=max(st.strict_peak, dev),
                         deviation=dev,
-                        value=st.value,
+                        value=st.value + r.offset if r.offset else st.value,
                         side=strict_side,
                         onset=st.strict_onset,
                         recency=st.last_sample_t,
+                        offset=r.offset,
                     )
                 )
                 continue
@@ -311,10 +314,11 @@ class Processor:
                         eligible=eligible,
                         weight=weight,
                         deviation=dev,
-                        value=st.value,
+                        value=st.value + r.offset if r.offset else st.value,
                         side=side,
                         onset=st.out_since,
                         recency=st.last_sample_t,
+                        offset=r.offset,
                     )
                 )
         if (
@@ -465,11 +469,18 @@ class Processor:
             bound = r.low if c.side == "below" else r.high
             unit = f" {r.unit}" if r.unit else ""
             since = f" since {c.onset:.1f} s" if c.onset is not None else ""
+            # the value is as judged (offset added); an offset is named with the measured value
+            shift = r.shift_words(c.value - c.offset) if c.offset and c.value is not None else ""
             if c.kind == Kind.STRICT:
-                now_ = "" if c.deviation > 0 else f" (now {c.value:.4g}, back in range)"
-                why = f"strict: {c.metric} went {c.side} {bound:g}{unit}{since}{now_}"
+                now_ = "" if c.deviation > 0 else f" (now {c.value:.4g}{shift}, back in range)"
+                why = (
+                    f"strict: {c.metric} went {c.side} {bound:g}{unit}{r.band_words()}{since}{now_}"
+                )
             else:
-                why = f"{c.metric} {c.value:.4g} is {c.deviation:.0f}% {c.side} {bound:g}{unit}"
+                why = (
+                    f"{c.metric} {c.value:.4g}{shift} is {c.deviation:.0f}% {c.side} "
+                    f"{bound:g}{unit}"
+                )
                 if c.eligible and not self.policy.whole:
                     why += f"{since} (weight {c.weight:.0f} >= {thr:g})"
                 elif c.eligible:  # an anchor fires by its own rule, not by the threshold

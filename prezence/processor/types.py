@@ -30,7 +30,8 @@ class Candidate:
             threshold, a time mark crossed). Simpler policies may ignore it.
         weight: the non-strict weight (%·s); for strict rules the peak deviation.
         deviation: current deviation in percent (0 for time and praise).
-        value: the newest value of the metric.
+        value: the newest value of the metric, as judged (with the rule's ``offset`` added).
+        offset: the rule's offset (0: none), so that the measured value is ``value - offset``.
         side: "below" or "above".
         onset: when the current problem began (sample time).
         recency: time of the newest sample behind this candidate (tie-break).
@@ -48,9 +49,10 @@ class Candidate:
     onset: float | None = None
     recency: float = 0.0
     params: dict[str, Any] = field(default_factory=dict)
+    offset: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        d = {
             "kind": self.kind.name.lower(),
             "command": self.command,
             "metric": self.metric,
@@ -62,6 +64,9 @@ class Candidate:
             "onset": self.onset,
             "params": self.params,
         }
+        if self.offset:  # only then: a talk without offsets logs as it always did
+            d["offset"] = self.offset
+        return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Candidate:
@@ -78,6 +83,7 @@ class Candidate:
             side=d.get("side"),
             onset=d.get("onset"),
             params=dict(d.get("params") or {}),
+            offset=float(d.get("offset") or 0.0),
         )
 
 
@@ -137,7 +143,11 @@ class Cue:
 
 @dataclass(frozen=True, slots=True)
 class MetricView:
-    """A metric's state at a decision point (for the decision log)."""
+    """A metric's state at a decision point (for the decision log).
+
+    ``value`` is as judged: with the rule's ``offset`` added (the measured value is ``value -
+    offset``), so that it reads against the band.
+    """
 
     metric: str
     value: float | None
@@ -146,9 +156,10 @@ class MetricView:
     stale: bool
     refractory: bool
     strict_pending: bool
+    offset: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        d = {
             "metric": self.metric,
             "value": self.value,
             "deviation": _logged(self.deviation),
@@ -157,6 +168,9 @@ class MetricView:
             "refractory": self.refractory,
             "strict_pending": self.strict_pending,
         }
+        if self.offset:  # only then: a talk without offsets logs as it always did
+            d["offset"] = self.offset
+        return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> MetricView:
@@ -168,6 +182,7 @@ class MetricView:
             stale=bool(d["stale"]),
             refractory=bool(d["refractory"]),
             strict_pending=bool(d["strict_pending"]),
+            offset=float(d.get("offset") or 0.0),
         )
 
 
