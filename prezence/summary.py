@@ -556,15 +556,25 @@ def build_summary(
         if rule.metric in lost:
             m["lost"] = lost[rule.metric]
         if len(vals):
-            p = np.percentile(vals, [10, 50, 90])
+            # the figures are of the values as judged, so that they read against the band; a
+            # rule's offset is kept with them, and the mean as measured
+            judged = vals + rule.offset if rule.offset else vals
+            p = np.percentile(judged, [10, 50, 90])
             with np.errstate(over="ignore", invalid="ignore"):  # 1e308s: mean inf, then None
-                mean = float(vals.mean())
+                mean = float(judged.mean())
+                raw_mean = float(vals.mean())
             m.update(
                 mean=round(mean, 4) if np.isfinite(mean) else None,
                 p10=round(float(p[0]), 4),
                 p50=round(float(p[1]), 4),
                 p90=round(float(p[2]), 4),
             )
+            if rule.offset:
+                m["measured_mean"] = round(raw_mean, 4) if np.isfinite(raw_mean) else None
+        if rule.offset:
+            m["offset"] = rule.offset
+            if rule.at:
+                m["at"] = rule.at
         gaps = int(np.count_nonzero(np.diff(ts) > stale_s))
         why = (unmeasured or {}).get(rule.metric)
         rec = METRICS.get(rule.metric)
