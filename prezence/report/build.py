@@ -587,6 +587,7 @@ def _off_side(rule: Rule, side: str) -> dict[str, Any]:
         "side": side,
         "bound": rule.high if side == "above" else rule.low,
         "unit": rule.unit,
+        **({"where": rule.band_words().strip()} if rule.offset else {}),
     }
 
 
@@ -695,9 +696,27 @@ def _why(rule: Rule, row: Mapping[str, Any]) -> str:
     strict = "must-keep limit: " if row.get("kind") == "strict" else ""
     limit = "lowest" if side == "below" else "highest"
     value = row.get("value")
-    then = f" ({float(value):.3g}{unit})" if isinstance(value, int | float) else ""
+    then = judged_value(rule, value)
     label = metric_label(rule.metric)
-    return f"{strict}{label} {was(label)} {side} the {limit} good value, {bound:g}{unit}{then}"
+    where = rule.band_words()
+    return (
+        f"{strict}{label} {was(label)} {side} the {limit} good value, {bound:g}{unit}{where}{then}"
+    )
+
+
+def judged_value(rule: Rule, value: Any) -> str:
+    """A cue's value as judged (``row["value"]``, the rule's offset added) after the band, in
+    brackets; with an offset, after a semicolon (the band's words end in brackets) and with
+    the measured one: "; 47.7 dB SPL there, 73.2 at your microphone"."""
+    if not isinstance(value, int | float):
+        return ""
+    unit = f" {rule.unit}" if rule.unit else ""
+    if not rule.offset:
+        return f" ({float(value):.3g}{unit})"
+    measured = float(value) - rule.offset
+    if rule.at:
+        return f"; {float(value):.3g}{unit} there, {measured:.3g} at your microphone"
+    return f"; {float(value):.3g}{unit} after the offset, {measured:.3g} measured"
 
 
 def _why_other(row: Mapping[str, Any]) -> str:
@@ -903,6 +922,8 @@ def _rebuild(
             # what the plots break their line at: longer without a sample is no data
             stale_after_s=stale_s,
         )
+        if rule.offset:  # the band applies to the values shifted (at the farthest listener)
+            m["where"] = rule.band_words().strip()
         if m.get("samples"):  # over how much of the talk it was measured
             m["measured_s"] = round(measured_s(m), 3)
         metrics[rule.metric] = m
@@ -917,6 +938,8 @@ def _rebuild(
             row["deviation"] = rec.get("deviation")
             row["side"] = "below" if row["command"] == cue_rule.below else "above"
             row["value"] = _value_at(streams[cue_rule.metric], float(row["t"]))
+            if cue_rule.offset and row["value"] is not None:  # as judged, as the band is
+                row["value"] += cue_rule.offset
             row["why"] = _why(cue_rule, row)
             row.update(cue_effect(cue_rule, streams[cue_rule.metric], float(row["t"])))
             if rec.get("dropped"):  # the robot never gave it: nothing followed from it
@@ -941,9 +964,7 @@ def _rebuild(
         if row["false_alarm"] or row["stale"]:
             row["improved"] = None
             if cue_rule is not None:
-                v = row.get("value")
-                unit = f" {cue_rule.unit}" if cue_rule.unit else ""
-                now = f" ({float(v):.3g}{unit})" if isinstance(v, int | float) else ""
+                now = judged_value(cue_rule, row.get("value"))
                 label = metric_label(cue_rule.metric)
                 if row["stale"]:
                     ago = float(row.get("ended_s_before") or 0.0)
@@ -1182,8 +1203,13 @@ def write_report(
             if not streams[metric]:
                 continue  # no data: the page says so instead of an empty plot
             about = [c for c in report["cues"] if c.get("metric") == metric]
+            drawn, shown = streams[metric], m
+            offset = float(m.get("offset") or 0.0)
+            if offset:  # drawn as judged, against the band they were judged by, and said so
+                drawn = [Sample(s.metric, s.t, s.value + offset) for s in drawn]
+                shown = {**m, "label": f"{m.get('label', metric)} {m.get('where', '')}".strip()}
             images[f"timeline_{metric}"] = draw.timeline_png(
-                m, streams[metric], about, talk_s=float(report["talk_s"]), allocated_s=allocated
+                shown, drawn, about, talk_s=float(report["talk_s"]), allocated_s=allocated
             )
         if progress is not None:
             progress(n_plots, n_plots)

@@ -86,6 +86,8 @@ def _img(png: bytes | None, alt: str) -> str:
 
 def _band(m: Mapping[str, Any]) -> str:
     low, high, unit = m.get("low"), m.get("high"), m.get("unit") or ""
+    if m.get("where"):  # a rule's offset: the band applies to the shifted values
+        unit = f"{unit} {m['where']}".strip()
     if low is not None and high is not None:
         return f"{_num(low)}–{_num(high)} {unit}".strip()
     if low is not None:

@@ -162,6 +162,8 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
             out.append(f"{label}: {m['less_reliable']}; less reliable, so no advice on it")
         elif m.get("samples") and m.get("estimate"):
             out.append(f"{label}: {m['estimate']}")
+        if m.get("samples") and isinstance(m.get("offset"), int | float) and m["offset"]:
+            out.append(offset_note(label, m))
         if m.get("samples") and m.get("too_brief") and not m.get("less_reliable"):
             s = measured_s(m)
             # 9.9 s is not "10 s, under the 10 s needed": a tenth, rounded down, near the limit
@@ -171,6 +173,26 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
                 "to judge it: no advice on it"
             )
     return out
+
+
+def offset_note(label: str, m: Mapping[str, Any]) -> str:
+    """What a rule's offset did to a metric's figures (``summary.json``'s ``offset``, ``at``,
+    ``measured_mean``): they are as judged, not as measured.
+
+    Example:
+        >>> offset_note("volume", {"offset": -25.46, "at": "listener", "measured_mean": 73.36,
+        ...     "unit": "dB SPL"})
+        'volume: judged at the farthest listener (25.5 dB less than at your microphone): its figures are there (mean 73.4 dB SPL at your microphone)'
+    """  # noqa: E501 - a doctest output line
+    from prezence.config.model import band_words
+
+    at = str(m.get("at") or "")
+    unit = f" {m['unit']}" if m.get("unit") else ""
+    raw = m.get("measured_mean")
+    where = "at your microphone" if at else "as measured"
+    mean = f" (mean {float(raw):.3g}{unit} {where})" if isinstance(raw, int | float) else ""
+    there = "there" if at else "after it"
+    return f"{label}: judged{band_words(float(m['offset']), at)}: its figures are {there}{mean}"
 
 
 def _inputs_used(report: Mapping[str, Any]) -> str:
@@ -224,7 +246,9 @@ def _sides(row: Mapping[str, Any]) -> list[Mapping[str, Any]]:
 
 
 def _unit(row: Mapping[str, Any]) -> str:
-    return f" {row['unit']}" if row.get("unit") else ""
+    """The unit after a bound, and where the band applies when a rule's offset moves it."""
+    where = f" {row['where']}" if row.get("where") else ""
+    return (f" {row['unit']}" if row.get("unit") else "") + where
 
 
 def priority_sides(row: Mapping[str, Any], m: Mapping[str, Any]) -> str:
