@@ -176,6 +176,8 @@ class RichLiveView:
                 band = f"{lo}..{hi}{unit}"
             else:
                 band = f">= {lo}{unit}" if lo else f"<= {hi}{unit}"
+            if r.offset:  # the value shown is as judged: shifted by the offset
+                band += " at listener" if r.at else f" offset {r.offset:+g}"
             if mv is None or mv.value is None:
                 absent = self.measured is not None and r.metric not in self.measured
                 why = "not measured" if absent else "no data yet"

@@ -22,7 +22,7 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from prezence.config.model import Config, Rule
+from prezence.config.model import Config, Rule, signed
 from prezence.errors import ConfigError, PrezenceError
 from prezence.metrics import METRICS, NOISY_METRIC, NOISY_SNR_DB, SNR_METRIC
 from prezence.report.speech import measured_s, mmss, was
@@ -1207,7 +1207,9 @@ def write_report(
             offset = float(m.get("offset") or 0.0)
             if offset:  # drawn as judged, against the band they were judged by, and said so
                 drawn = [Sample(s.metric, s.t, s.value + offset) for s in drawn]
-                shown = {**m, "label": f"{m.get('label', metric)} {m.get('where', '')}".strip()}
+                where = f"at the farthest listener ({offset:+.1f} dB)" if m.get("at") else ""
+                where = where or f"after the offset of {signed(offset)}"
+                shown = {**m, "label": f"{m.get('label', metric)} {where}"}  # short: a title
             images[f"timeline_{metric}"] = draw.timeline_png(
                 shown, drawn, about, talk_s=float(report["talk_s"]), allocated_s=allocated
             )
