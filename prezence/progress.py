@@ -9,6 +9,11 @@ folder's name). Replays are left out: they are the same talk coached again. Each
 ``summary.json`` gives each metric's time in the ideal range; sessions are ordered by when
 they were recorded.
 
+A metric the report did not judge (measured for less than 10 s: ``too_brief``) has no figure
+("–*", a note says why) and is left out of the trend. The trend is the newest rehearsal against
+the one before; a metric out of its band for a good part of a talk says on which side ("0%
+high").
+
 A time in range holds only for the band it was judged by (``config.toml``): a metric judged by
 another band than in the newest rehearsal is marked and left out of its trend, with a note.
 
@@ -110,6 +115,8 @@ def find_all_sessions(
 ) -> list[tuple[tuple[str, str], list[tuple[float, SessionDir, dict[str, Any]]]]]:
     """``folder``'s session sub-folders grouped by speaker (:func:`speaker_of`), each group
     oldest first and the groups by their newest session; replays and unreadable ones left out.
+    A sub-folder that is no session but holds sessions (``sessions/NAME``, which ``--speaker
+    NAME`` writes into) is looked into: its sessions count as ``folder``'s.
 
     Each sub-folder left out is logged (``-v`` shows it) with the reason, and added to
     ``left_out`` as ``{"path", "why"}`` when that list is given.
@@ -118,7 +125,12 @@ def find_all_sessions(
     if not folder.is_dir():
         raise ConfigError("no such folder", path=folder)
     found = []
-    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
+    subs = sorted(p for p in folder.iterdir() if p.is_dir())
+    for speaker_dir in [p for p in subs if _holds_sessions(p)]:
+        # `--speaker NAME` writes sessions/NAME/<talk>: a speaker's folder, looked into
+        subs.remove(speaker_dir)
+        subs += sorted(p for p in speaker_dir.iterdir() if p.is_dir())
+    for sub in subs:
         s = SessionDir(sub)
         if not s.summary.is_file():
             if s.streams.is_dir() and any(f.stat().st_size for f in s.streams.glob("*.txt")):
@@ -130,7 +142,11 @@ def find_all_sessions(
                     left_out,
                 )
             else:
-                _left_out(sub, "not a session folder (no summary.json, no streams)", left_out)
+                _left_out(
+                    sub,
+                    "not a session folder (no summary.json, no streams) and no sessions in it",
+                    left_out,
+                )
             continue
         if not s.meta.is_file():
             _left_out(sub, "no session.json: when and how it was recorded is unknown", left_out)
@@ -151,9 +167,10 @@ def find_all_sessions(
     named = {speaker_of(s.root, m)[0] for _, s, m in found}
     for item in found:
         who = speaker_of(item[1].root, item[2])
-        if who[0] == f"folder:{folder}" and f"speaker:{folder.name}" in named:
+        parent = item[1].root.parent
+        if who[0] == f"folder:{parent}" and f"speaker:{parent.name}" in named:
             # --speaker NAME wrote into sessions/NAME before session.json recorded the name
-            who = (f"speaker:{folder.name}", folder.name)
+            who = (f"speaker:{parent.name}", parent.name)
         groups.setdefault(who, []).append(item)
     out = []
     for who, items in groups.items():
@@ -162,6 +179,19 @@ def find_all_sessions(
         out.append((who, items[-MAX_SESSIONS:]))
     out.sort(key=lambda g: g[1][-1][0])
     return out
+
+
+def _holds_sessions(folder: Path) -> bool:
+    """Whether ``folder`` is not a session but holds sessions: a speaker's folder
+    (``sessions/NAME`` that ``--speaker NAME`` writes into)."""
+    s = SessionDir(folder)
+    if s.summary.is_file() or s.meta.is_file() or s.streams.is_dir():
+        return False
+    return any(
+        SessionDir(p).summary.is_file() or SessionDir(p).meta.is_file()
+        for p in folder.iterdir()
+        if p.is_dir()
+    )
 
 
 def time_in_range(path: Path, name: str, entry: Any) -> float | None:
@@ -192,14 +222,81 @@ def time_in_range(path: Path, name: str, entry: Any) -> float | None:
     return None
 
 
-def _trend(values: Sequence[float | None]) -> str:
-    known = [v for v in values if v is not None]
+def not_judged_why(entry: Any) -> str | None:
+    """Why a metric's figure in ``summary.json`` was not judged (the report neither praised
+    nor advised on it), None when it was or when there is no figure: measured for less than
+    :data:`prezence.summary.MIN_JUDGED_S` (``too_brief``), or for no time at all.
+
+    Example:
+        >>> not_judged_why({"time_in_range": 0.0, "in_range_s": 0.0, "out_of_range_s": 0.0,
+        ...                 "too_brief": True})
+        'measured for only 0 s, under the 10 s needed to judge it'
+        >>> not_judged_why({"time_in_range": 0.8, "in_range_s": 40.0, "out_of_range_s": 10.0})
+    """
+    from prezence.summary import MIN_JUDGED_S
+
+    if not isinstance(entry, dict) or entry.get("time_in_range") is None:
+        return None
+    in_s, out_s = _number(entry.get("in_range_s")), _number(entry.get("out_of_range_s"))
+    measured = None if in_s is None or out_s is None else in_s + out_s
+    if entry.get("too_brief") or (measured is not None and not measured > 0.0):
+        return (
+            f"measured for only {measured or 0.0:.0f} s, under the {MIN_JUDGED_S:.0f} s "
+            "needed to judge it"
+        )
+    return None
+
+
+def off_side(entry: Any) -> str | None:
+    """``"low"`` or ``"high"``: the side of its band a metric was mostly out on, when it was out
+    for :data:`prezence.report.build.SLIGHTLY_OFF_SHARE` or more of the time it was measured
+    (what the report calls a little off or to work on); None otherwise or when not recorded.
+
+    Example:
+        >>> off_side({"time_in_range": 0.0, "below_s": 0.0, "above_s": 60.0})
+        'high'
+        >>> off_side({"time_in_range": 0.9, "below_s": 6.0, "above_s": 0.0})
+    """
+    from prezence.report.build import SLIGHTLY_OFF_SHARE
+
+    if not isinstance(entry, dict):
+        return None
+    tir, below, above = (_number(entry.get(k)) for k in ("time_in_range", "below_s", "above_s"))
+    if tir is None or below is None or above is None:
+        return None
+    if 1.0 - tir < SLIGHTLY_OFF_SHARE or not below + above > 0.0:
+        return None
+    return "low" if below >= above else "high"
+
+
+def _number(x: Any) -> float | None:
+    return float(x) if isinstance(x, int | float) and not isinstance(x, bool) else None
+
+
+def _trend(values: Sequence[float | None], sides: Sequence[str | None] | None = None) -> str:
+    """The newest rehearsal against the one before it (both judged, by the same band).
+
+    Not the first against the newest: 0 % too fast, 100 %, 0 % too slow is no "steady". When
+    the two were out of their band on different sides, that is said too.
+
+    Example:
+        >>> _trend([0.0, 1.0, 0.0], ["high", None, "low"])
+        'worse (-100 pts)'
+        >>> _trend([0.0, None, 0.0], ["high", None, "low"])
+        'steady, but from high to low'
+        >>> _trend([0.5, 0.9])
+        'better (+40 pts)'
+    """
+    sides = sides if sides is not None else [None] * len(values)
+    known = [(v, side) for v, side in zip(values, sides, strict=True) if v is not None]
     if len(known) < 2:
         return "–"
-    d = known[-1] - known[0]
-    if abs(d) < STEADY:
-        return "steady"
-    return f"{'better' if d > 0 else 'worse'} ({100 * d:+.0f} pts)"
+    (before, was_side), (now, now_side) = known[-2], known[-1]
+    d = now - before
+    text = "steady" if abs(d) < STEADY else f"{'better' if d > 0 else 'worse'} ({100 * d:+.0f} pts)"
+    if was_side and now_side and was_side != now_side:
+        text += f", but from {was_side} to {now_side}"
+    return text
 
 
 def _bands(s: SessionDir) -> dict[str, str] | None:
@@ -275,6 +372,8 @@ def _table(
 
     cols: list[dict[str, Any]] = []
     per: list[dict[str, float | None]] = []
+    unjudged: list[dict[str, str]] = []  # per rehearsal, metric -> why it was not judged
+    sides: list[dict[str, str]] = []  # per rehearsal, metric -> the side it was mostly out on
     bands: list[dict[str, str] | None] = []
     recordings: set[str] = set()
     for when, s, meta in sessions:
@@ -289,6 +388,8 @@ def _table(
             log.warning("%s: metrics: not an object; no figures for this rehearsal", s.summary)
             metrics = {}
         per.append({str(k): time_in_range(s.summary, str(k), v) for k, v in metrics.items()})
+        unjudged.append({str(k): w for k, v in metrics.items() if (w := not_judged_why(v))})
+        sides.append({str(k): side for k, v in metrics.items() if (side := off_side(v))})
         bands.append(_bands(s))
         # to the second, with the folder: talks a minute apart are told apart
         label = time.strftime("%d %b %Y %H:%M:%S", time.localtime(when))
@@ -303,7 +404,10 @@ def _table(
     rows = []
     notes: list[str] = []
     for name in names:
-        values = [m.get(name) for m in per]
+        # a figure the report did not judge (0 s of pace is "0 %") is no figure: "–", a note
+        why = [u.get(name) for u in unjudged]
+        values = [None if w else m.get(name) for m, w in zip(per, why, strict=True)]
+        out_on = [None if w else x.get(name) for x, w in zip(sides, why, strict=True)]
         # a time in range holds only under its band: compare with the newest rehearsal's
         newest = bands[-1].get(name) if bands and bands[-1] is not None else None
         judged = [None if b is None else b.get(name) for b in bands]
@@ -323,15 +427,29 @@ def _table(
                 f"{newest if newest is not None else 'not recorded'}), so not comparable: "
                 "left out of the trend"
             )
+        if any(why):
+            whys = sorted({w for w in why if w})
+            which = [str(i) for i, w in enumerate(why, 1) if w]
+            notes.append(
+                f"* {label}: not judged in rehearsal{'s' if len(which) != 1 else ''} "
+                f"{', '.join(which)} ({'; '.join(whys)}): no figure, left out of the trend"
+            )
         kept = [None if o else v for v, o in zip(values, other, strict=True)]
         rows.append(
             {
                 "metric": name,
                 "label": label,
                 "values": values,
-                "trend": _trend(kept),
+                "trend": _trend(kept, out_on),
                 "other_band": other,
+                "not_judged": [bool(w) for w in why],
+                "sides": out_on,
             }
+        )
+    if any(any(row["sides"]) for row in rows):
+        notes.append(
+            "low / high: out of its ideal range, mostly below / above it, for "
+            f"{100 * _slightly_off():.0f}% or more of the time it was measured"
         )
     named = any(isinstance(m.get("speaker"), str) and m.get("speaker") for _, _, m in sessions)
     if len(recordings) > 1 and not named:
@@ -353,8 +471,24 @@ def progress_for(session_root: Path) -> dict[str, Any] | None:
         return None
 
 
-def _cell(v: float | None, other: bool) -> str:
-    return ("-" if v is None else f"{100 * v:.0f}%") + ("†" if other else "")
+def _slightly_off() -> float:
+    from prezence.report.build import SLIGHTLY_OFF_SHARE
+
+    return SLIGHTLY_OFF_SHARE
+
+
+def cell(row: dict[str, Any], i: int) -> str:
+    """Rehearsal ``i``'s cell of a progress row: ``"81%"``, ``"0% high"``, ``"–*"`` (not
+    judged: a note says why), ``"-"`` (no data), ``"100%†"`` (judged by another band)."""
+    v = row["values"][i]
+    if (row.get("not_judged") or [False] * len(row["values"]))[i]:
+        text = "–*"
+    elif v is None:
+        text = "-"
+    else:
+        side = (row.get("sides") or [None] * len(row["values"]))[i]
+        text = f"{100 * v:.0f}%" + (f" {side}" if side else "")
+    return text + ("†" if (row.get("other_band") or [False] * len(row["values"]))[i] else "")
 
 
 def format_progress(p: dict[str, Any]) -> str:
@@ -365,17 +499,16 @@ def format_progress(p: dict[str, Any]) -> str:
     notes = [f"left out: {Path(x['path']).name}: {x['why']}" for x in p.get("left_out") or []]
     if not cols:
         return "\n".join([f"no sessions with a summary.json in {p['speaker']}", *notes])
-    w = 7
+    w = 10  # "100% high†"
     head = f"{'metric':<20}" + "".join(f"{i:>{w}}" for i in range(1, len(cols) + 1)) + "  trend"
     n = len(cols)
     title = (
         f"{n} rehearsal{'s' if n != 1 else ''} of {p['speaker']}, oldest first: time in the "
-        "ideal range"
+        "ideal range; the trend is the newest against the one before"
     )
     lines = [title, head]
     for r in p["rows"]:
-        other = r.get("other_band") or [False] * len(r["values"])
-        cells = "".join(f"{_cell(v, o):>{w}}" for v, o in zip(r["values"], other, strict=True))
+        cells = "".join(f"{cell(r, i):>{w}}" for i in range(len(r["values"])))
         lines.append(f"{r['label']:<20}{cells}  {r['trend']}")
     lines += [f"{i}: {c['name']}, {c['label']}" for i, c in enumerate(cols, 1)]
     lines += list(p.get("notes") or ())

@@ -415,14 +415,16 @@ def _head_section(head: Mapping[str, Any]) -> str:
 
 def _progress_section(progress: Mapping[str, Any] | None) -> str:
     """Each metric's time in range over the speaker's rehearsals, oldest first; a cell judged
-    by another band than the newest rehearsal's is marked † and left out of the trend."""
+    by another band than the newest rehearsal's is marked † and left out of the trend, one
+    not judged (measured too briefly) is "–*" (:func:`prezence.progress.cell`)."""
     if not progress or len(progress.get("sessions", [])) < 2:
         return ""
     sessions = progress["sessions"]
     out = [
         "<h2>Progress across rehearsals</h2>",
         f'<p class="sub">{len(sessions)} rehearsals of {_e(progress.get("speaker") or "?")}, '
-        "oldest first: time in the ideal range.</p>",
+        "oldest first: time in the ideal range; the trend is the newest against the one "
+        "before.</p>",
         '<table><tr><th class="l">metric</th>'
         + "".join(
             f'<th>{_e(s.get("name") or "")}<br><span class="reason">{_e(s["label"])}</span></th>'
@@ -430,12 +432,10 @@ def _progress_section(progress: Mapping[str, Any] | None) -> str:
         )
         + "<th>trend</th></tr>",
     ]
+    from prezence.progress import cell
+
     for row in progress["rows"]:
-        other = row.get("other_band") or [False] * len(row["values"])
-        cells = "".join(
-            f"<td>{_pct(v)}{'†' if o else ''}</td>"
-            for v, o in zip(row["values"], other, strict=True)
-        )
+        cells = "".join(f"<td>{_e(cell(row, i))}</td>" for i in range(len(row["values"])))
         out.append(
             f'<tr><td class="l">{_e(row["label"])}</td>{cells}<td>{_e(row["trend"])}</td></tr>'
         )

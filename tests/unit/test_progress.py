@@ -220,3 +220,80 @@ def test_the_order_of_rehearsals_outlives_a_copy_of_their_folders(tmp_path: Path
     os.utime(copy / "first" / "session.json", (newer_than_all,) * 2)
     p = progress(copy / "second")
     assert [c["name"] for c in p["sessions"]] == ["first", "second"]
+
+
+# -- session 21, a tester's walkthrough ----------------------------------------------------------
+
+
+def _judged(tir: float, in_s: float, out_s: float, **more: Any) -> dict[str, Any]:
+    return {"time_in_range": tir, "in_range_s": in_s, "out_of_range_s": out_s, **more}
+
+
+def test_a_metric_not_judged_shows_a_dash_with_why_and_is_left_out_of_the_trend(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # an 11 s clip after a 77 s talk: its summary.json holds pace 0 s of 0 s as 0.0, too_brief,
+    # and progress said "pace 100% 0% worse (-100 pts)" (clarity, as brief, read 100%)
+    from prezence.progress import progress
+    from prezence.report.html import _progress_section
+
+    whole = {"speech_speed": _judged(1.0, 62.0, 0.0), "speech_accuracy": _judged(1.0, 62.0, 0.0)}
+    brief = {
+        "speech_speed": _judged(0.0, 0.0, 0.0, too_brief=True),
+        "speech_accuracy": _judged(1.0, 0.0, 0.0, too_brief=True),
+    }
+    _session(tmp_path, "long", 1e9, whole)
+    _session(tmp_path, "clip", 1e9 + 60, brief)
+    assert main(["progress", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    rows = {ln.split()[0]: ln.split()[1:] for ln in out.splitlines()[2:4]}
+    assert rows == {"pace": ["100%", "–*", "–"], "clarity": ["100%", "–*", "–"]}
+    assert "worse" not in out and " 0%" not in out
+    assert (
+        "* pace: not judged in rehearsal 2 (measured for only 0 s, under the 10 s needed to "
+        "judge it): no figure, left out of the trend"
+    ) in out
+    page = _progress_section(progress(tmp_path / "clip"))
+    assert "<td>–*</td>" in page and "-100" not in page and ">0%<" not in page
+
+
+def test_speaker_folders_under_sessions_give_one_table_each(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `--speaker carol` writes sessions/carol/<talk>; `prezence progress sessions` said
+    # "no sessions with a summary.json in sessions / left out: carol: not a session folder"
+    sessions = tmp_path / "sessions"
+    for who in ("carol", "dan"):
+        for i in range(2):
+            _talk(sessions / who, f"rehearsal-{i}", 1e9 + i, 0.5 + 0.2 * i, speaker=who)
+    (sessions / "notes").mkdir()  # truly not a session, and nothing in it
+    assert main(["progress", str(sessions)]) == 0
+    out = capsys.readouterr().out
+    assert "2 rehearsals of carol" in out and "2 rehearsals of dan" in out
+    assert "left out: carol" not in out and "no sessions with a summary.json" not in out
+    assert (
+        "left out: notes: not a session folder (no summary.json, no streams) and no sessions"
+        in (out)
+    )
+
+
+def test_the_trend_compares_the_newest_with_the_one_before_and_says_the_side(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # pace 0 % too fast, 100 %, 0 % too slow read "0% 100% 0% steady": first against last
+    fast = _judged(0.0, 0.0, 60.0, below_s=0.0, above_s=60.0)
+    good = _judged(1.0, 60.0, 0.0, below_s=0.0, above_s=0.0)
+    slow = _judged(0.0, 0.0, 60.0, below_s=60.0, above_s=0.0)
+    for i, m in enumerate((fast, good, slow)):
+        _session(tmp_path, f"r{i}", 1e9 + i, {"speech_speed": m})
+    assert main(["progress", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    pace = next(ln for ln in out.splitlines() if ln.startswith("pace"))
+    assert pace.split() == ["pace", "0%", "high", "100%", "0%", "low", "worse", "(-100", "pts)"]
+    assert "the trend is the newest against the one before" in out
+    assert "low / high: out of its ideal range, mostly below / above it" in out
+    # the same share on the other side is not "steady" without a word
+    (tmp_path / "r1" / "summary.json").write_text(json.dumps({"metrics": {"speech_speed": fast}}))
+    assert main(["progress", str(tmp_path)]) == 0
+    pace = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("pace"))
+    assert pace.endswith("steady, but from high to low")
