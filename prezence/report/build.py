@@ -535,7 +535,9 @@ def rank_priorities(
       the talk is not "a little off", however small each miss); its rule is strict.
     - **a little off** (:func:`slightly_off`): none of these, but out of its band for at least
       :data:`SLIGHTLY_OFF_SHARE` of its measured time: not praised as in range either.
-    - **in range**: the rest (a glance down for a second is not worth a word).
+    - **in or near range**: the rest (a glance down for a second is not worth advice). Those
+      out of their band at all (:func:`near_range`) are named with their seconds out when the
+      report praises: "stayed in or near its ideal range", never "stayed in its ideal range".
 
     The score is the deviation integrated over the talk (%·s), the time out of range times
     the mean deviation while out; the list is ordered by it. Each row names every side the
@@ -635,6 +637,55 @@ def slightly_off(
                 # its module died mid-talk: the share is of the time it was measured
                 **({"measured_s": round(measured_s(m), 1)} if m.get("lost") else {}),
             }
+        )
+    rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
+    return rows
+
+
+#: Out of its band for less than this (seconds, in all) is in it: the figures are kept to the
+#: tenth of a second, so less is rounding, not a sample out of range.
+NEAR_RANGE_MIN_S = 0.05
+
+
+def near_range(
+    config: Config, metrics: Mapping[str, Mapping[str, Any]], *, listed: Collection[str] = ()
+) -> list[dict[str, Any]]:
+    """The judged metrics out of their band for some of the talk but in no other list: too little
+    to work on or to be "a little off" (:func:`rank_priorities`), yet not "in the ideal range"
+    either (session 21: "Every judged metric stayed in its ideal range" over a pace under 140
+    wpm for 8 s, 19 % of the time). Each names every side it was out on with its seconds and
+    share of its measured time (``sides``); the most out first.
+
+    Args:
+        config: the rules.
+        metrics: the report's per-metric figures.
+        listed: the metrics already listed to work on or as a little off.
+    """
+    rows: list[dict[str, Any]] = []
+    for rule in config.rules:
+        m = metrics.get(rule.metric) or {}
+        if rule.metric in listed or not judged(m):
+            continue
+        total = measured_s(m)
+        sides: list[dict[str, Any]] = []
+        for side in ("below", "above"):
+            secs = m.get(f"{side}_s")
+            if isinstance(secs, int | float) and secs >= NEAR_RANGE_MIN_S and total > 0:
+                sides.append(
+                    {
+                        "side": side,
+                        "bound": rule.high if side == "above" else rule.low,
+                        "out_s": round(float(secs), 1),
+                        "share_out": round(float(secs) / total, 3),
+                    }
+                )
+        if not sides:
+            continue
+        sides.sort(key=lambda x: -float(x["out_s"]))
+        out_s = sum(float(m.get(f"{x['side']}_s") or 0.0) for x in sides)
+        share = out_s / total
+        rows.append(
+            {**_off_side(rule, str(sides[0]["side"])), "share_out": round(share, 3), "sides": sides}
         )
     rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
     return rows
@@ -997,6 +1048,7 @@ def _rebuild(
         cfg, judged_dev, talk_s=talk_s, cued=cued, metrics=metrics, top=None
     )
     a_little_off = slightly_off(cfg, judged_dev, metrics, listed=[p["metric"] for p in priorities])
+    near = near_range(cfg, metrics, listed=[r["metric"] for r in [*priorities, *a_little_off]])
     snr = room_snr(session, limit) or []
     for row in [*priorities, *a_little_off] if snr else ():
         if row["metric"] != NOISY_METRIC:
@@ -1035,6 +1087,7 @@ def _rebuild(
         "cues": cue_rows,
         "priorities": priorities,
         "slightly_off": a_little_off,
+        "near_range": near,
         "counts": counts,
         "has_truth": truth is not None,
         "effect_window_s": EFFECT_WINDOW_S,

@@ -325,14 +325,55 @@ def coverage_words(report: Mapping[str, Any]) -> str:
     )
 
 
+def _out_for(secs: float) -> str:
+    return "under 1 s" if secs < 0.5 else f"{secs:.0f} s" if secs < 59.5 else mmss(secs)
+
+
+def _share_words(share: float) -> str:
+    return "under 1%" if 100.0 * share < 0.5 else f"{100.0 * share:.0f}%"
+
+
+def near_words(report: Mapping[str, Any]) -> str:
+    """The metrics out of their band for too little of the time to be listed
+    (``near_range``: :func:`prezence.report.build.near_range`), with their figures (""
+    when none was).
+
+    Example:
+        >>> near_words({"near_range": [{"label": "pace", "unit": "wpm", "sides": [
+        ...     {"side": "below", "bound": 140.0, "out_s": 8.0, "share_out": 0.19}]}]})
+        'pace was under 140 wpm for 8 s (19% of the time it was measured)'
+    """
+    said: list[str] = []
+    for row in report.get("near_range") or ():
+        if not isinstance(row, Mapping):
+            continue
+        parts = [
+            f"{'under' if x.get('side') == 'below' else 'over'} {_num(x.get('bound'))}"
+            f"{_unit(row)} for {_out_for(float(x.get('out_s') or 0.0))} "
+            f"({_share_words(float(x.get('share_out') or 0.0))}"
+            + (" of the time it was measured)" if not said and i == 0 else ")")
+            for i, x in enumerate(_sides(row))
+        ]
+        label = str(row.get("label") or row.get("metric"))
+        said.append(f"{label} {was(label)} {' and '.join(parts)}")
+    return "; ".join(said)
+
+
 def praise_line(report: Mapping[str, Any], share: str) -> str:
     """The report's written praise when nothing was off: ``share`` is :func:`measured_share`
-    (``"all"`` or ``"some"``); qualified by what was measured over only part of the talk."""
+    (``"all"`` or ``"some"``); qualified by what was measured over only part of the talk, and
+    "in or near" its range, naming the figures, when a metric was out of it at all
+    (:func:`near_words`)."""
     every = "Every metric" if share == "all" else "Every judged metric"
     gaps = coverage_words(report)
+    near = near_words(report)
+    where = "in or near its ideal range" if near else "in its ideal range"
+    said = "; ".join(w for w in (gaps, near) if w)
     if gaps:
-        return f"{every} stayed in its ideal range while it was measured: {gaps}."
-    return f"{every} stayed in its ideal range."
+        return f"{every} stayed {where} while it was measured: {said}."
+    if near:
+        return f"{every} stayed {where}: {said}."
+    return f"{every} stayed {where}."
 
 
 def _talk_s(report: Mapping[str, Any]) -> float:
@@ -603,7 +644,10 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         elif share == "some" or coverage_gaps(report):
             parts.append(_some_praise(report))
         else:
-            parts.append("Your delivery stayed in the ideal range. Well done!")
+            parts.append(f"Your delivery stayed {_in(report)}. Well done!")
+        if share != "none" and _near_spoken(report):  # which one was near, not in: if room
+            parts.append(_near_spoken(report))
+            droppable.append(parts[-1])
     else:
         parts.append(f"Work first on this: {pri[0]['advice']}.")
         if len(pri) > 1:
@@ -652,15 +696,41 @@ def _some_praise(report: Mapping[str, Any]) -> str:
             if len(part) == judged_n
             else f"your {_and(part)} for only part of the talk"
         )
-        return f"Everything I could measure stayed in the ideal range, but I measured {what}."
+        return f"Everything I could measure stayed {_in(report)}, but I measured {what}."
     if not rest:
-        return "Everything I could measure stayed in the ideal range. Well done!"
+        return f"Everything I could measure stayed {_in(report)}. Well done!"
     good = [
         str(m.get("label") or k)
         for k, m in (report.get("metrics") or {}).items()
         if isinstance(m, Mapping) and _judged(m)
     ]
-    return f"Your {_and(good)} stayed in the ideal range; I could not judge your {_and(rest)}."
+    return f"Your {_and(good)} stayed {_in(report)}; I could not judge your {_and(rest)}."
+
+
+def _in(report: Mapping[str, Any]) -> str:
+    """ "in the ideal range", or "in or near the ideal range" when a metric was out of it at all
+    (``near_range``)."""
+    return "in or near the ideal range" if report.get("near_range") else "in the ideal range"
+
+
+def _near_spoken(report: Mapping[str, Any]) -> str:
+    """The metric most out of its band among those near it, short: "Your pace was under it for
+    8 seconds." ("" when none was)."""
+    rows = [r for r in report.get("near_range") or () if isinstance(r, Mapping)]
+    if not rows:
+        return ""
+    row = rows[0]
+    label = str(row.get("label") or row.get("metric"))
+    said = [
+        f"{'under' if x.get('side') == 'below' else 'over'} it for "
+        + (
+            _spoken_minutes(float(x.get("out_s") or 0.0))
+            if float(x.get("out_s") or 0.0) >= 0.5
+            else "under a second"
+        )
+        for x in _sides(row)
+    ]
+    return f"Your {label} {was(label)} {' and '.join(said)}."
 
 
 def _pct(x: float | None) -> str:

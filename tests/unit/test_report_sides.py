@@ -299,3 +299,50 @@ def test_a_talk_the_time_limit_stopped_is_said_to_go_on_only_if_a_voice_was_stil
     assert bool(report["time"].get("stopped_at_limit")) is still
     said = summary_phrase(report)
     assert said.startswith("You were still going") is still, said
+
+
+# -- session 21, a tester's walkthrough ----------------------------------------------------------
+
+
+def test_a_metric_out_of_range_for_a_little_of_the_talk_is_not_praised_as_in_range(
+    tmp_path: Path,
+) -> None:
+    # pace under 140 wpm for 8 s of 42 s (19 %): too little to be "a little off", and the
+    # report said "Every judged metric stayed in its ideal range" over the table that showed it
+    steady = (range(42), lambda t: 66.0)
+    pace = (range(42), lambda t: 138.5 if 30 <= t < 38 else 160.0)
+    gaze = (range(42), lambda t: 0.0)
+    session = talk(
+        tmp_path / "t", 42, {"speech_speed": pace, "speech_volume": steady, "cv_headGaze": gaze}
+    )
+    write_report(session.root, config=CONFIG, plots=False)
+    report = json.loads((session.root / "report" / "report.json").read_text())
+    assert report["priorities"] == [] and report["slightly_off"] == []
+    text = (session.root / "report" / "summary.txt").read_text()
+    assert "stayed in its ideal range" not in text
+    assert (
+        "Every metric stayed in or near its ideal range: pace was under 140 wpm for 8 s "
+        "(19% of the time it was measured)."
+    ) in text
+    page = (session.root / "report" / "report.html").read_text()
+    assert "stayed in its ideal range" not in page and "under 140 wpm for 8 s" in page
+    said = summary_phrase(report)
+    assert "stayed in the ideal range" not in said
+    assert said.endswith(
+        "Your delivery stayed in or near the ideal range. Well done! "
+        "Your pace was under it for 8 seconds."
+    )
+
+
+def test_praise_says_in_range_only_when_every_metric_was(tmp_path: Path) -> None:
+    steady = (range(42), lambda t: 66.0)
+    pace = (range(42), lambda t: 160.0)
+    gaze = (range(42), lambda t: 0.0)
+    session = talk(
+        tmp_path / "t", 42, {"speech_speed": pace, "speech_volume": steady, "cv_headGaze": gaze}
+    )
+    write_report(session.root, config=CONFIG, plots=False)
+    report = json.loads((session.root / "report" / "report.json").read_text())
+    assert report["near_range"] == []
+    assert "Every metric stayed in its ideal range." in format_text(report)
+    assert summary_phrase(report).endswith("Your delivery stayed in the ideal range. Well done!")
