@@ -29,6 +29,11 @@ def _spoken_minutes(s: float) -> str:
     return f"{whole} and a half {unit}" if half != whole else f"{whole} {unit}"
 
 
+def _spoken_value(s: float) -> float:
+    """The seconds :func:`_spoken_minutes` says: 130 s is said "2 minutes", 120 s."""
+    return float(int(round(s))) if s < 60 else 30.0 * round(s / 30.0)
+
+
 def _spoken_exact(s: float) -> str:
     """Seconds to the second: ``"9 minutes 48 seconds"``, ``"10 minutes"``, ``"1 minute"``."""
     m, sec = divmod(int(round(max(0.0, s))), 60)
@@ -47,8 +52,9 @@ def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str
     """One sentence on time used vs allocated.
 
     Lengths are said to the half minute; when that would make the two sound equal while the
-    talk was over or under, both are said to the second, so the words never contradict the
-    percentage. With ``first_words``, a voice first heard late into the talk
+    talk was over or under, or give another percentage than the one said (40 s "of 2 minutes"
+    is 67 % under, not the 69 % of 40 s of 2:10), both are said to the second, so the words
+    never contradict the percentage. With ``first_words``, a voice first heard late into the talk
     (``time.first_voice_s``: :data:`prezence.report.build.LATE_START_S` or more) is said too.
 
     Example:
@@ -56,6 +62,8 @@ def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str
         'You used 10 and a half minutes of 10 minutes, 5% over.'
         >>> time_sentence({"time": {"used_s": 588.0, "allocated_s": 600.0, "over_under_pct": -2.0}})
         'You used 9 minutes 48 seconds of 10 minutes, 2% under.'
+        >>> time_sentence({"time": {"used_s": 40.0, "allocated_s": 130.0, "over_under_pct": -69.2}})
+        'You used 40 seconds of 2 minutes 10 seconds, 69% under.'
         >>> time_sentence({"time": {"used_s": 300.0, "allocated_s": None}})
         'You spoke for 5 minutes.'
         >>> cut = {"used_s": 330.0, "allocated_s": 300.0, "over_under_pct": 10.0,
@@ -71,18 +79,30 @@ def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str
         return f"You spoke for {_spoken_minutes(used)}.{_late_start(t) if first_words else ''}"
     alloc = float(alloc)
     pct = float(t.get("over_under_pct", 0.0))
+    said_used, said_alloc = _spoken_minutes(used), _spoken_minutes(alloc)
+    on_time = abs(pct) < 1.0
+    if (said_used == said_alloc and not on_time) or not _agrees(used, alloc, pct):
+        said_used, said_alloc = _spoken_exact(used), _spoken_exact(alloc)
     if t.get("stopped_at_limit"):  # cut at the allocated time plus the grace: a lower bound
         return (
-            f"You were still going when the coach stopped at {_spoken_minutes(used)}, after "
-            f"the {_spoken_minutes(alloc)} allocated: at least {pct:.0f}% over."
+            f"You were still going when the coach stopped at {said_used}, after "
+            f"the {said_alloc} allocated: at least {pct:.0f}% over."
         )
     side = "over" if pct > 0 else "under"
-    on_time = abs(pct) < 1.0
     how = "right on time" if on_time else f"{abs(pct):.0f}% {side}"
-    said_used, said_alloc = _spoken_minutes(used), _spoken_minutes(alloc)
-    if said_used == said_alloc and not on_time:
-        said_used, said_alloc = _spoken_exact(used), _spoken_exact(alloc)
     return f"You used {said_used} of {said_alloc}, {how}.{_late_start(t) if first_words else ''}"
+
+
+def _agrees(used: float, alloc: float, pct: float) -> bool:
+    """Whether the lengths as :func:`_spoken_minutes` says them give the percentage said
+    (``pct``, to the whole per cent; "right on time" under 1 %)."""
+    said_alloc = _spoken_value(alloc)
+    if said_alloc <= 0:
+        return False
+    said_pct = 100.0 * (_spoken_value(used) - said_alloc) / said_alloc
+    if abs(pct) < 1.0 or abs(said_pct) < 1.0:
+        return abs(pct) < 1.0 and abs(said_pct) < 1.0
+    return f"{said_pct:+.0f}" == f"{pct:+.0f}"
 
 
 def _late_start(t: Mapping[str, Any]) -> str:

@@ -472,6 +472,9 @@ def test_report_of_a_folder_without_streams_or_session_says_so(tmp_path: Path) -
         (597.0, 600.0, -0.5, "You used 10 minutes of 10 minutes, right on time."),
         (540.0, 600.0, -10.0, "You used 9 minutes of 10 minutes, 10% under."),
         (33.0, 36.0, -8.3, "You used 33 seconds of 36 seconds, 8% under."),
+        # session 21: short_talk (2:10 allocated) said "40 seconds of 2 minutes, 69% under"
+        (40.0, 130.0, -69.2, "You used 40 seconds of 2 minutes 10 seconds, 69% under."),
+        (460.0, 600.0, -23.3, "You used 7 minutes 40 seconds of 10 minutes, 23% under."),
     ],
 )
 def test_time_sentence_words_agree_with_the_percentage(
@@ -774,3 +777,15 @@ def test_a_time_warning_is_not_shown_as_coming_after_an_onset(tmp_path: Path) ->
     page = write_report(session.root).read_text()
     row = page[page.index("<td>1:20</td>") :].split("</tr>")[0]
     assert "<td>0 s</td>" not in row and "<td>–</td>" in row
+
+
+def test_the_short_talk_says_the_allocation_it_measures_the_percentage_against(
+    tmp_path: Path,
+) -> None:
+    # session 21, a tester: `prezence run short_talk` (2:10 allocated, 40 s used) said "You used
+    # 40 seconds of 2 minutes, 69% under": 69 % is of 130 s; of 2 minutes it would be 67 %
+    from prezence.synthetic.runner import run_talk
+
+    run_talk("short_talk", out=tmp_path / "t", backend="fake", report=True, plots=False)
+    said = (tmp_path / "t" / "report" / "spoken.txt").read_text()
+    assert said.startswith("You used 40 seconds of 2 minutes 10 seconds, 69% under.")
