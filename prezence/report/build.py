@@ -1095,8 +1095,14 @@ def _rebuild(
         **({"replay_of": meta["source"]} if meta.get("kind") == "replay" else {}),
         **({"recording": str(meta["recording"])} if meta.get("recording") else {}),
         **({"logs": logs} if (logs := _module_logs(session)) else {}),
-        "head": head_turns(session, talk_s=talk_s, limit=limit)
-        | ({"not_measured_why": unmeasured[HEAD_YAW]} if HEAD_YAW in unmeasured else {}),
+        "head": (head := head_turns(session, talk_s=talk_s, limit=limit))
+        | (
+            {"not_measured_why": unmeasured[HEAD_YAW]}
+            if HEAD_YAW in unmeasured
+            else {}
+            if head["measured"]
+            else {"not_measured_why": no_camera_why(session, meta)}
+        ),
         "stopped_repeating": _stopped_repeating(recorded),
         "beyond_talk": {k: v["beyond_talk"] for k, v in stats.items() if v.get("beyond_talk")},
     }
@@ -1154,6 +1160,52 @@ def _value_at(samples: Sequence[Sample], t: float) -> float | None:
             break
         v = s.value
     return v
+
+
+def no_camera_why(session: SessionDir, meta: Mapping[str, Any], *, depth: int = 0) -> str:
+    """Why no head turns were measured when no camera module recorded them, with advice that
+    fits the command that made the talk (``session.json``'s ``kind``): ``rehearse`` takes one
+    recording, ``up`` takes ``--video``, a replay has what its recording has (session 21: an
+    audio-only rehearsal was told to "give --video cam", an option ``rehearse`` has not).
+
+    Example:
+        >>> no_camera_why(SessionDir(Path("s")), {"kind": "rehearsal", "recording": "/x/t.flac"})
+        't.flac is a sound recording: rehearse a video file (with sound) to measure head turns and gestures'
+    """  # noqa: E501 - a doctest output line
+    from prezence.rehearse import VIDEO_EXT
+
+    kind = meta.get("kind")
+    if kind == "rehearsal":
+        rec = Path(str(meta.get("recording") or "the recording"))
+        if rec.suffix.lower() in VIDEO_EXT:
+            return (
+                f"no camera module measured {rec.name} (head pose needs the vision env: python "
+                "-m prezence.modules.vision_env install)"
+            )
+        return (
+            f"{rec.name} is a sound recording: rehearse a video file (with sound) to measure "
+            "head turns and gestures"
+        )
+    if kind == "replay" and depth == 0:
+        src = _replay_source(session, meta)
+        if src is None:
+            return "the recording this replays is not found, and this replay has no head turns"
+        if src.stream(f"{HEAD_YAW}.txt").is_file() or src.stream(f"{FACING}.txt").is_file():
+            return (
+                f"the recording measured them but this replay did not copy them: see the "
+                f"report of {src.root}"
+            )
+        try:
+            src_meta = src.read_meta()
+        except PrezenceError:
+            src_meta = {}
+        return f"the recording replayed has none: {no_camera_why(src, src_meta, depth=1)}"
+    if kind == "synthetic":
+        return "a synthetic talk's persona has no head turns"
+    return (
+        "no camera module ran (give --video cam or a video file to prezence up; head pose "
+        "needs the vision env)"
+    )
 
 
 def head_turns(session: SessionDir, *, talk_s: float, limit: float) -> dict[str, Any]:

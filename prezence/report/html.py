@@ -387,10 +387,12 @@ def _head_section(head: Mapping[str, Any]) -> str:
     """Head turns: facing the audience, turned left / right (the vision module's yaw)."""
     out = ["<h2>Head turns</h2>"]
     if not head.get("measured"):
-        out.append(
-            '<p class="nodata">Not measured: no camera module ran (give <code>--video cam'
-            "</code> or a video file; head pose needs the vision env).</p>"
+        # why, in words that fit the command that made the talk (build.no_camera_why)
+        why = head.get("not_measured_why") or (
+            "no camera module ran (give --video cam or a video file to prezence up; head pose "
+            "needs the vision env)"
         )
+        out.append(f'<p class="nodata">Not measured: {_e(why)}.</p>')
         return "\n".join(out)
     rows = []
     if head.get("facing_share") is not None:

@@ -306,3 +306,56 @@ def test_a_metric_measured_just_under_the_limit_does_not_read_as_the_limit() -> 
     )
     assert note(9.6).startswith("pace: measured for only 9.6 s,")
     assert note(2.9).startswith("pace: measured for only 3 s,")
+
+
+# -- session 21, a tester's walkthrough ----------------------------------------------------------
+
+
+def _head_section(page: str) -> str:
+    return page.split("<h2>Head turns</h2>", 1)[1].split("<h2>", 1)[0]
+
+
+def test_head_turns_not_measured_gives_advice_that_fits_the_command(tmp_path: Path) -> None:
+    # an audio-only `prezence rehearse` was told "give --video cam or a video file": rehearse
+    # has no --video option, it takes one recording
+    pace = [(float(t), 160.0) for t in range(60)]
+    heard = rehearsal(tmp_path / "r", {"speech_speed": pace}, talk_s=60.0, recording="/x/t.flac")
+    write_report(heard.root, config=CONFIG, plots=False)
+    head = _head_section((heard.root / "report" / "report.html").read_text())
+    assert "--video" not in head
+    assert (
+        "Not measured: t.flac is a sound recording: rehearse a video file (with sound) to "
+        "measure head turns and gestures."
+    ) in head
+    # `up` takes --video: the advice there is as it was
+    live = rehearsal(tmp_path / "u", {"speech_speed": pace}, talk_s=60.0, recording=None)
+    live.write_meta({"kind": "live", "talk_s": 60.0})
+    write_report(live.root, config=CONFIG, plots=False)
+    head = _head_section((live.root / "report" / "report.html").read_text())
+    assert "give --video cam or a video file to prezence up" in head
+
+
+def test_a_replay_does_not_say_no_camera_ran_when_its_recording_measured_head_turns(
+    tmp_path: Path,
+) -> None:
+    # the replay of a video rehearsal said "no camera module ran": it had not copied the
+    # recording's head-pose streams (prezence/replay.py copies only what its rules read)
+    pace = [(float(t), 160.0) for t in range(60)]
+    src = rehearsal(
+        tmp_path / "rec", {"speech_speed": pace, "cv_headYaw": [(1.0, 3.0)]}, talk_s=60.0
+    )
+    replay = rehearsal(tmp_path / "rep", {"speech_speed": pace}, talk_s=60.0, recording=None)
+    replay.write_meta({"kind": "replay", "talk_s": 60.0, "source": str(src.root)})
+    write_report(replay.root, config=CONFIG, plots=False)
+    head = _head_section((replay.root / "report" / "report.html").read_text())
+    assert "no camera module ran" not in head
+    assert (
+        "the recording measured them but this replay did not copy them: see the report of "
+        f"{src.root}" in head
+    )
+    # a replay of an audio-only rehearsal: the rehearsal's advice
+    audio = rehearsal(tmp_path / "a", {"speech_speed": pace}, talk_s=60.0, recording="/x/t.flac")
+    replay.write_meta({"kind": "replay", "talk_s": 60.0, "source": str(audio.root)})
+    write_report(replay.root, config=CONFIG, plots=False)
+    head = _head_section((replay.root / "report" / "report.html").read_text())
+    assert "the recording replayed has none: t.flac is a sound recording: rehearse a video" in head
