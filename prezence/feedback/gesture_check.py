@@ -127,66 +127,78 @@ def _rows(
     lib: GestureLibrary,
     checker: SelfCollisionChecker | None,
 ) -> list[dict[str, Any]]:
-    rows: list[dict[str, Any]] = []
-    for label, name, params in _cases(lib):
-        row: dict[str, Any] = {"gesture": label}
-        try:
-            traj = build_trajectory(
-                name, params=params, speed_fraction=speed_fraction, limits=limits, library=lib
-            )
-        except (LimitViolation, ConfigError) as e:  # out of the limits, or never moves
-            row.update(ok=False, error=str(e))
-            rows.append(row)
-            continue
-        t_min = time_optimal_minimum(traj, speed_fraction=speed_fraction, limits=limits)
-        peaks = traj.peak_velocities()
-        ratios = {j: float(v) / limits.velocity[j] for j, v in zip(traj.joints, peaks, strict=True)}
-        worst = max(ratios, key=lambda j: ratios[j])
-        margin, margin_joint, outside = _path_margin(traj, limits, dict(lib.neutral))
-        problems: list[str] = []
-        if ratios[worst] > speed_fraction * (1.0 + 1e-9):
-            problems.append(
-                f"{worst} planned at {ratios[worst]:.1%} of its limit > {speed_fraction:.0%}"
-            )
-        if outside:
-            problems.append(f"{outside} path samples outside a position limit")
-        ratio = traj.duration / t_min if t_min > 0 else math.inf
-        if ratio > MAX_RATIO:
-            problems.append(f"duration {ratio:.3f} × the time-optimal minimum > {MAX_RATIO}")
-        if traj.duration > MAX_DURATION_S:
-            problems.append(
-                f"takes {traj.duration:.1f} s > {MAX_DURATION_S:g} s: while a gesture plays the "
-                "robot gives no other cue, a time warning included (fewer holds or repeats)"
-            )
-        if checker is not None:
-            clearance = checker.trajectory_clearance(traj)
-            row.update(
-                clearance_mm=round(clearance.mm, 1),
-                clearance_links=list(clearance.links),
-                clearance_at_s=clearance.time_s,
-            )
-            if clearance.distance_m < MIN_CLEARANCE_M:
-                problems.append(
-                    f"self-collision: {clearance.describe()} "
-                    f"(< {1000 * MIN_CLEARANCE_M:.0f} mm clearance)"
-                )
-        row.update(
-            ok=not problems,
-            duration_s=round(traj.duration, 4),
-            time_optimal_s=round(t_min, 4),
-            ratio=round(ratio, 4),
-            peak_velocity_pct=round(100.0 * ratios[worst], 2),
-            peak_velocity_joint=worst,
-            peak_velocity_pct_by_joint={j: round(100.0 * r, 2) for j, r in ratios.items()},
-            margin_deg=round(math.degrees(margin), 2),
-            margin_joint=margin_joint,
-            keyframes=len(traj.times),
-            joints=len(traj.joints),
+    return [
+        _row(label, name, params, speed_fraction, limits, lib, checker)
+        for label, name, params in _cases(lib)
+    ]
+
+
+def _row(
+    label: str,
+    name: str,
+    params: dict[str, int] | None,
+    speed_fraction: float,
+    limits: JointLimits,
+    lib: GestureLibrary,
+    checker: SelfCollisionChecker | None,
+) -> dict[str, Any]:
+    """The row of one gesture case (see :func:`gesture_rows`)."""
+    row: dict[str, Any] = {"gesture": label}
+    try:
+        traj = build_trajectory(
+            name, params=params, speed_fraction=speed_fraction, limits=limits, library=lib
         )
-        if problems:
-            row["error"] = "; ".join(problems)
-        rows.append(row)
-    return rows
+    except (LimitViolation, ConfigError) as e:  # out of the limits, or never moves
+        row.update(ok=False, error=str(e))
+        return row
+    t_min = time_optimal_minimum(traj, speed_fraction=speed_fraction, limits=limits)
+    peaks = traj.peak_velocities()
+    ratios = {j: float(v) / limits.velocity[j] for j, v in zip(traj.joints, peaks, strict=True)}
+    worst = max(ratios, key=lambda j: ratios[j])
+    margin, margin_joint, outside = _path_margin(traj, limits, dict(lib.neutral))
+    problems: list[str] = []
+    if ratios[worst] > speed_fraction * (1.0 + 1e-9):
+        problems.append(
+            f"{worst} planned at {ratios[worst]:.1%} of its limit > {speed_fraction:.0%}"
+        )
+    if outside:
+        problems.append(f"{outside} path samples outside a position limit")
+    ratio = traj.duration / t_min if t_min > 0 else math.inf
+    if ratio > MAX_RATIO:
+        problems.append(f"duration {ratio:.3f} × the time-optimal minimum > {MAX_RATIO}")
+    if traj.duration > MAX_DURATION_S:
+        problems.append(
+            f"takes {traj.duration:.1f} s > {MAX_DURATION_S:g} s: while a gesture plays the "
+            "robot gives no other cue, a time warning included (fewer holds or repeats)"
+        )
+    if checker is not None:
+        clearance = checker.trajectory_clearance(traj)
+        row.update(
+            clearance_mm=round(clearance.mm, 1),
+            clearance_links=list(clearance.links),
+            clearance_at_s=clearance.time_s,
+        )
+        if clearance.distance_m < MIN_CLEARANCE_M:
+            problems.append(
+                f"self-collision: {clearance.describe()} "
+                f"(< {1000 * MIN_CLEARANCE_M:.0f} mm clearance)"
+            )
+    row.update(
+        ok=not problems,
+        duration_s=round(traj.duration, 4),
+        time_optimal_s=round(t_min, 4),
+        ratio=round(ratio, 4),
+        peak_velocity_pct=round(100.0 * ratios[worst], 2),
+        peak_velocity_joint=worst,
+        peak_velocity_pct_by_joint={j: round(100.0 * r, 2) for j, r in ratios.items()},
+        margin_deg=round(math.degrees(margin), 2),
+        margin_joint=margin_joint,
+        keyframes=len(traj.times),
+        joints=len(traj.joints),
+    )
+    if problems:
+        row["error"] = "; ".join(problems)
+    return row
 
 
 def check_gestures(
