@@ -290,13 +290,13 @@ def _config_or_default(args: argparse.Namespace) -> Config:
 
 def _options(args: argparse.Namespace) -> RunOptions:
     """The run options of a coaching command (pacing to a real robot is the loop's business)."""
+    from prezence.feedback.gestures import library_for_talk
     from prezence.talk import RunOptions
 
     gestures = getattr(args, "gestures", None)
-    if gestures:
-        from prezence.feedback.gestures import library_for_talk
-
-        library_for_talk(gestures)  # refused now: before the robot, a module or a folder
+    # refused now, before the robot, a module or a folder: a file that cannot be played, or a
+    # gesture (of the file or built in) that fails `gestures check` at --speed
+    library_for_talk(gestures or None, speed_fraction=args.speed)
     return RunOptions(
         policy=args.policy,
         seed=args.seed if args.seed is not None else 0,

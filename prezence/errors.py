@@ -76,6 +76,11 @@ class LimitViolation(PrezenceError, ValueError):
     """A gesture or target breaks a joint's position or velocity limit."""
 
 
+class GestureCheckFailed(PrezenceError, ValueError):
+    """A gesture a talk would play fails ``prezence gestures check`` at the talk's speed (it
+    takes too long, say): the talk is refused before it starts, as for a limit breach."""
+
+
 def did_you_mean(name: str, known: Iterable[str]) -> str:
     """Return ``"; did you mean 'x'?"`` when a close match exists, else ``""``."""
     close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)

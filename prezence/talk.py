@@ -391,8 +391,11 @@ class Talk:
         self.options = options
         self.on_decision = on_decision
         self.processor = Processor(config, policy=make_policy(options.policy, seed=options.seed))
-        # a library of one's own is read and planned before the robot opens
-        self.library = library_for_talk(options.gestures) if options.gestures else None
+        # a library of one's own is read and planned, and every gesture the talk plays
+        # checked at its speed, before the robot opens
+        self.library = library_for_talk(
+            options.gestures or None, speed_fraction=options.speed_fraction
+        )
         self.coach: Coach | None = None
         #: The folder held for this talk from :meth:`start` until it is finished or abandoned.
         self.hold: FolderLock | None = None

@@ -31,6 +31,7 @@ from prezence.backends.fake import FakeBackend
 from prezence.config.load import load_config
 from prezence.config.model import Config, Rule
 from prezence.errors import UnknownName
+from prezence.feedback.gestures import library_for_talk
 from prezence.processor import Cue, Processor
 from prezence.processor.types import Kind
 from prezence.samples import Sample
@@ -155,7 +156,10 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
       scenario's allocated time replaces the config's, as in headless talks.
     * ``step_s``: seconds of talk per step (default: ``decision_period_s``).
     * ``cue_cost``, ``in_range_penalty``: reward terms above.
-    * ``speed_fraction``: fraction of the joints' velocity limits used by gestures.
+    * ``speed_fraction``: fraction of the joints' velocity limits used by gestures; one at
+      which a gesture fails ``prezence gestures check`` (takes more than 10 s) raises
+      :class:`~prezence.errors.GestureCheckFailed` (a ``ValueError``) naming the lowest that
+      passes.
     * ``render_mode``: None, ``"ansi"`` (a one-line text state) or ``"rgb_array"`` (the talk
       runs on the PyBullet NAO; ``render()`` returns a camera image of it, ``render_size``).
 
@@ -203,6 +207,9 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         self.render_mode = render_mode
         self.render_size = render_size
         self.speed_fraction = float(speed_fraction)
+        # as every talk: refused here, not at reset, when a gesture would take so long at this
+        # speed that the robot could give no other cue (GestureCheckFailed, a ValueError)
+        library_for_talk(None, speed_fraction=self.speed_fraction)
         self._tmp: Path | None = None
         self._camera: Any = None
         self.rules: tuple[Rule, ...] = self.config.rules

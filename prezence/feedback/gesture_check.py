@@ -17,6 +17,7 @@ leaves in place are the ones ``prezence gestures check`` checks.
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import math
@@ -26,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from prezence.errors import ConfigError, LimitViolation, PrezenceError
+from prezence.errors import ConfigError, GestureCheckFailed, LimitViolation, PrezenceError
 from prezence.feedback.collision import MIN_CLEARANCE_M, SelfCollisionChecker, pybullet_available
 from prezence.feedback.gestures import (
     GestureLibrary,
@@ -321,3 +322,168 @@ def check_gestures(
         )
     lines += [f"note: {n}" for n in notes]
     return "\n".join(lines), status
+
+
+# ---------------------------------------------------------------------------------------------
+# A talk's gestures: refused when they fail the check at the talk's speed
+def lowest_passing_speed(
+    name: str,
+    params: dict[str, int] | None,
+    *,
+    library: GestureLibrary,
+    limits: JointLimits,
+) -> float | None:
+    """The lowest speed fraction, in hundredths, at which one gesture case passes the check
+    (self-collision aside: the path, and so the clearance, is the same at every speed), or
+    None when it fails even at 1.
+
+    A gesture's duration shrinks as the speed grows (its holds stay), so the speeds it passes
+    at are those from some value up: found by bisection.
+    """
+
+    def ok(hundredths: int) -> bool:
+        row = _row(name, name, params, hundredths / 100, limits, library, None)
+        return bool(row["ok"])
+
+    if not ok(100):
+        return None
+    fails, passes = 0, 100  # 0 stands for "no speed": the range is (0, 1]
+    while passes - fails > 1:
+        mid = (fails + passes) // 2
+        if ok(mid):
+            passes = mid
+        else:
+            fails = mid
+    return passes / 100
+
+
+@functools.lru_cache(maxsize=16)
+def _builtin_failures(
+    speed_fraction: float, urdf: str
+) -> tuple[tuple[str, dict[str, int] | None, dict[str, Any]], ...]:
+    """The built-in gesture cases that fail the check at ``speed_fraction`` (once per speed:
+    every talk asks, and the built-in library is the same each time)."""
+    limits = load_limits(urdf)
+    lib = load_library(limits)
+    rows = [(n, p, _row(lb, n, p, speed_fraction, limits, lib, None)) for lb, n, p in _cases(lib)]
+    return tuple((n, p, r) for n, p, r in rows if not r["ok"])
+
+
+def _with(params: dict[str, int] | None) -> str:
+    return "".join(f" with {k} = {v}" for k, v in (params or {}).items())
+
+
+def _of(params: dict[str, int] | None) -> str:
+    return f" ({', '.join(f'{k} = {v}' for k, v in params.items())})" if params else ""
+
+
+def _fix(
+    name: str,
+    params: dict[str, int] | None,
+    speed_fraction: float,
+    *,
+    library: GestureLibrary,
+    limits: JointLimits,
+) -> str:
+    """What to change so that a failing gesture case passes: a higher --speed, when one does."""
+    lowest = lowest_passing_speed(name, params, library=library, limits=limits)
+    if lowest is not None:
+        return f"or give --speed {lowest:g} or more (the lowest at which it passes)"
+    at_1 = _row(name, name, params, 1.0, limits, library, None)
+    took = (
+        f" (at --speed 1 it still takes {at_1['duration_s']:.1f} s)" if "duration_s" in at_1 else ""
+    )
+    return f"no --speed makes it pass{took}: change the gesture"
+
+
+def check_talk_gestures(
+    speed_fraction: float,
+    *,
+    library: GestureLibrary | None,
+    limits: JointLimits | None = None,
+) -> None:
+    """Refuse a talk whose gestures fail ``prezence gestures check`` at its speed.
+
+    A talk plays the gestures of ``library`` (of one's own: the file's, the built-in rest) at
+    ``speed_fraction``. Each is checked as ``gestures check`` checks it at that speed, save
+    self-collision (checked on load, :func:`~prezence.feedback.gestures.library_for_talk`,
+    and the same at every speed): a gesture that takes more than :data:`MAX_DURATION_S` would
+    keep the robot from any other cue, a time warning included, for that long. Every command
+    that runs a talk calls it before the robot opens and before a session folder is written.
+
+    Args:
+        speed_fraction: the talk's ``--speed``, in (0, 1].
+        library: a library of one's own (None: the built-in one).
+        limits: joint limits (default: the project's URDF).
+
+    Raises:
+        ValueError: ``speed_fraction`` outside (0, 1].
+        GestureCheckFailed: one line per failing gesture of one's own (``file:line: gesture
+            'name' …``, what failed, the speed at which it would pass or that none would), and
+            one for the built-in gestures that fail at this speed with the lowest speed at which
+            every one of them passes.
+    """
+    if not 0.0 < speed_fraction <= 1.0:
+        raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
+    limits = limits if limits is not None else load_limits()
+    own = library.own if library is not None else ()
+    lines: list[str] = []
+    if library is not None and own:
+        for _label, name, params in _cases(library):
+            row = _row(name, name, params, speed_fraction, limits, library, None)
+            if row["ok"]:
+                continue
+            g = library[name]
+            fix = _fix(name, params, speed_fraction, library=library, limits=limits)
+            lines.append(
+                f"{g.at()}gesture '{name}'{_with(params)} fails `prezence gestures check "
+                f"{g.path or 'FILE'} --speed {speed_fraction:g}`: {row['error']}; {fix}"
+            )
+    builtin = [
+        (n, p, r)
+        for n, p, r in _builtin_failures(float(speed_fraction), str(limits.source))
+        if n not in own
+    ]
+    if builtin:
+        lines.append(_builtin_line(speed_fraction, builtin, limits=limits))
+    if lines:
+        raise GestureCheckFailed("\n".join(lines))
+
+
+def _builtin_line(
+    speed_fraction: float,
+    failures: list[tuple[str, dict[str, int] | None, dict[str, Any]]],
+    *,
+    limits: JointLimits,
+) -> str:
+    """``--speed 0.05: 10 built-in gestures would take longer than 10 s (…); the lowest speed
+    at which every built-in gesture passes is 0.12``."""
+    lib = load_library(limits)
+    slow = sorted(
+        ((n, p, r) for n, p, r in failures if str(r["error"]).startswith("takes ")),
+        key=lambda f: -float(f[2]["duration_s"]),
+    )
+    other = [(n, p, r) for n, p, r in failures if not str(r["error"]).startswith("takes ")]
+    parts: list[str] = []
+    if slow:
+        names = {n for n, _, _ in slow}
+        gestures = "gesture" if len(names) == 1 else "gestures"
+        took = ", ".join(f"{n}{_of(p)} {r['duration_s']:.1f} s" for n, p, r in slow)
+        parts.append(
+            f"{len(names)} built-in {gestures} would take longer than {MAX_DURATION_S:g} s "
+            f"({took}), and while a gesture plays the robot gives no other cue, a time warning "
+            "included"
+        )
+    parts += [f"built-in gesture '{n}'{_with(p)}: {r['error']}" for n, p, r in other]
+    speeds = [lowest_passing_speed(n, p, library=lib, limits=limits) for n, p, _ in failures]
+    if any(s is None for s in speeds):
+        fix = "no --speed makes every built-in gesture pass"
+    else:
+        lowest = max(s for s in speeds if s is not None)
+        while lowest < 1.0 and _builtin_failures(lowest, str(limits.source)):
+            lowest = round(lowest + 0.01, 2)  # a case that passed below may fail here
+        fix = f"the lowest speed at which every built-in gesture passes is {lowest:g}"
+    return (
+        f"--speed {speed_fraction:g}: " + "; ".join(parts) + f"; {fix} "
+        f"(prezence gestures check --speed {speed_fraction:g} shows each)"
+    )

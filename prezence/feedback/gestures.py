@@ -594,17 +594,31 @@ def check_plannable(library: GestureLibrary, *, limits: JointLimits) -> None:
         check_keyframes(name, limits=limits, library=library)
 
 
-def library_for_talk(path: str | Path) -> GestureLibrary:
-    """The library a talk with ``--gestures path`` plays: loaded, each of the file's gestures
-    planned within the limits and, with PyBullet, clear of the robot's own body (before the
-    talk starts), and a warning for each gesture no command plays. Read once per version of
-    the file."""
-    p = Path(path)
-    try:
-        st = p.stat()
-    except OSError:
-        return load_library_file(p)  # raises, naming the file
-    return _for_talk(str(p), str(p.resolve()), st.st_mtime_ns, st.st_size)
+def library_for_talk(path: str | Path | None, *, speed_fraction: float) -> GestureLibrary | None:
+    """The library a talk with ``--gestures path`` plays (None: the built-in one), checked
+    before the talk starts: the file's gestures planned within the limits and, with PyBullet,
+    clear of the robot's own body, a warning for each note ``gestures check`` gives (a gesture
+    no command plays…), and every gesture the talk plays passing ``gestures check`` at
+    ``speed_fraction`` (:func:`~prezence.feedback.gesture_check.check_talk_gestures`: none
+    takes so long that the robot could give no other cue). The file is read once per version.
+
+    Raises:
+        ConfigError, LimitViolation: the file cannot be read or played (``file:line:``).
+        GestureCheckFailed: a gesture the talk would play fails the check at this speed.
+    """
+    from prezence.feedback.gesture_check import check_talk_gestures
+
+    library = None
+    if path is not None:
+        p = Path(path)
+        try:
+            st = p.stat()
+        except OSError:
+            load_library_file(p)  # raises, naming the file
+            raise
+        library = _for_talk(str(p), str(p.resolve()), st.st_mtime_ns, st.st_size)
+    check_talk_gestures(speed_fraction, library=library)
+    return library
 
 
 @functools.lru_cache(maxsize=8)
