@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from prezence.cli import main
+from prezence.feedback.gesture_check import check_gestures
 from prezence.feedback.gestures import build_trajectory, load_library_file
 from prezence.feedback.limits import load_limits
 from prezence.session import read_jsonl
@@ -206,3 +207,88 @@ def test_without_pybullet_a_talk_says_the_collision_check_was_not_made(
         r.getMessage() for r in caplog.records if "self-collision not checked" in r.getMessage()
     ]
     assert len(said) == 1 and "prezence gestures check" in said[0], said
+
+
+#: slow_down of four 5 s holds (the walkthrough's toolong.toml): each keyframe within its limits,
+#: 21.6 s at --speed 0.6, more than 20 s at any speed
+TOO_LONG = 'format = 1\n[gestures.slow_down]\ndescription = "long"\n' + "".join(
+    f"[[gestures.slow_down.keyframes]]\npose = {{ RShoulderPitch = {a} }}\nhold = 5\n"
+    for a in (80, 35, 80, 35)
+)
+#: the same with 1.5 s holds: within 10 s at 0.6, not at 0.08
+SLOW_AT_LOW_SPEED = TOO_LONG.replace("hold = 5", "hold = 1.5")
+
+COMMANDS = pytest.mark.parametrize(
+    "command",
+    [
+        ["run", "short_talk"],
+        ["demo"],
+        ["replay", "RECORDING"],
+        ["rehearse", "talk.wav"],
+        ["up", "--module", "x=true {session}", "--duration", "2"],
+    ],
+    ids=["run", "demo", "replay", "rehearse", "up"],
+)
+
+
+@COMMANDS
+def test_a_gesture_too_long_for_a_talk_stops_every_talk_before_it_starts(
+    played: tuple[Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    command: list[str],
+) -> None:
+    # `gestures check` said FAIL (21.6 s > 10 s), but the talk played it and exited 0: the
+    # robot gave no other cue, a time warning included, for 21.6 s
+    _, recording = played
+    before = sorted(p.relative_to(recording) for p in recording.rglob("*"))
+    long = tmp_path / "toolong.toml"
+    long.write_text(TOO_LONG)
+    out = tmp_path / "out"
+    argv = [str(recording) if a == "RECORDING" else a for a in command]
+    assert main(["-q", *argv, "--gestures", str(long), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        f"error: {long}:2: gesture 'slow_down' fails `prezence gestures check {long} --speed 0.6`: "
+        "takes 21.6 s > 10 s: while a gesture plays the robot gives no other cue"
+    ), err
+    assert "fewer holds or repeats" in err
+    assert "no --speed makes it pass (at --speed 1 it still takes" in err
+    assert err.count("\n") == 1
+    assert not out.exists()
+    assert sorted(p.relative_to(recording) for p in recording.rglob("*")) == before
+
+
+def test_a_gesture_too_slow_at_the_talks_speed_names_the_speed_at_which_it_passes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mine = tmp_path / "mine.toml"
+    mine.write_text(SLOW_AT_LOW_SPEED)
+    out = tmp_path / "out"
+    argv = ["-q", "run", "short_talk", "--gestures", str(mine), "--out", str(out)]
+    assert main([*argv, "--speed", "0.08"]) == 2
+    first = capsys.readouterr().err.splitlines()[0]
+    assert first.startswith(f"error: {mine}:2: gesture 'slow_down' fails "), first
+    assert "> 10 s" in first
+    speed = first.partition("or give --speed ")[2].partition(" or more")[0]
+    assert speed, first
+    # the speed named is the lowest at which `gestures check` passes it, and the talk plays it
+    assert check_gestures(float(speed), as_json=False, collisions=False, library=mine)[1] == 0
+    below = round(float(speed) - 0.01, 2)
+    assert check_gestures(below, as_json=False, collisions=False, library=mine)[1] == 1
+    assert main([*argv, "--speed", "0.3"]) == 0
+    assert (out / "gestures.toml").exists()
+
+
+def test_a_refused_talk_leaves_the_session_already_in_its_folder_as_it_was(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `run` writes over the session in --out: refused, it must not have begun to
+    recording = tmp_path / "s"
+    assert main(["-q", "run", "short_talk", "--out", str(recording)]) == 0
+    before = {p: p.read_bytes() for p in recording.rglob("*") if p.is_file()}
+    long = tmp_path / "toolong.toml"
+    long.write_text(TOO_LONG)
+    rc = main(["-q", "run", "short_talk", "--gestures", str(long), "--out", str(recording)])
+    assert rc == 2 and "takes 21.6 s > 10 s" in capsys.readouterr().err
+    assert {p: p.read_bytes() for p in recording.rglob("*") if p.is_file()} == before

@@ -341,3 +341,11 @@ def test_the_rule_baseline_gives_the_headless_talks_cues(scenario: str, tmp_path
     )
     assert got == [(c["t"], c["command"], c.get("metric")) for c in head.cues]
     assert len(got) >= 2
+
+
+def test_a_speed_at_which_a_gesture_takes_too_long_is_refused_by_the_constructor() -> None:
+    # the env took speed_fraction=0.05 and played 19 s gestures, in which no other cue could
+    # be given; a talk on the command line is refused at that speed, and so is the env
+    with pytest.raises(ValueError, match=r"the lowest speed at which every built-in gesture") as e:
+        CoachEnv("short_talk", speed_fraction=0.05)
+    assert str(e.value).startswith("--speed 0.05: 10 built-in gestures would take longer than")

@@ -225,3 +225,43 @@ def test_only_a_number_option_takes_a_dashed_value_and_nothing_after_a_double_da
     assert glue(["up", "--realtime", "-1"]) == ["up", "--realtime", "-1"]  # a flag takes none
     assert glue(["evaluate", "--", "-1"]) == ["evaluate", "--", "-1"]
     assert glue(["run", "x", "--", "--seed", "-1"]) == ["run", "x", "--", "--seed", "-1"]
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["run", "short_talk"],
+        ["demo"],
+        ["replay", "x"],
+        ["rehearse", "talk.wav"],
+        ["up", "--module", "x=true {session}", "--duration", "2"],
+    ],
+    ids=["run", "demo", "replay", "rehearse", "up"],
+)
+def test_a_speed_at_which_built_in_gestures_take_too_long_is_refused_naming_the_lowest(
+    command: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `gestures check --speed 0.05` failed 10 of 13 timings, and talks took that speed: the
+    # robot gave no other cue, a time warning included, for up to 19 s at each cue
+    out = tmp_path / "out"
+    assert main(["-q", *command, "--speed", "0.05", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        "error: --speed 0.05: 10 built-in gestures would take longer than 10 s (articulate "
+    ), err
+    assert "a time warning included; the lowest speed at which every built-in gesture " in err
+    assert err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_the_lowest_speed_named_for_the_built_in_gestures_is_where_gestures_check_passes(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from prezence.feedback.gesture_check import check_gestures
+
+    assert main(["-q", "demo", "--speed", "0.1"]) == 2
+    err = capsys.readouterr().err
+    lowest = float(err.partition("every built-in gesture passes is ")[2].split()[0])
+    assert 0.1 < lowest < 0.6
+    assert check_gestures(lowest, as_json=False, collisions=False)[1] == 0
+    assert check_gestures(round(lowest - 0.01, 2), as_json=False, collisions=False)[1] == 1
