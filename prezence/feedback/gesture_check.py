@@ -77,8 +77,7 @@ def _path_margin(
             continue
         if j == "HeadPitch":
             yaw = qs[:, idx["HeadYaw"]] if "HeadYaw" in idx else np.full(n, neutral["HeadYaw"])
-            ranges = np.array([limits.head_pitch_range(float(y)) for y in yaw])
-            lo, hi = ranges[:, 0], ranges[:, 1]
+            lo, hi = limits.head_pitch_ranges(yaw)  # head_pitch_range's values, all at once
         else:
             lo = np.full(n, limits.lower[j])
             hi = np.full(n, limits.upper[j])
