@@ -24,6 +24,7 @@ from prezence.backends.registry import make_backend
 from prezence.config.load import keep_recorded_time, load_config
 from prezence.config.model import Config
 from prezence.errors import ConfigError
+from prezence.metrics import METRICS
 from prezence.samples import Sample
 from prezence.session import (
     TRUTH_KEYS,
@@ -34,6 +35,7 @@ from prezence.session import (
 from prezence.sessiondir import overlaps
 from prezence.streams.locate import locate_streams, no_streams_error
 from prezence.streams.tail import StreamProblem, TailStats, read_stream
+from prezence.summary import SPEECH_STATUS, VISION_STATUS
 from prezence.talk import RecordedSource, RunOptions, run_talk
 
 log = logging.getLogger(__name__)
@@ -88,10 +90,15 @@ def same_bands(a: Config, b: Config) -> bool:
     return bands(a) == bands(b)
 
 
-#: Streams no rule judges that the coach or the report reads, copied into a replay when the
-#: recording has them: when a voice was heard, whether a gesture rate counted every arm, and
-#: the room's estimated SNR (a clarity cue in noise names it, as it did in the recorded talk).
+#: Streams no rule judges that the coach or the report reads, copied into a replay of a folder
+#: of stream files when it has them: when a voice was heard, whether a gesture rate counted
+#: every arm, and the room's estimated SNR (a clarity cue in noise names it, as it did in the
+#: recorded talk). A replay of a session folder copies every stream it recorded: the report
+#: of a replay shows all the recording measured (head turns, …), only the coaching changes.
 CONTEXT_STREAMS = ("speech_activity.txt", "cv_gestures_source.txt", "speech_snr.txt")
+#: Summary keys of the recording that say what its modules did (a module that could not run,
+#: crashes and restarts): a replay's report explains the same gaps.
+RECORDED_MODULE_KEYS = ("module_failures", "modules")
 
 
 def _read_json_or_empty(path: Path) -> dict[str, Any]:
@@ -193,15 +200,38 @@ def replay(
     # what the coach and the report read besides the rules' streams: when the voice was heard
     # (late first words, a time-limit stop's wording), whether the gesture rate counted every
     # arm, and the room's SNR (a clarity cue names the noise, as in the recorded talk)
+    judged = {r.stream for r in config.rules}
     context = {
         name: folder / name
         for name in CONTEXT_STREAMS
         for folder in (rec.streams, src)
-        if (folder / name).is_file() and not any(r.stream == name for r in config.rules)
+        if (folder / name).is_file() and name not in judged
     }
-    stopped = _read_json_or_empty(rec.summary).get("stopped_at_time_limit")
+    # every stream the recording measured (a session folder's; a folder of stream files: those
+    # named after a metric), so that the replay's report shows all of it (head turns, …)
+    for folder, known_only in ((rec.streams, False), (src, True)):
+        if folder.is_dir():
+            context.update(
+                (p.name, p)
+                for p in sorted(folder.glob("*.txt"))
+                if p.name not in judged
+                and p.name not in context
+                and (not known_only or p.stem in METRICS)
+            )
+    # the modules' status records (an uncalibrated volume, head pose off) and the logs the
+    # report's notes point at ("speech.log says which")
+    files = {
+        p.name: p
+        for p in sorted(src.glob("*"))
+        if p.is_file() and (p.name in (SPEECH_STATUS, VISION_STATUS) or p.suffix == ".log")
+    }
+    recorded_summary = _read_json_or_empty(rec.summary)
+    stopped = recorded_summary.get("stopped_at_time_limit")
     if stopped:  # the recorded talk was cut at its time limit: so is its replay
         extra["stopped_at_time_limit"] = stopped
+    for key in RECORDED_MODULE_KEYS:
+        if recorded_summary.get(key):
+            extra[key] = recorded_summary[key]
     session = SessionDir(out)
     return process_recorded(
         session,
@@ -214,6 +244,7 @@ def replay(
         backend_kwargs=backend_kwargs,
         copy_streams=paths,
         context_streams=context,
+        copy_files=files,
         readings=readings,
         meta={
             "source": source,
@@ -336,6 +367,7 @@ def process_recorded(
     backend_kwargs: dict[str, Any] | None = None,
     copy_streams: dict[str, Path] | None = None,
     context_streams: dict[str, Path] | None = None,
+    copy_files: dict[str, Path] | None = None,
     readings: dict[str, Reading] | None = None,
     kind: str = "replay",
     meta: dict[str, Any] | None = None,
@@ -352,6 +384,9 @@ def process_recorded(
             from ``session``'s own stream files (a rehearsal), which are kept.
         context_streams: stream files no rule judges that the report reads (file name → file),
             copied too.
+        copy_files: other files of the recording copied into the session folder (file name
+            → file): its modules' status records and logs, which the report's notes read and
+            name.
         readings: the stream files as read (:func:`read_streams`): the summary then does not
             read them again.
         kind: the session's kind (``replay``, ``rehearsal``).
@@ -371,6 +406,7 @@ def process_recorded(
         keep_streams=copy_streams is None,
         kind=kind,
         readings=readings,
+        copy_files=copy_files,
     )
     bk = make_backend(backend, **(backend_kwargs or {}))
     with _said_already(session.streams):

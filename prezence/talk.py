@@ -247,8 +247,10 @@ class RecordedSource(SourceBase):
         keep_streams: bool = False,
         kind: str = "replay",
         readings: Mapping[str, Any] | None = None,
+        copy_files: dict[str, Path] | None = None,
     ) -> None:
         self.kind = kind
+        self._copy_files = dict(copy_files or {})
         self._readings = readings
         self.keep_streams = keep_streams
         self._copy = dict(copy_streams or {})
@@ -265,8 +267,11 @@ class RecordedSource(SourceBase):
 
     def start(self, session: SessionDir, config: Config) -> None:
         """Copy the recorded stream files (file name → source) into ``session``, so that its
-        summary and report read what the coach read."""
+        summary and report read what the coach read, and the recording's other files (its
+        modules' status records and logs) into its folder."""
         self._i = 0
+        for name, path in self._copy_files.items():
+            shutil.copyfile(path, session.root / name)
         for name, path in self._copy.items():
             shutil.copyfile(path, session.stream(name))
             stamps = stamps_path(path)  # what the coach alone knew of its lines

@@ -285,6 +285,52 @@ def test_a_replay_keeps_what_the_report_reads_beyond_the_rules(
     assert time_used["stopped_at_limit"] is True
 
 
+def test_a_replay_reports_all_its_recording_measured_and_keeps_the_module_notes(
+    demo_session: Path, tmp_path: Path
+) -> None:
+    # Session 21, a tester's walkthrough: the replay of a video rehearsal copied only the
+    # streams its rules read, so its report said "Head turns: not measured: no camera module
+    # ran", and it dropped the speech module's note that the volume is an uncalibrated estimate
+    # (speech.json) and the logs the report's notes point at.
+    from prezence.report.build import build_report
+
+    src = tmp_path / "rec"
+    shutil.copytree(demo_session, src)
+    talk_s = int(json.loads((src / "session.json").read_text())["talk_s"])
+    yaw = "".join(f"{t} {25.0 if t % 60 < 10 else 0.0}\n" for t in range(1, talk_s))
+    (src / "streams" / "cv_headYaw.txt").write_text(yaw)
+    estimate = "an estimate: the microphone is not calibrated"
+    (src / "speech.json").write_text(
+        json.dumps({"format": 1, "estimate": {"speech_volume": estimate}})
+    )
+    (src / "speech.log").write_text("speech: WARNING: t=10 s: a line the notes point at\n")
+    summary = json.loads((src / "summary.json").read_text())
+    summary["module_failures"] = {"extra": "error: it could not open its input"}
+    (src / "summary.json").write_text(json.dumps(summary))
+    recorded = build_report(src)
+    assert recorded["head"]["measured"] and recorded["head"]["turns_away"] > 0
+    out = tmp_path / "r"
+    assert main(["replay", str(src), "--out", str(out), "--no-report", "-q"]) == 0
+    replayed = build_report(out)
+    assert replayed["head"] == recorded["head"]
+    assert (out / "streams" / "cv_headYaw.txt").read_text() == yaw
+    notes = json.dumps(replayed)
+    assert estimate in notes
+    assert (out / "speech.log").read_text() == (src / "speech.log").read_text()
+    assert json.loads((out / "summary.json").read_text())["module_failures"] == {
+        "extra": "error: it could not open its input"
+    }
+    # a folder of stream files: a stream named after a metric is copied too, nothing else
+    flat = tmp_path / "flat"
+    flat.mkdir()
+    for name in ("speech_speed.txt", "cv_headYaw.txt"):
+        shutil.copyfile(src / "streams" / name, flat / name)
+    (flat / "notes.txt").write_text("not a stream\n")
+    assert main(["replay", str(flat), "--out", str(tmp_path / "f"), "--no-report", "-q"]) == 0
+    assert build_report(tmp_path / "f")["head"]["turns_away"] == recorded["head"]["turns_away"]
+    assert not (tmp_path / "f" / "streams" / "notes.txt").exists()
+
+
 def test_replay_room_needs_rules(demo_session: Path, tmp_path: Path) -> None:
     room = tmp_path / "room.toml"
     room.write_text('format = 1\n[room]\nname = "hall"\n')
