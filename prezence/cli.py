@@ -138,7 +138,14 @@ def format_timeline(summary: dict[str, Any]) -> str:
         f"joint-limit violations {c['joint_limit_violations']}"
     )
     lines += [f"note: {n}" for n in _trouble_notes(summary)]
-    if summary.get("realtime_factor"):
+    if summary.get("analysis_wall_s") is not None:  # a rehearsal: the modules took most of it
+        whole = float(summary["analysis_wall_s"]) + float(summary.get("wall_s") or 0.0)
+        lines.append(
+            f"rehearsed {summary['talk_s']:.0f} s of recording in {whole:.1f} s wall "
+            f"({summary['talk_s'] / max(whole, 1e-6):.1f}x real time: the modules' analysis "
+            f"{summary['analysis_wall_s']:.1f} s, the coaching {summary.get('wall_s', 0.0):.2f} s)"
+        )
+    elif summary.get("realtime_factor"):
         lines.append(
             f"simulated {summary['talk_s']:.0f} s in {summary['wall_s']:.2f} s wall "
             f"({summary.get('realtime_factor')}x real time)"

@@ -252,6 +252,7 @@ def rehearse(
     session = SessionDir(Path(out)).create()
     session.config.write_text(dumps_config(config))
     logs = {name: (session.root / f"{name}.log").open("w") for name in cmds}
+    started = time.perf_counter()
     try:
         procs = {
             name: subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=logs[name], text=True)
@@ -273,6 +274,7 @@ def rehearse(
     finally:
         for f in logs.values():
             f.close()
+    analysis_wall_s = time.perf_counter() - started
     if progress is not None:
         progress(total, total)
     failures: dict[str, str] = {}
@@ -310,6 +312,8 @@ def rehearse(
         "kind": "rehearsal",
         "recording": str(recording),
         "module_failures": failures,
+        # the modules' analysis, most of a rehearsal's time (wall_s is the coaching's alone)
+        "analysis_wall_s": round(analysis_wall_s, 3),
     }
     if cut_short:  # recorded as `up` records its modules, for the report's notes
         extra["modules"] = {

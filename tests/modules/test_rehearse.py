@@ -46,6 +46,13 @@ def test_rehearse_a_recording_gives_a_session_and_a_report(
     summary = json.loads((out / "summary.json").read_text())
     m = summary["metrics"]["speech_speed"]
     assert 200.0 < m["p50"] < 250.0  # the recording's own pace, measured by the module
+    # the speed line is the whole command's, the modules' analysis included (session 21, a
+    # tester's walkthrough: it said "simulated 18 s in 0.03 s wall (600x real time)", the
+    # coaching loop alone, for a command that took seconds)
+    assert "simulated" not in printed
+    line = next(ln for ln in printed.splitlines() if ln.startswith("rehearsed "))
+    assert f"the modules' analysis {summary['analysis_wall_s']:.1f} s" in line
+    assert f"the coaching {summary['wall_s']:.2f} s" in line
     # every decision point of the recording was taken; the log keeps those where something
     # changed, the first among them
     assert summary["decisions"] == int(round(summary["talk_s"] / 0.5))
