@@ -50,7 +50,7 @@ from prezence.metrics import DEFAULT_HANG_S, INPUT_MODULES
 from prezence.modules.common import CUT_SHORT_STATUS
 from prezence.samples import MAX_AHEAD_S, Sample
 from prezence.session import SessionDir
-from prezence.streams.tail import MultiTailer
+from prezence.streams.tail import MultiTailer, newest_stamp
 from prezence.talk import RunOptions, SourceBase, View, WallClock, run_talk
 
 log = logging.getLogger(__name__)
@@ -602,6 +602,24 @@ class LiveSource(SourceBase):
     def tailer(self) -> MultiTailer | None:
         return self._tailer
 
+    def recording_s(self) -> float | None:
+        """How long the recordings lasted when every input was a file played to its end (the
+        newest stamp the modules wrote, on the recordings' own clock); None otherwise.
+
+        The talk's own clock runs on while the modules start up and catch up (a 48 s file
+        ended the talk at 50.6 s), so that is not the time the presenter used.
+        """
+        if (
+            not self.procs
+            or self._streams is None
+            or self.stopped_at_limit
+            or self.error is not None
+            or not all(p.spec.finite and p.finished and not p.gave_up for p in self.procs)
+        ):
+            return None
+        newest = newest_stamp(self._streams)
+        return round(newest, 3) if newest > 0.0 else None
+
     def written_by(self, spec: ModuleSpec) -> tuple[str, ...] | None:
         """The metrics ``spec``'s module writes: those it names, else found by elimination.
 
@@ -636,6 +654,7 @@ class LiveSource(SourceBase):
         return {
             "kind": "live",
             **({"error": self.error} if self.error is not None else {}),
+            **({"recording_s": r_s} if (r_s := self.recording_s()) is not None else {}),
             "modules": modules,
             **(
                 {"stopped_at_time_limit": {"at_s": self.end_at, "grace_s": self.grace_s}}

@@ -33,6 +33,7 @@ from prezence.replay import (
     read_streams,
 )
 from prezence.session import MAX_TALK_S, SessionDir
+from prezence.streams.tail import newest_stamp
 from prezence.talk import RunOptions
 
 log = logging.getLogger(__name__)
@@ -157,26 +158,6 @@ def module_commands(
 
 #: How often the progress of a rehearsal's modules is read (seconds).
 PROGRESS_PERIOD_S = 0.25
-
-
-def newest_stamp(streams: Path) -> float:
-    """The newest sample time in any stream file of ``streams`` (0.0 when none): how far the
-    modules have got. Only each file's last bytes are read."""
-    newest = 0.0
-    for path in streams.glob("*.txt"):
-        try:
-            with path.open("rb") as f:
-                f.seek(max(0, path.stat().st_size - 256))
-                lines = f.read().split(b"\n")
-        except OSError:
-            continue
-        for line in reversed(lines[:-1] if len(lines) > 1 else lines):
-            try:
-                newest = max(newest, float(line.split()[0]))
-                break
-            except (ValueError, IndexError):
-                continue
-    return newest
 
 
 def _remove_what_we_wrote(session: SessionDir, *, logs: Sequence[str]) -> None:

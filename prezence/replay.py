@@ -97,8 +97,9 @@ def same_bands(a: Config, b: Config) -> bool:
 #: of a replay shows all the recording measured (head turns, …), only the coaching changes.
 CONTEXT_STREAMS = ("speech_activity.txt", "cv_gestures_source.txt", "speech_snr.txt")
 #: Summary keys of the recording that say what its modules did (a module that could not run,
-#: crashes and restarts): a replay's report explains the same gaps.
-RECORDED_MODULE_KEYS = ("module_failures", "modules")
+#: crashes and restarts: a replay's report explains the same gaps) and how long its
+#: recordings lasted (``up`` of files: the time used).
+RECORDED_SUMMARY_KEYS = ("module_failures", "modules", "recording_s")
 
 
 def _read_json_or_empty(path: Path) -> dict[str, Any]:
@@ -229,7 +230,7 @@ def replay(
     stopped = recorded_summary.get("stopped_at_time_limit")
     if stopped:  # the recorded talk was cut at its time limit: so is its replay
         extra["stopped_at_time_limit"] = stopped
-    for key in RECORDED_MODULE_KEYS:
+    for key in RECORDED_SUMMARY_KEYS:
         if recorded_summary.get(key):
             extra[key] = recorded_summary[key]
     session = SessionDir(out)

@@ -673,9 +673,15 @@ def build_summary(
         cue_rows.append(row)
 
     allocated = config.time.allocated_s
-    time_used: dict[str, Any] = {"used_s": round(talk_s, 3), "allocated_s": allocated}
+    used_s = talk_s
+    recording_s = (extra or {}).get("recording_s")
+    if isinstance(recording_s, int | float) and 0.0 < recording_s < talk_s:
+        # `up` of files played to their end: the recordings' length, not the coach's clock,
+        # which ran on while the modules started up and caught up
+        used_s = float(recording_s)
+    time_used: dict[str, Any] = {"used_s": round(used_s, 3), "allocated_s": allocated}
     if allocated:
-        time_used["over_under_pct"] = round(100.0 * (talk_s - allocated) / allocated, 2)
+        time_used["over_under_pct"] = round(100.0 * (used_s - allocated) / allocated, 2)
     if (extra or {}).get("stopped_at_time_limit"):
         # the talk went on past the allocated time plus its grace and was stopped there: the
         # time used is at least this

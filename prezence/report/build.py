@@ -945,6 +945,8 @@ def _rebuild(
         less_reliable=less_reliable,
         estimates=estimate_notes(session.root),
         processor_counts=_recorded_drops(recorded),
+        # `up` of files played to their end: the time used is the recordings' length
+        extra={k: recorded[k] for k in ("recording_s",) if k in recorded},
     )
 
     dev_s: dict[str, dict[str, float]] = {}

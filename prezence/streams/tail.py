@@ -1053,3 +1053,23 @@ class MultiTailer:
                 raise
             log.warning("inotify unavailable (%s); polling stream files instead", e)
             return _PollWatcher(self.poll_interval_s)
+
+
+def newest_stamp(streams: Path) -> float:
+    """The newest sample time in any stream file of ``streams`` (0.0 when none): how far the
+    modules have got. Only each file's last bytes are read."""
+    newest = 0.0
+    for path in streams.glob("*.txt"):
+        try:
+            with path.open("rb") as f:
+                f.seek(max(0, path.stat().st_size - 256))
+                lines = f.read().split(b"\n")
+        except OSError:
+            continue
+        for line in reversed(lines[:-1] if len(lines) > 1 else lines):
+            try:
+                newest = max(newest, float(line.split()[0]))
+                break
+            except (ValueError, IndexError):
+                continue
+    return newest

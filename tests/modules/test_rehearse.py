@@ -202,6 +202,29 @@ def test_up_with_file_inputs_runs_a_short_live_talk(
     assert summary["modules"]["vision"]["restarts"] == 0
 
 
+@pytest.mark.slow
+def test_up_of_a_file_played_to_its_end_used_the_recordings_length(tmp_path: Path) -> None:
+    # Session 21, a tester's walkthrough: `up --audio` of a 48.0 s file said "time used 0:50.6"
+    # (the coach's clock ran on while the module started up and caught up), where `rehearse`
+    # of the same file said 0:48.0: two time verdicts for one rehearsal.
+    from prezence.rehearse import recording_length_s
+
+    out = tmp_path / "live"
+    argv = ["-q", "up", "--audio", str(FAST), "--backend", "fake", "--allocated", "20"]
+    assert main([*argv, "--out", str(out), "--no-report"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    length = recording_length_s(FAST)
+    assert summary["talk_s"] > length  # the coach's clock, the module's start-up included
+    assert summary["time"]["used_s"] == pytest.approx(length, abs=0.05)
+    assert summary["time"]["over_under_pct"] == pytest.approx(100 * (length - 20) / 20, abs=0.3)
+    # the report (and the robot's spoken summary, made from it) and a replay say the same
+    from prezence.report.build import build_report
+
+    assert build_report(out)["time"]["used_s"] == pytest.approx(length, abs=0.05)
+    assert main(["-q", "replay", str(out), "--out", str(tmp_path / "r"), "--no-report"]) == 0
+    assert build_report(tmp_path / "r")["time"]["used_s"] == pytest.approx(length, abs=0.05)
+
+
 def _cut_wav(tmp_path: Path) -> Path:
     """FAST as a WAV that breaks off two thirds in (11.7 s of its 17.6 s), as a phone that
     died mid-talk leaves it: the header still announces the whole."""
