@@ -106,10 +106,16 @@ def format_timeline(summary: dict[str, Any]) -> str:
         nothing = "no data"
         if m.get("measured") is False:  # no module writes it (the persona does not play it)
             tt, nothing = None, "-"
-        # * : counted, but by a fallback (less reliable) or for too little time to judge
-        mark = "*" if (m.get("less_reliable") or m.get("too_brief")) and tir is not None else ""
+        # * : counted, but by a fallback (less reliable) or for too little time to judge; a
+        # metric not judged has no share to show (an 11 s clip's pace read "0%*")
+        if tir is None:
+            shown = "-"
+        elif m.get("too_brief"):
+            shown = "-*"
+        else:
+            shown = f"{100 * tir:.0f}%" + ("*" if m.get("less_reliable") else "")
         lines.append(
-            f"{name:<18} {(f'{100 * tir:.0f}%{mark}' if tir is not None else '-'):>9} "
+            f"{name:<18} {shown:>9} "
             f"{(f'{100 * tt:.0f}%' if tt is not None else '-'):>7} "
             f"{(f'{mean:.2f}' if mean is not None else nothing):>9} "
             + (

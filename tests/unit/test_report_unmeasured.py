@@ -233,6 +233,19 @@ def test_the_printed_table_marks_a_fallback_and_says_what_was_not_measured() -> 
     assert "100%*" in row
     assert f"cv_gestures: {fallback}; less reliable, so no advice on it" in text
     assert "speech_speed: not measured: the speech module could not run: no audio track" in text
+    # session 21, a tester's walkthrough: an 11 s clip's pace, measured for 0 s and so not
+    # judged, read "speech_speed 0%*" in that table (progress and the report show a dash)
+    summary["metrics"]["speech_speed"] = {
+        "samples": 1,
+        "time_in_range": 0.0,
+        "in_range_s": 0.0,
+        "out_of_range_s": 0.0,
+        "mean": 150.0,
+        "longest_out_of_range_s": 0.0,
+        "too_brief": True,
+    }
+    row = next(ln for ln in format_timeline(summary).splitlines() if ln.startswith("speech_speed"))
+    assert row.split()[1] == "-*"
 
 
 def test_a_recording_the_speech_module_could_not_time_is_said_not_praised(
