@@ -477,10 +477,16 @@ class Processor:
                     f"strict: {c.metric} went {c.side} {bound:g}{unit}{r.band_words()}{since}{now_}"
                 )
             else:
-                why = (
-                    f"{c.metric} {c.value:.4g}{shift} is {c.deviation:.0f}% {c.side} "
-                    f"{bound:g}{unit}"
-                )
+                if r.scale is not None and c.value is not None and bound is not None:
+                    # a deviation in scales read "-28.98 is 140% below -15 degrees", "47.7 is
+                    # 204% below 60 dB SPL": the distance in the unit, the share of the scale
+                    off = (
+                        f"{abs(c.value - bound):.3g}{unit} {c.side} {bound:g}{unit} "
+                        f"({c.deviation:.0f}% of its {r.scale:g}{unit} scale)"
+                    )
+                else:
+                    off = f"{c.deviation:.0f}% {c.side} {bound:g}{unit}"
+                why = f"{c.metric} {c.value:.4g}{shift} is {off}"
                 if c.eligible and not self.policy.whole:
                     why += f"{since} (weight {c.weight:.0f} >= {thr:g})"
                 elif c.eligible:  # an anchor fires by its own rule, not by the threshold

@@ -45,8 +45,8 @@ def test_a_listener_rules_cue_gives_the_value_at_the_listener_and_the_shift(
     for c in cues:
         assert str(c["reason"]).startswith(
             "speech_volume 47.74 at the farthest listener (73.2 at the microphone − 25.5 dB) "
-            "is 204% below 60 dB SPL since 10.0 s"
-        )  # 204 % of the rule's 6 dB scale: (60 − 47.74) / 6
+            "is 12.3 dB SPL below 60 dB SPL (204% of its 6 dB SPL scale) since 10.0 s"
+        )  # the distance in the unit, then in scales: (60 − 47.74) / 6
 
 
 def test_the_decision_log_holds_the_judged_value_and_the_offset(listener: Path) -> None:
@@ -105,7 +105,8 @@ def test_a_plain_offset_is_named_in_neutral_words(tmp_path: Path) -> None:
     out = _replay(tmp_path, "offset=-25.5")
     reason = next(c["reason"] for c in read_jsonl(out / "cues.jsonl") if c["command"] == "louder")
     assert reason.startswith(
-        "speech_volume 47.7 after the rule's offset of −25.5 (73.2 measured) is 205% below 60"
+        "speech_volume 47.7 after the rule's offset of −25.5 (73.2 measured) is 12.3 dB SPL "
+        "below 60 dB SPL (205% of its 6 dB SPL scale)"
     )
     text = (out / "report" / "summary.txt").read_text()
     assert "below the lowest good value, 60 dB SPL after the rule's offset of −25.5, for" in text
