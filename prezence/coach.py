@@ -89,6 +89,9 @@ def name_the_noise(cue: Cue, snr_db: float | None) -> Cue:
         or not snr_db < NOISY_SNR_DB
         or cue.metric != NOISY_METRIC
         or cue.kind not in (Kind.STRICT, Kind.WEIGHTED)
+        # a command with no words for the noise (a rules file's own choice) says its plain
+        # phrase: the record must not say more than the robot did
+        or get_command(cue.command).phrase_noisy is None
     ):
         return cue
     snr = round(snr_db, 1)

@@ -233,17 +233,14 @@ def not_judged_why(entry: Any) -> str | None:
         'measured for only 0 s, under the 10 s needed to judge it'
         >>> not_judged_why({"time_in_range": 0.8, "in_range_s": 40.0, "out_of_range_s": 10.0})
     """
-    from prezence.summary import MIN_JUDGED_S
+    from prezence.report.speech import too_brief_words
 
     if not isinstance(entry, dict) or entry.get("time_in_range") is None:
         return None
     in_s, out_s = _number(entry.get("in_range_s")), _number(entry.get("out_of_range_s"))
     measured = None if in_s is None or out_s is None else in_s + out_s
     if entry.get("too_brief") or (measured is not None and not measured > 0.0):
-        return (
-            f"measured for only {measured or 0.0:.0f} s, under the {MIN_JUDGED_S:.0f} s "
-            "needed to judge it"
-        )
+        return too_brief_words(measured or 0.0)
     return None
 
 

@@ -634,6 +634,7 @@ class Talk:
             ended=True,
             modules=extra.get("modules"),
             stopped_at_limit=bool(extra.get("stopped_at_time_limit")),
+            recording_s=extra.get("recording_s"),
         )
         report["stopped_repeating"] = notes  # summary.json is written after this
         phrase = summary_phrase(report)

@@ -455,7 +455,13 @@ def check_talk_gestures(
     own = library.own if library is not None else ()
     lines: list[str] = []
     if library is not None and own:
+        from prezence.feedback.commands import load_commands
+
+        # a gesture no command plays is never played in a talk (loading it says so)
+        played = {c.gesture for c in load_commands().values()}
         for _label, name, params in _cases(library):
+            if name not in played:
+                continue
             row = _row(name, name, params, speed_fraction, limits, library, None)
             if row["ok"]:
                 continue

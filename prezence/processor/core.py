@@ -381,15 +381,18 @@ class Processor:
         if n <= 0 or st.unheeded < n:
             return False
         self._escalated.add(st.rule.metric)
-        self.escalations.append(
-            {
-                "t": now,
-                "metric": st.rule.metric,
-                "command": command,
-                "cues": st.unheeded,
-                "value": st.value,
-            }
-        )
+        offset = st.rule.offset
+        rec: dict[str, Any] = {
+            "t": now,
+            "metric": st.rule.metric,
+            "command": command,
+            "cues": st.unheeded,
+            # as judged, as every other value of a rule with an offset is shown
+            "value": st.value + offset if offset and st.value is not None else st.value,
+        }
+        if offset:
+            rec["offset"] = offset
+        self.escalations.append(rec)
         return True
 
     def cue_dropped(self, cue: Cue) -> None:

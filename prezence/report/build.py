@@ -404,7 +404,7 @@ def noisy_low_seconds(
     return round(out, 3)
 
 
-def name_the_noise(row: dict[str, Any], m: Mapping[str, Any], noisy_s: float) -> None:
+def noise_in_row(row: dict[str, Any], m: Mapping[str, Any], noisy_s: float) -> None:
     """Say in ``row`` (a priority's or a "little off" one, clarity's) that ``noisy_s`` of the
     time clarity read low the room was noisy: ``noise`` is the sentence, and where the noise
     covers half that time or more the advice is the room's, not the articulation's."""
@@ -793,6 +793,7 @@ def build_report(
     ended: bool | None = None,
     modules: Mapping[str, Any] | None = None,
     stopped_at_limit: bool | None = None,
+    recording_s: float | None = None,
 ) -> dict[str, Any]:
     """Rebuild the report of one talk from its session folder.
 
@@ -807,6 +808,8 @@ def build_report(
         stopped_at_limit: the time limit stopped the talk while an input still ran (None:
             ``summary.json``'s ``stopped_at_time_limit``); said as a lower bound of the time
             used only when the talk was still going on (:func:`still_going`).
+        recording_s: how long the recordings an ``up`` of files played to their end lasted
+            (None: ``summary.json``'s ``recording_s``): the time used.
 
     Returns:
         The report as a JSON-ready dict: ``time`` (used vs allocated), ``metrics`` (the
@@ -818,7 +821,7 @@ def build_report(
         ConfigError: the folder does not exist, its ``config.toml`` is invalid, or it is not a
             session folder (no ``session.json`` nor ``cues.jsonl``) and holds no stream file.
     """
-    return _rebuild(session_dir, config, ended, modules, stopped_at_limit)[0]
+    return _rebuild(session_dir, config, ended, modules, stopped_at_limit, recording_s)[0]
 
 
 def _read_summary(session: SessionDir) -> dict[str, Any]:
@@ -866,6 +869,7 @@ def _rebuild(
     ended: bool | None = None,
     modules: Mapping[str, Any] | None = None,
     stopped_at_limit: bool | None = None,
+    recording_s: float | None = None,
 ) -> tuple[dict[str, Any], dict[str, list[Sample]]]:
     session = SessionDir(Path(session_dir))
     if not session.root.is_dir():
@@ -930,6 +934,7 @@ def _rebuild(
         "joint_limit_violations": sum(int(c.get("gesture_violations") or 0) for c in cues)
     }
     unmeasured, less_reliable = measurement_notes(session.root, recorded)
+    rec_s = recording_s if recording_s is not None else recorded.get("recording_s")
     summary = build_summary(
         cfg,
         streams,
@@ -946,7 +951,7 @@ def _rebuild(
         estimates=estimate_notes(session.root),
         processor_counts=_recorded_drops(recorded),
         # `up` of files played to their end: the time used is the recordings' length
-        extra={k: recorded[k] for k in ("recording_s",) if k in recorded},
+        extra={"recording_s": rec_s} if rec_s is not None else None,
     )
 
     dev_s: dict[str, dict[str, float]] = {}
@@ -1060,7 +1065,7 @@ def _rebuild(
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         cuts = [float(sp["from"]) for sp in m.get("lost") or ()]
         noisy = noisy_low_seconds(rule, streams[NOISY_METRIC], snr, talk_s, stale_s, cuts)
-        name_the_noise(row, m, noisy)
+        noise_in_row(row, m, noisy)
     counts = dict(summary["counts"])
     counts["cues_improved"] = sum(1 for r in helped if r["improved"])
     counts["cues_judged"] = len(helped)

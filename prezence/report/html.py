@@ -274,7 +274,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     for m in report["metrics"].values():
         state = m.get("data") or ("ok" if m.get("samples") else "no data")
         tir = (
-            _pct(m.get("time_in_range"))
+            ("–*" if m.get("too_brief") else _pct(m.get("time_in_range")))  # * : not judged
             if m.get("samples")
             else f'<span class="nodata">{_e(state)}</span>'
         )

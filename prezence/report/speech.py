@@ -43,6 +43,28 @@ def _spoken_exact(s: float) -> str:
     return " ".join(parts)
 
 
+def _spoken_tenths(s: float) -> str:
+    """Seconds to the tenth: ``"17.6 seconds"``, ``"1 minute 5.4 seconds"``."""
+    tenths = int(round(max(0.0, s) * 10))
+    m, rest = divmod(tenths, 600)
+    parts = [f"{m} minute{'' if m == 1 else 's'}"] if m else []
+    if rest or not m:
+        sec = rest / 10
+        parts.append(f"{sec:g} second{'' if sec == 1 else 's'}")
+    return " ".join(parts)
+
+
+def _said_pct_agrees(used: float, alloc: float, pct: float) -> bool:
+    """Whether ``used`` and ``alloc`` as said give the percentage said (``pct``, to the whole
+    per cent; "right on time" under 1 %)."""
+    if alloc <= 0:
+        return False
+    said_pct = 100.0 * (used - alloc) / alloc
+    if abs(pct) < 1.0 or abs(said_pct) < 1.0:
+        return abs(pct) < 1.0 and abs(said_pct) < 1.0
+    return f"{said_pct:+.0f}" == f"{pct:+.0f}"
+
+
 def measured_s(m: Mapping[str, Any]) -> float:
     """The seconds a metric's values held over the talk (in range or out): what it covered."""
     return float(m.get("in_range_s") or 0.0) + float(m.get("out_of_range_s") or 0.0)
@@ -53,9 +75,11 @@ def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str
 
     Lengths are said to the half minute; when that would make the two sound equal while the
     talk was over or under, or give another percentage than the one said (40 s "of 2 minutes"
-    is 67 % under, not the 69 % of 40 s of 2:10), both are said to the second, so the words
-    never contradict the percentage. With ``first_words``, a voice first heard late into the talk
-    (``time.first_voice_s``: :data:`prezence.report.build.LATE_START_S` or more) is said too.
+    is 67 % under, not the 69 % of 40 s of 2:10), both are said to the second, and where even
+    that gives another percentage (17.6 s "18 seconds" of 20 is 10 %, not 12 %), to the tenth,
+    so the words never contradict the percentage. With ``first_words``, a voice first heard
+    late into the talk (``time.first_voice_s``: :data:`prezence.report.build.LATE_START_S` or
+    more) is said too.
 
     Example:
         >>> time_sentence({"time": {"used_s": 630.0, "allocated_s": 600.0, "over_under_pct": 5.0}})
@@ -64,6 +88,8 @@ def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str
         'You used 9 minutes 48 seconds of 10 minutes, 2% under.'
         >>> time_sentence({"time": {"used_s": 40.0, "allocated_s": 130.0, "over_under_pct": -69.2}})
         'You used 40 seconds of 2 minutes 10 seconds, 69% under.'
+        >>> time_sentence({"time": {"used_s": 17.6, "allocated_s": 20.0, "over_under_pct": -12.0}})
+        'You used 17.6 seconds of 20 seconds, 12% under.'
         >>> time_sentence({"time": {"used_s": 300.0, "allocated_s": None}})
         'You spoke for 5 minutes.'
         >>> cut = {"used_s": 330.0, "allocated_s": 300.0, "over_under_pct": 10.0,
@@ -83,6 +109,8 @@ def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str
     on_time = abs(pct) < 1.0
     if (said_used == said_alloc and not on_time) or not _agrees(used, alloc, pct):
         said_used, said_alloc = _spoken_exact(used), _spoken_exact(alloc)
+        if not _said_pct_agrees(float(round(used)), float(round(alloc)), pct):
+            said_used, said_alloc = _spoken_tenths(used), _spoken_tenths(alloc)
     if t.get("stopped_at_limit"):  # cut at the allocated time plus the grace: a lower bound
         return (
             f"You were still going when the coach stopped at {said_used}, after "
@@ -96,13 +124,7 @@ def time_sentence(report: Mapping[str, Any], *, first_words: bool = True) -> str
 def _agrees(used: float, alloc: float, pct: float) -> bool:
     """Whether the lengths as :func:`_spoken_minutes` says them give the percentage said
     (``pct``, to the whole per cent; "right on time" under 1 %)."""
-    said_alloc = _spoken_value(alloc)
-    if said_alloc <= 0:
-        return False
-    said_pct = 100.0 * (_spoken_value(used) - said_alloc) / said_alloc
-    if abs(pct) < 1.0 or abs(said_pct) < 1.0:
-        return abs(pct) < 1.0 and abs(said_pct) < 1.0
-    return f"{said_pct:+.0f}" == f"{pct:+.0f}"
+    return _said_pct_agrees(_spoken_value(used), _spoken_value(alloc), pct)
 
 
 def _late_start(t: Mapping[str, Any]) -> str:
@@ -169,7 +191,6 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
         ...     "in_range_s": 0.0, "out_of_range_s": 2.9, "too_brief": True}}})
         ['pace: measured for only 3 s, under the 10 s needed to judge it: no advice on it']
     """
-    from prezence.summary import MIN_JUDGED_S
 
     out = []
     for k, m in (report.get("metrics") or {}).items():
@@ -185,14 +206,22 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
         if m.get("samples") and isinstance(m.get("offset"), int | float) and m["offset"]:
             out.append(offset_note(label, m))
         if m.get("samples") and m.get("too_brief") and not m.get("less_reliable"):
-            s = measured_s(m)
-            # 9.9 s is not "10 s, under the 10 s needed": a tenth, rounded down, near the limit
-            shown = f"{s:.0f}" if s < MIN_JUDGED_S - 0.5 else f"{math.floor(s * 10) / 10:.1f}"
-            out.append(
-                f"{label}: measured for only {shown} s, under the {MIN_JUDGED_S:.0f} s needed "
-                "to judge it: no advice on it"
-            )
+            out.append(f"{label}: {too_brief_words(measured_s(m))}: no advice on it")
     return out
+
+
+def too_brief_words(s: float) -> str:
+    """``"measured for only 3 s, under the 10 s needed to judge it"``; 9.6 s is not "10 s,
+    under the 10 s needed": near the limit, a tenth, rounded down.
+
+    Example:
+        >>> too_brief_words(9.96)
+        'measured for only 9.9 s, under the 10 s needed to judge it'
+    """
+    from prezence.summary import MIN_JUDGED_S
+
+    shown = f"{s:.0f}" if s < MIN_JUDGED_S - 0.5 else f"{math.floor(s * 10) / 10:.1f}"
+    return f"measured for only {shown} s, under the {MIN_JUDGED_S:.0f} s needed to judge it"
 
 
 def offset_note(label: str, m: Mapping[str, Any]) -> str:
@@ -397,7 +426,14 @@ def praise_line(report: Mapping[str, Any], share: str) -> str:
 
 
 def _talk_s(report: Mapping[str, Any]) -> float:
-    return float(report.get("talk_s") or (report.get("time") or {}).get("used_s") or 0.0)
+    """The talk's length as the report says it: the time used where that is shorter (an `up`
+    of files: the recordings' length, not the coach's clock that ran on through the modules'
+    start-up), so that "measured over 0:03 of 0:18" agrees with "You used 18 seconds"."""
+    used = (report.get("time") or {}).get("used_s")
+    talk = report.get("talk_s")
+    if talk and used:
+        return float(min(float(talk), float(used)))
+    return float(talk or used or 0.0)
 
 
 def _times(n: int) -> str:
@@ -734,21 +770,22 @@ def _in(report: Mapping[str, Any]) -> str:
 
 
 def _near_spoken(report: Mapping[str, Any]) -> str:
-    """The metric most out of its band among those near it, short: "Your pace was under it for
-    8 seconds." ("" when none was)."""
+    """The metric most out of its band among those near it, short: "Your pace was under its
+    ideal range for 8 seconds." ("" when none was; "it" would point at whatever the sentence
+    before named, a metric not judged, say)."""
     rows = [r for r in report.get("near_range") or () if isinstance(r, Mapping)]
     if not rows:
         return ""
     row = rows[0]
     label = str(row.get("label") or row.get("metric"))
     said = [
-        f"{'under' if x.get('side') == 'below' else 'over'} it for "
+        f"{'under' if x.get('side') == 'below' else 'over'} {'it' if i else 'its ideal range'} for "
         + (
             _spoken_minutes(float(x.get("out_s") or 0.0))
             if float(x.get("out_s") or 0.0) >= 0.5
             else "under a second"
         )
-        for x in _sides(row)
+        for i, x in enumerate(_sides(row))
     ]
     return f"Your {label} {was(label)} {' and '.join(said)}."
 
@@ -820,7 +857,11 @@ def format_text(report: Mapping[str, Any]) -> str:
     )
     talk = mmss(_talk_s(report))
     for name, m in report["metrics"].items():
-        tir = _pct(m.get("time_in_range")) if m.get("samples") else m.get("data") or "no data"
+        tir = (
+            ("-*" if m.get("too_brief") else _pct(m.get("time_in_range")))  # * : not judged
+            if m.get("samples")
+            else m.get("data") or "no data"
+        )
         # over how much of the talk its figures hold: "0:15 of 0:54" is not the whole talk
         covered = f"{mmss(measured_s(m))} of {talk}" if m.get("samples") else "-"
         lines.append(

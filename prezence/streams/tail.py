@@ -1057,19 +1057,26 @@ class MultiTailer:
 
 def newest_stamp(streams: Path) -> float:
     """The newest sample time in any stream file of ``streams`` (0.0 when none): how far the
-    modules have got. Only each file's last bytes are read."""
+    modules have got. Only each file's last lines are read (4 kB), and only ``<t> <value>``
+    lines count: a ``<value>`` line has no time of its own (the coach stamps it, in a
+    ``.stamps`` file), and its value is not one."""
     newest = 0.0
     for path in streams.glob("*.txt"):
         try:
             with path.open("rb") as f:
-                f.seek(max(0, path.stat().st_size - 256))
+                f.seek(max(0, path.stat().st_size - 4096))
                 lines = f.read().split(b"\n")
         except OSError:
             continue
         for line in reversed(lines[:-1] if len(lines) > 1 else lines):
-            try:
-                newest = max(newest, float(line.split()[0]))
-                break
-            except (ValueError, IndexError):
+            fields = line.split()
+            if len(fields) != 2:
                 continue
+            try:
+                t = float(fields[0])
+            except ValueError:
+                continue
+            if math.isfinite(t):
+                newest = max(newest, t)
+                break
     return newest

@@ -211,7 +211,7 @@ def test_up_of_a_file_played_to_its_end_used_the_recordings_length(tmp_path: Pat
 
     out = tmp_path / "live"
     argv = ["-q", "up", "--audio", str(FAST), "--backend", "fake", "--allocated", "20"]
-    assert main([*argv, "--out", str(out), "--no-report"]) == 0
+    assert main([*argv, "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
     length = recording_length_s(FAST)
     assert summary["talk_s"] > length  # the coach's clock, the module's start-up included
@@ -221,6 +221,10 @@ def test_up_of_a_file_played_to_its_end_used_the_recordings_length(tmp_path: Pat
     from prezence.report.build import build_report
 
     assert build_report(out)["time"]["used_s"] == pytest.approx(length, abs=0.05)
+    # the robot said it too: its summary was made before summary.json was written
+    said = summary["post_talk"]["phrase"].split(". ")[0]
+    assert said == (out / "report" / "spoken.txt").read_text().split(". ")[0]
+    assert said == "You used 17.6 seconds of 20 seconds, 12% under"
     assert main(["-q", "replay", str(out), "--out", str(tmp_path / "r"), "--no-report"]) == 0
     assert build_report(tmp_path / "r")["time"]["used_s"] == pytest.approx(length, abs=0.05)
 

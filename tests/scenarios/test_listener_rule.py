@@ -111,3 +111,22 @@ def test_a_plain_offset_is_named_in_neutral_words(tmp_path: Path) -> None:
     text = (out / "report" / "summary.txt").read_text()
     assert "below the lowest good value, 60 dB SPL after the rule's offset of −25.5, for" in text
     assert "judged after the rule's offset of −25.5: its figures are after it" in text
+
+
+def test_what_the_coach_stopped_repeating_is_recorded_as_judged(tmp_path: Path) -> None:
+    # session 21's review: summary.json's stopped_repeating gave the microphone's 73.2 against
+    # a band at the listener, the one value of such a rule still shown as measured
+    src = tmp_path / "rec"
+    (src / "streams").mkdir(parents=True)
+    (src / "streams" / "speech_volume.txt").write_text(
+        "".join(f"{t} 73.2\n" for t in range(10, 301))
+    )
+    rules = tmp_path / "rules.txt"
+    rules.write_text("speech_volume min 60 scale=6 louder at=listener\n")
+    out = tmp_path / "out"
+    args = ["-q", "replay", str(src), "--out", str(out), "--allocated", "300"]
+    assert main([*args, "--config", str(rules), "--room", str(ROOM), "--no-report"]) == 0
+    stopped = json.loads((out / "summary.json").read_text())["stopped_repeating"]
+    assert stopped and all(s["metric"] == "speech_volume" for s in stopped)
+    assert all(s["value"] == pytest.approx(73.2 - 25.46, abs=0.01) for s in stopped)
+    assert all(s["offset"] == pytest.approx(-25.46, abs=0.01) for s in stopped)

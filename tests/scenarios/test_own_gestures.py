@@ -4,6 +4,7 @@ and refused before the talk starts when it cannot be played."""
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 
 import pytest
@@ -257,6 +258,20 @@ def test_a_gesture_too_long_for_a_talk_stops_every_talk_before_it_starts(
     assert err.count("\n") == 1
     assert not out.exists()
     assert sorted(p.relative_to(recording) for p in recording.rglob("*")) == before
+
+
+def test_a_too_long_gesture_no_command_plays_does_not_stop_a_talk(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # session 21's review: a spare gesture in one's file (no command plays it) stopped the
+    # talk with "change the gesture", though a talk never plays it (loading it says so)
+    spare = tmp_path / "spare.toml"
+    spare.write_text(TOO_LONG.replace("slow_down", "my_spare_flourish"))
+    out = tmp_path / "out"
+    with caplog.at_level(logging.WARNING):
+        assert main(["-q", "run", "short_talk", "--gestures", str(spare), "--out", str(out)]) == 0
+    assert "no command plays 'my_spare_flourish'" in caplog.text
+    assert (out / "summary.json").is_file()
 
 
 def test_a_gesture_too_slow_at_the_talks_speed_names_the_speed_at_which_it_passes(

@@ -310,7 +310,7 @@ def test_a_short_glance_away_still_leaves_the_praise(tmp_path: Path) -> None:
     assert report["priorities"] == [] and report["slightly_off"] == []
     said = summary_phrase(report)
     assert "Your delivery stayed in or near the ideal range. Well done!" in said
-    assert "Your head pitch was under it for 1 second." in said
+    assert "Your head pitch was under its ideal range for 1 second." in said
 
 
 def test_missing_folder_raises_config_error(tmp_path: Path) -> None:

@@ -330,7 +330,7 @@ def test_a_metric_out_of_range_for_a_little_of_the_talk_is_not_praised_as_in_ran
     assert "stayed in the ideal range" not in said
     assert said.endswith(
         "Your delivery stayed in or near the ideal range. Well done! "
-        "Your pace was under it for 8 seconds."
+        "Your pace was under its ideal range for 8 seconds."
     )
 
 

@@ -165,7 +165,7 @@ def test_no_advice_on_a_metric_measured_for_three_seconds(tmp_path: Path) -> Non
     assert "Your volume stayed in the ideal range; I could not judge your pace." in said
     write_report(session.root)
     text = (session.report / "summary.txt").read_text()
-    assert "pace: measured for only 3 s, under the 10 s needed to judge it" in text
+    assert "pace: measured for only 9 s, under the 10 s needed to judge it" in text
 
 
 def test_a_recording_with_nothing_measured_points_to_the_recording_not_empty_logs(
@@ -372,3 +372,23 @@ def test_a_replay_does_not_say_no_camera_ran_when_its_recording_measured_head_tu
     write_report(replay.root, config=CONFIG, plots=False)
     head = _head_section((replay.root / "report" / "report.html").read_text())
     assert "the recording replayed has none: t.flac is a sound recording: rehearse a video" in head
+
+
+def test_a_metric_too_briefly_measured_shows_no_share_in_the_report_tables(
+    tmp_path: Path,
+) -> None:
+    # session 21's review: the table after a talk showed "-*" for a pace measured 3 s, but the
+    # report's text and HTML tables still said "0%" for the same, unjudged, figure
+    pace = [(float(t), 120.0) for t in range(10, 14)]  # held 9 s (until stale), out of range
+    volume = [(float(t), 65.0) for t in range(0, 60)]
+    session = rehearsal(
+        tmp_path / "s", {"speech_speed": pace, "speech_volume": volume}, talk_s=60.0
+    )
+    write_report(session.root, config=CONFIG, plots=False)
+    text = (session.root / "report" / "summary.txt").read_text()
+    row = next(ln for ln in text.splitlines() if ln.strip().startswith("pace "))
+    assert "-*" in row.split() and "0%" not in row
+    assert "pace: measured for only 9 s, under the 10 s needed to judge it" in text
+    html = (session.root / "report" / "report.html").read_text()
+    pace_row = next(r for r in html.split("<tr>") if r.startswith('<td class="l">pace</td>'))
+    assert "<td>–*</td>" in pace_row and "0%" not in pace_row

@@ -594,3 +594,15 @@ def test_a_time_of_inf_is_a_bad_line_not_a_sample(tmp_path: Path) -> None:
     samples, stats = read_stream(path, "m", problems=problems)
     assert [(s.t, s.value) for s in samples] == [(1.0, 5.0), (2.0, 6.0)]
     assert stats.malformed == 1 and problems[0].line == 2
+
+
+def test_newest_stamp_reads_times_only_from_timed_lines(tmp_path: Path) -> None:
+    # session 21's review: the newest stamp sets an `up` of files' time used; a `<value>`
+    # line (the coach stamps it) read "12.5" as a time, and a last line over 256 bytes as 0
+    from prezence.streams.tail import newest_stamp
+
+    (tmp_path / "speech_speed.txt").write_text("1.0 150\n2.0 152\n")
+    (tmp_path / "my_metric.txt").write_text("12.5\n")
+    assert newest_stamp(tmp_path) == 2.0
+    (tmp_path / "long.txt").write_text("3.5 " + "1" * 400 + "\n")
+    assert newest_stamp(tmp_path) == 3.5
