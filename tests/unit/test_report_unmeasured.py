@@ -165,7 +165,7 @@ def test_no_advice_on_a_metric_measured_for_three_seconds(tmp_path: Path) -> Non
     assert "Your volume stayed in the ideal range; I could not judge your pace." in said
     write_report(session.root)
     text = (session.report / "summary.txt").read_text()
-    assert "pace: measured for only 9 s, under the 10 s needed to judge it" in text
+    assert "pace: measured for only 3 s, under the 10 s needed to judge it" in text
 
 
 def test_a_recording_with_nothing_measured_points_to_the_recording_not_empty_logs(
