@@ -23,6 +23,7 @@ from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError, PrezenceError
+from prezence.launcher import die_with_parent_hook
 from prezence.metrics import INPUT_MODULES
 from prezence.modules.common import CUT_SHORT_STATUS
 from prezence.replay import (
@@ -34,7 +35,7 @@ from prezence.replay import (
 )
 from prezence.session import MAX_TALK_S, SessionDir
 from prezence.streams.tail import newest_stamp
-from prezence.talk import RunOptions
+from prezence.talk import RunOptions, Terminated
 
 log = logging.getLogger(__name__)
 
@@ -160,6 +161,22 @@ def module_commands(
 PROGRESS_PERIOD_S = 0.25
 
 
+def _stop_modules(procs: Mapping[str, subprocess.Popen[str]], wait_s: float = 3.0) -> None:
+    """End the modules still running: SIGTERM, then SIGKILL for those not gone in ``wait_s``."""
+    for p in procs.values():
+        if p.poll() is None:
+            with contextlib.suppress(OSError):
+                p.terminate()
+    deadline = time.monotonic() + wait_s
+    for p in procs.values():
+        try:
+            p.wait(timeout=max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(OSError):
+                p.kill()
+            p.wait()
+
+
 def _remove_what_we_wrote(session: SessionDir, *, logs: Sequence[str]) -> None:
     """Remove the files a failed rehearsal wrote (config, module logs, empty streams) and the
     folder if that empties it."""
@@ -234,20 +251,44 @@ def rehearse(
     session.config.write_text(dumps_config(config))
     logs = {name: (session.root / f"{name}.log").open("w") for name in cmds}
     started = time.perf_counter()
+    procs: dict[str, subprocess.Popen[str]] = {}
+    total = 0.0
     try:
-        procs = {
-            name: subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=logs[name], text=True)
-            for name, argv in cmds.items()
-        }
+        for name, argv in cmds.items():
+            procs[name] = subprocess.Popen(
+                argv,
+                stdout=subprocess.DEVNULL,
+                stderr=logs[name],
+                text=True,
+                preexec_fn=die_with_parent_hook(),  # a killed coach leaves no module behind
+            )
         total = recording_length_s(recording)
         while any(p.poll() is None for p in procs.values()):
             if progress is not None:
                 progress(min(newest_stamp(session.streams), total or MAX_TALK_S), total)
             time.sleep(PROGRESS_PERIOD_S)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
+        # Session 21, a second walkthrough: a SIGTERM or SIGINT to this process alone left the
+        # modules analysing on, writing into the folder just said to be kept.
+        _stop_modules(procs)
+        analysed = newest_stamp(session.streams)
+        # what the folder holds: the recording's length is the time used; its figures cover
+        # the part analysed (the report says "measured over 1:11 of 3:42")
+        session.write_meta(
+            {
+                "kind": "rehearsal",
+                "recording": str(recording),
+                "talk_s": round(max(total, analysed), 3),
+                "interrupted": True,
+                "analysed_s": round(analysed, 3),
+            }
+        )
         log.warning(
-            "stopped by Ctrl-C while the modules analysed the recording; what they measured "
-            "is kept in %s: `prezence report %s` reports on it",
+            "stopped by %s while the modules analysed the recording (%.0f s of %.0f s "
+            "analysed); what they measured is kept in %s: `prezence report %s` reports on it",
+            "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C",
+            analysed,
+            total,
             session.root,
             session.root,
         )

@@ -921,6 +921,9 @@ def _rebuild(
     stale_default = cfg.processor.stale_after_s
     if ended is None:  # a coach that ran to the end wrote when it ended
         ended = recorded.get("ended_at_s") is not None
+        # a rehearsal stopped while its modules analysed it: the recording still lasted its
+        # length (session.json's talk_s); its figures cover the part analysed, as said
+        ended = ended or (meta.get("kind") == "rehearsal" and bool(meta.get("interrupted")))
     talk_s, complete = _talk_length(meta, streams, cues, stale_default, ended)
     talk_s = min(talk_s, limit)
     if not complete:

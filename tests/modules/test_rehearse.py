@@ -605,3 +605,49 @@ def test_a_muffled_voice_in_a_quiet_room_is_still_asked_to_speak_clearly(tmp_pat
     said = [c for c in read_jsonl(out / "cues.jsonl") if c["command"] == "articulate"]
     assert said and all(c["phrase"] == "Speak more clearly." for c in said)
     assert all("noisy" not in c["params"] for c in said)
+
+
+def test_a_rehearsal_stopped_while_analysing_stops_its_modules_and_says_what_it_holds(
+    tmp_path: Path,
+) -> None:
+    # Session 21, a second walkthrough: SIGTERM or SIGINT to `rehearse` alone left its speech
+    # module analysing on, orphaned, writing into the folder just said to be kept; and the
+    # report then said "You used 1 minute 11 seconds of 10 minutes, 88% under" of a 3:42
+    # recording of which 1:11 had been analysed.
+    from prezence.rehearse import recording_length_s
+    from prezence.report.build import build_report
+
+    out = tmp_path / "s"
+    pid_file = tmp_path / "module.pid"
+    script = (
+        "import os, sys, time, pathlib\n"
+        f"pathlib.Path({str(pid_file)!r}).write_text(str(os.getpid()))\n"
+        f"s = pathlib.Path({str(out / 'streams')!r})\n"
+        "s.mkdir(parents=True, exist_ok=True)\n"
+        "(s / 'speech_speed.txt').write_text(''.join(f'{t} 160.0\\n' for t in range(1, 6)))\n"
+        "time.sleep(120)\n"
+    )
+    calls = []
+
+    def progress(done: float, total: float) -> None:
+        calls.append(done)
+        if done >= 5.0:
+            raise KeyboardInterrupt  # as a SIGINT to this process alone
+
+    with pytest.raises(KeyboardInterrupt):
+        rehearse(
+            FAST,
+            out=out,
+            options=RunOptions.default(),
+            modules={"slow": [sys.executable, "-c", script]},
+            progress=progress,
+        )
+    pid = int(pid_file.read_text())
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)  # the module is gone, not orphaned
+    meta = json.loads((out / "session.json").read_text())
+    length = recording_length_s(FAST)
+    assert meta["interrupted"] is True and meta["analysed_s"] == 5.0
+    assert meta["talk_s"] == pytest.approx(length, abs=0.01)
+    report = build_report(out)
+    assert report["time"]["used_s"] == pytest.approx(length, abs=0.01)  # the recording's
