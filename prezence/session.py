@@ -166,6 +166,23 @@ class SessionDir:
                 "holds a recorded talk; it is never overwritten: use another folder",
                 path=self.root,
             )
+        if not keep_streams and not self._synthetic():
+            # Session 21, a second walkthrough: `run demo --out .` in a project folder replaced
+            # the user's own config.toml. Only a synthetic talk's own files (its session.json
+            # says so) are replaced. (A report/ of one's own is left alone by a talk run with
+            # --no-report; a report writes its own files into it.)
+            theirs = [
+                p.name
+                for p in (self.config, self.summary, self.decisions, self.truth, self.gestures)
+                if p.exists()
+            ]
+            if theirs:
+                raise ConfigError(
+                    f"holds {', '.join(theirs)} but no talk that Prezence made again (no "
+                    "session.json of a synthetic talk): a talk would overwrite them; give an "
+                    "empty or new --out",
+                    path=self.root,
+                )
         try:
             self.streams.mkdir(parents=True, exist_ok=True)
             for p in (self.decisions, self.cues, self.truth, self.summary, self.gestures):

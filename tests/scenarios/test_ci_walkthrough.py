@@ -386,3 +386,18 @@ def test_an_evaluation_never_writes_into_a_folder_another_process_is_writing(
         assert "another prezence process is writing into this folder" in capsys.readouterr().err
     finally:
         holder.communicate("")
+
+
+def test_run_into_a_folder_of_ones_own_files_refuses_rather_than_overwrite(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 21, a second walkthrough: `run demo --out .` in a project folder replaced the
+    # user's own config.toml (a rules file kept under that name) without a word
+    proj = tmp_path / "proj"
+    proj.mkdir()
+    (proj / "config.toml").write_text("my precious config\n")
+    (proj / "notes.md").write_text("x\n")
+    assert main(["-q", "run", "demo", "--out", str(proj), "--no-report"]) == 2
+    assert "holds config.toml but no talk that Prezence made again" in capsys.readouterr().err
+    assert (proj / "config.toml").read_text() == "my precious config\n"
+    assert sorted(p.name for p in proj.iterdir()) == ["config.toml", "notes.md"]
