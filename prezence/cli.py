@@ -141,7 +141,7 @@ def format_timeline(summary: dict[str, Any]) -> str:
         f"cues {c['cues']} (dropped {c['cues_dropped']}{cut}, false alarms {c['false_alarms']}"
         f"{stale}), "
         f"malformed samples {c['malformed_samples']}, stale episodes {c['stale_episodes']}, "
-        f"joint-limit violations {c['joint_limit_violations']}"
+        f"joint-limit violations {_violations(summary)}"
     )
     lines += [f"note: {n}" for n in _trouble_notes(summary)]
     if summary.get("analysis_wall_s") is not None:  # a rehearsal: the modules took most of it
@@ -202,10 +202,30 @@ def robot_shortfall(summary: dict[str, Any]) -> str | None:
     return ", ".join(parts) + (f" ({why})" if why else "")
 
 
+def _violations(summary: dict[str, Any]) -> str:
+    """The joint-limit violations, or that the backend did not measure them (only the sim does).
+
+    Example:
+        >>> _violations({"backend": "fake", "counts": {"joint_limit_violations": None}})
+        'not measured (fake backend: --backend sim measures them)'
+        >>> _violations({"backend": "sim", "counts": {"joint_limit_violations": 0}})
+        '0'
+    """
+    n = summary["counts"].get("joint_limit_violations")
+    if n is not None:
+        return str(n)
+    backend = summary.get("backend")
+    return f"not measured ({f'{backend} backend: ' if backend else ''}--backend sim measures them)"
+
+
 def _trouble_notes(summary: dict[str, Any]) -> list[str]:
     """Modules that crashed or hung (and what they left unmeasured), unreadable lines and
-    damaged cue lines."""
-    from prezence.report.speech import module_sentences, skipped_sentences
+    damaged cue and ground-truth lines."""
+    from prezence.report.speech import (
+        module_sentences,
+        skipped_sentences,
+        truth_skipped_sentences,
+    )
     from prezence.summary import module_notes
 
     metrics = summary.get("metrics") or {}
@@ -221,7 +241,11 @@ def _trouble_notes(summary: dict[str, Any]) -> list[str]:
                 f"{n} unreadable line{'s' if n != 1 else ''} of {name} skipped"
                 + (f" (e.g. {first})" if first else "")
             )
-    return out + skipped_sentences(summary.get("skipped_records") or [])
+    return (
+        out
+        + skipped_sentences(summary.get("skipped_records") or [])
+        + truth_skipped_sentences(summary.get("truth_skipped") or [])
+    )
 
 
 def _progress_printer() -> Callable[[float, float], None] | None:

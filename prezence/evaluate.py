@@ -20,7 +20,8 @@ Figures per talk (one row):
 - ``backlog_s``: the largest delay between a cue's decision and the robot starting it, and
   ``waited``: the cues with any delay. The processor decides only when the robot is free, so both
   are 0 by design; they are measured (at the backend's ``play`` call) to show it;
-- ``violations``: joint-limit violations reported by the backend;
+- ``violations``: joint-limit violations reported by the backend; empty (None) where it measures
+  none (only the sim backend does: ``--backend sim``), and a table shows "–", not 0;
 - ``cues_per_minute_max``: the most cues (of any kind) the robot started in any 60 s.
 
 Every talk runs under a *presenter model* (``presenter`` column; see
@@ -208,7 +209,10 @@ def score_talk(
         "latencies": [round(x, 3) for x in latencies],
         "backlog_s": round(max(backlog, default=0.0), 6),
         "waited": sum(1 for b in backlog if b > 1e-9),
-        "violations": int(summary["counts"].get("joint_limit_violations", 0)),
+        # None: the backend measured none (only the sim does), not a check passed
+        "violations": (
+            None if (jlv := summary["counts"].get("joint_limit_violations")) is None else int(jlv)
+        ),
         "cues_per_minute_max": max_in_window([float(c["t"]) for c in cues], 60.0),
     }
 
@@ -275,7 +279,7 @@ def run_task(task: Task) -> dict[str, Any]:
             # the talk caught Ctrl-C (or SIGTERM) to finish its folder; the evaluation stops
             # too: a talk cut short is no row to score as if it ran to its end
             raise KeyboardInterrupt
-        truth = read_jsonl(result.session.truth)
+        truth = read_jsonl(result.session.truth, skipped=[])  # a damaged line: warned, skipped
         sides: dict[str, str] = {}
         from prezence.config.load import load_config
 
@@ -561,7 +565,14 @@ def aggregate(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                     "cues_per_minute_max": max(int(r.get("cues_per_minute_max", 0)) for r in rs),
                     "backlog_s": max(r["backlog_s"] for r in rs),
                     "waited": sum(r["waited"] for r in rs),
-                    "violations": sum(r["violations"] for r in rs),
+                    # measured talks only; None when no talk's backend measured any
+                    "violations": (
+                        sum(v for v in measured)
+                        if (
+                            measured := [r["violations"] for r in rs if r["violations"] is not None]
+                        )
+                        else None
+                    ),
                 }
             )
     return out
@@ -637,7 +648,7 @@ def _summary_lines(agg: Sequence[Mapping[str, Any]]) -> list[str]:
             f"| {_pp(a['gain_vs_none'])} | {_pp(a['gain_per_corrective'])} "
             f"| {a['cues_per_talk']:.1f} | {a['corrective_per_talk']:.1f} "
             f"| {_secs(a['latency_s'])} | {a['false_alarms']} | {a['stale']} "
-            f"| {a['cues_per_minute_max']} | {a['backlog_s']:g} s | {a['violations']} |"
+            f"| {a['cues_per_minute_max']} | {a['backlog_s']:g} s | {_f(a['violations'], 'd')} |"
         )
     return lines
 

@@ -174,8 +174,13 @@ def replay(
     samples = merge_readings(readings)
     talk_s = float(meta.get("talk_s") or min(limit, samples[-1].t if samples else 0.0))
 
+    # a damaged line (a torn last one) is skipped and named, in the summary and report too:
+    # the truth column lacks it (the replay's own truth.jsonl is written without it)
+    bad_truth: list[str] = []
     truth = (
-        read_jsonl(src_session.truth, require=TRUTH_KEYS) if src_session.truth.exists() else None
+        read_jsonl(src_session.truth.absolute(), require=TRUTH_KEYS, skipped=bad_truth)
+        if src_session.truth.exists()
+        else None
     )
     # absolute: a relative path means nothing once the command's folder is gone (a report
     # rebuilt from elsewhere could not find the recording its cues were heard in)
@@ -198,6 +203,8 @@ def replay(
         )
         extra["truth_dropped"] = why
         truth = None
+    elif bad_truth:
+        extra["truth_skipped"] = bad_truth
     # what the coach and the report read besides the rules' streams: when the voice was heard
     # (late first words, a time-limit stop's wording), whether the gesture rate counted every
     # arm, and the room's SNR (a clarity cue names the noise, as in the recorded talk)

@@ -705,7 +705,12 @@ def build_summary(
                 for pc in (processor_counts or {}).values()
             ),
             "stale_episodes": sum(m["stale_episodes"] for m in metrics.values()),
-            "joint_limit_violations": int((backend_stats or {}).get("joint_limit_violations", 0)),
+            # None: the backend measures none (fake, naoqi): an unmeasured check is no 0
+            "joint_limit_violations": (
+                None
+                if (jlv := (backend_stats or {}).get("joint_limit_violations")) is None
+                else int(jlv)
+            ),
             **({"cues_cut_short": n_cut} if n_cut else {}),
             **({"skipped_records": len(skipped_records)} if skipped_records else {}),
         },

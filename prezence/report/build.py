@@ -917,7 +917,13 @@ def _rebuild(
     # rest of the record still makes a report
     bad_cues: list[str] = []
     cues = read_jsonl(session.cues, require=CUE_KEYS, skipped=bad_cues)
-    truth = read_jsonl(session.truth, require=TRUTH_KEYS) if session.truth.exists() else None
+    # the same for the ground truth: its other lines still make a truth column, said to lack one
+    bad_truth: list[str] = []
+    truth = (
+        read_jsonl(session.truth, require=TRUTH_KEYS, skipped=bad_truth)
+        if session.truth.exists()
+        else None
+    )
     stale_default = cfg.processor.stale_after_s
     if ended is None:  # a coach that ran to the end wrote when it ended
         ended = recorded.get("ended_at_s") is not None
@@ -933,9 +939,16 @@ def _rebuild(
             talk_s,
             float(meta["talk_s"]),
         )
-    backend_stats = {
-        "joint_limit_violations": sum(int(c.get("gesture_violations") or 0) for c in cues)
-    }
+    # only a backend that measures joint limits (the sim) has a figure: its cues carry
+    # gesture_violations, its summary.json a backend_stats one; others have none, not 0
+    measured = any("gesture_violations" in c for c in cues) or (
+        "joint_limit_violations" in _recorded(recorded, "backend_stats")
+    )
+    backend_stats = (
+        {"joint_limit_violations": sum(int(c.get("gesture_violations") or 0) for c in cues)}
+        if measured
+        else {}
+    )
     unmeasured, less_reliable = measurement_notes(session.root, recorded)
     rec_s = recording_s if recording_s is not None else recorded.get("recording_s")
     summary = build_summary(
@@ -1120,6 +1133,13 @@ def _rebuild(
     troubles = {
         "unreadable": unreadable,
         "skipped_records": [_shown_record(p, session.root) for p in bad_cues],
+        # this folder's truth.jsonl, and a replay's recording's (its summary.json names them)
+        "truth_skipped": list(
+            dict.fromkeys(
+                [_shown_record(p, session.root) for p in bad_truth]
+                + [str(p) for p in recorded.get("truth_skipped") or ()]
+            )
+        ),
         "modules": module_notes(modules, metrics),
     }
     report.update({k: v for k, v in troubles.items() if v})

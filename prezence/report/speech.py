@@ -623,6 +623,19 @@ def skipped_sentences(problems: Sequence[str]) -> list[str]:
     return [f"a damaged record line was left out, so a cue may be missing: {p}" for p in problems]
 
 
+def truth_skipped_sentences(problems: Sequence[str]) -> list[str]:
+    """The ground-truth lines left out (``truth.jsonl:7: …``): the truth column misses them.
+
+    Example:
+        >>> truth_skipped_sentences(["truth.jsonl:7: not a JSON line (Unterminated string)"])
+        ['a damaged ground-truth line was left out, so the truth figures may be wrong: truth.jsonl:7: not a JSON line (Unterminated string)']
+    """  # noqa: E501 - a doctest output line
+    return [
+        f"a damaged ground-truth line was left out, so the truth figures may be wrong: {p}"
+        for p in problems
+    ]
+
+
 def beyond_sentence(beyond: Mapping[str, int]) -> str | None:
     """The samples left out as stamped after the talk's end (a module's clock gone wrong)."""
     if not beyond:
@@ -637,7 +650,7 @@ def beyond_sentence(beyond: Mapping[str, int]) -> str | None:
 def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
     """What went wrong on the way, for the text and the HTML report alike: cues cut short and
     an unsaid summary, modules that crashed or hung, unreadable stream lines, samples stamped
-    after the talk, damaged record lines ([] for a talk where nothing did)."""
+    after the talk, damaged record and ground-truth lines ([] for a talk where nothing did)."""
     from prezence.report.build import metric_label
 
     beyond = beyond_sentence(report.get("beyond_talk") or {})
@@ -647,6 +660,7 @@ def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
         + unreadable_sentences(report.get("unreadable") or ())
         + ([beyond] if beyond else [])
         + skipped_sentences(report.get("skipped_records") or ())
+        + truth_skipped_sentences(report.get("truth_skipped") or ())
     )
 
 

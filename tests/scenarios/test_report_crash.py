@@ -130,3 +130,44 @@ def test_a_cue_line_damaged_during_the_talk_is_skipped_and_named_in_the_summary(
     assert f"note: a damaged record line was left out, so a cue may be missing: {named}" in (
         format_timeline(run.summary)
     )
+
+
+@pytest.mark.parametrize("damage", ["torn-last", "middle"])
+def test_a_damaged_truth_line_is_skipped_and_named_in_the_report_and_the_replay(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture, damage: str
+) -> None:
+    # session 21: a torn last line of truth.jsonl was dropped without a word, so replay and
+    # report printed a truth column that missed an out-of-range stretch (86 % in range, not 50 %)
+    from prezence.cli import format_timeline
+    from prezence.replay import replay
+    from prezence.talk import RunOptions
+
+    out = tmp_path / "s"
+    run_talk("demo", out=out, seed=0)
+    truth = out / "truth.jsonl"
+    lines = truth.read_text().splitlines(keepends=True)
+    assert len(lines) >= 2
+    if damage == "torn-last":
+        where, kept = len(lines), lines[:-1]
+        truth.write_text("".join(lines)[:-15])
+        why = (
+            "not a JSON line (Unterminated string starting at); "
+            "the last line is incomplete (no newline); line skipped"
+        )
+    else:
+        where, kept = 1, lines[1:]
+        truth.write_text('{"metric": 3\n' + "".join(lines[1:]))
+        why = "not a JSON line (Expecting ',' delimiter); line skipped"
+    named = f"truth.jsonl:{where}: {why}"
+    assert build_report(out)["truth_skipped"] == [named]
+    assert f"{truth}:{where}: {why}" in [r.getMessage() for r in caplog.records]
+    write_report(out)
+    note = f"a damaged ground-truth line was left out, so the truth figures may be wrong: {named}"
+    assert note in (out / "report" / "summary.txt").read_text()
+    # the other lines still make the truth column: the replay's truth is what was kept
+    rp = replay(out, out=tmp_path / "rp", options=RunOptions.default())
+    assert rp.summary["truth_skipped"] == [f"{truth.absolute()}:{where}: {why}"]
+    assert "note: a damaged ground-truth line was left out" in format_timeline(rp.summary)
+    copied = (tmp_path / "rp" / "truth.jsonl").read_text().splitlines()
+    assert [json.loads(x) for x in copied] == [json.loads(x) for x in kept]
+    assert build_report(tmp_path / "rp")["truth_skipped"] == rp.summary["truth_skipped"]

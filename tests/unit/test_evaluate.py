@@ -100,6 +100,30 @@ def test_aggregate_pools_over_scenarios_and_seeds() -> None:
     assert agg["weighted"]["gain_vs_none"] is None
 
 
+def test_violations_a_backend_did_not_measure_are_a_dash_not_a_zero() -> None:
+    # session 21: the fake backend measures no joint limits, yet the table said 0 violations
+    row = score_talk(
+        dict(summary_with([]), counts={"joint_limit_violations": None}), TRUTH, [], {}, [], []
+    )
+    assert row["violations"] is None
+    rows = [dict(r, violations=None) for r in fake_rows()]
+    assert {a["policy"]: a["violations"] for a in aggregate(rows)} == {
+        "weighted": None,
+        "none": None,
+    }
+    header, rule, *policy_rows = markdown_table(rows).splitlines()[:4]
+    assert header.endswith("| joint-limit violations |")
+    assert all(r.endswith("| – |") for r in policy_rows), policy_rows
+    # a measured talk among unmeasured ones: its figure alone, not None counted as 0
+    rows[0]["violations"] = 2
+    assert {a["policy"]: a["violations"] for a in aggregate(rows)}["weighted"] == 2
+    assert parsed_violations(rows) == ["2", "", ""]
+
+
+def parsed_violations(rows: list[dict[str, object]]) -> list[str]:
+    return [r["violations"] for r in csv.DictReader(io.StringIO(csv_text(rows)))]
+
+
 def paired_rows() -> list[dict[str, object]]:
     base = {
         "talk_s": 600.0,
