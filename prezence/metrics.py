@@ -156,13 +156,15 @@ METRICS: Mapping[str, Metric] = {
             band=("inRange", 140.0, 180.0),
             first_after_s=10.0,  # the speech module's --window: 10 s of talk
         ),
-        Metric("speech_speed_syllables", "syllables/min", "syllable rate", "speech", _SPEECH),
+        # words per minute estimated from syllable nuclei (nuclei / 1.26 per word), not syllables
+        Metric("speech_speed_syllables", "wpm", "pace from syllables", "speech", _SPEECH),
         # where pace and articulation came from: 1 recogniser, 2 syllable nuclei, 0 not measured
         Metric("speech_speed_source", "code", "pace source", "speech", _SPEECH),
         # the word window's estimated signal-to-noise ratio, written with speed and clarity:
         # no rule judges it; the coach and the report say a low clarity came in noise
         Metric("speech_snr", "dB", "estimated SNR", "speech", _SPEECH),
-        Metric("speech_articulation", "syllables/s", "articulation rate", "speech", _SPEECH),
+        # words per *speaking* minute (the words over the time they cover), not syllables/s
+        Metric("speech_articulation", "wpm", "articulation rate", "speech", _SPEECH),
         Metric(
             "speech_volume",
             "dB SPL",
@@ -174,7 +176,8 @@ METRICS: Mapping[str, Metric] = {
             band=("min", 60.0, None),
             scale=6.0,
         ),
-        Metric("speech_loudness", "dBFS", "loudness", "speech", _SPEECH),
+        # integrated loudness (ITU-R BS.1770), relative to full scale, uncalibrated
+        Metric("speech_loudness", "LUFS", "loudness", "speech", _SPEECH),
         Metric(
             "speech_accuracy",
             "0..1",

@@ -436,3 +436,28 @@ def test_a_bad_stream_line_is_warned_about_once_naming_the_source(
     said = [r.getMessage() for r in caplog.records if "not UTF-8" in r.getMessage()]
     assert len(said) == 2, said
     assert all(m.startswith(f"{src / 'streams' / 'speech_speed.txt'}:") for m in said), said
+
+
+def test_the_speech_modules_own_rates_carry_their_true_units(tmp_path: Path) -> None:
+    # session 21, a second walkthrough: speech_articulation (words per speaking minute, about
+    # 140) was labelled "syllables/s", so a report read "132 syllables/s" and a rule written
+    # from the docs ("max 5") was out of range all the time; speech_speed_syllables (words per
+    # minute from syllable nuclei) was "syllables/min", speech_loudness (LUFS) "dBFS"
+    src = tmp_path / "rec"
+    src.mkdir()
+    for name, value in (("speech_articulation", 140.0), ("speech_speed_syllables", 150.0)):
+        (src / f"{name}.txt").write_text("".join(f"{t} {value}\n" for t in range(1, 40)))
+    rules = tmp_path / "rules.txt"
+    rules.write_text(
+        "speech_articulation inRange 120 200 speedUp slowDown\n"
+        "speech_speed_syllables inRange 140 180 speedUp slowDown\n"
+    )
+    out = tmp_path / "r"
+    assert main(["-q", "replay", str(src), "--out", str(out), "--config", str(rules)]) == 0
+    metrics = json.loads((out / "summary.json").read_text())["metrics"]
+    assert metrics["speech_articulation"]["unit"] == "wpm"
+    assert metrics["speech_speed_syllables"]["unit"] == "wpm"
+    assert "syllables/s" not in (out / "report" / "summary.txt").read_text()
+    from prezence.metrics import METRICS
+
+    assert METRICS["speech_loudness"].unit == "LUFS"
