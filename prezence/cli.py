@@ -351,6 +351,21 @@ def cmd_run(args: argparse.Namespace) -> int:
     from prezence.synthetic.scenario import check_expectations
 
     config = _load_config(args)
+    if config is not None:
+        from prezence.synthetic.scenario import load_scenario
+
+        # the scenario's talk has its own length (scenarios/README.md): said, as replay says it
+        # (session 21, a second walkthrough: a config's allocated_s was dropped without a word)
+        sc = load_scenario(args.scenario)
+        if config.time.allocated_s != sc.allocated_s:
+            log.warning(
+                "%s: its allocated time (%s) is not used: the scenario %s allocates %g s, and "
+                "a scenario's talk keeps its own length",
+                args.config,
+                "none" if not config.time.allocated_s else f"{config.time.allocated_s:g} s",
+                sc.name,
+                sc.allocated_s,
+            )
     out = Path(args.out) if args.out else Path("sessions") / f"{Path(args.scenario).stem}"
     result = run_talk(
         args.scenario,

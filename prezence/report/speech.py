@@ -258,6 +258,17 @@ def _inputs_used(report: Mapping[str, Any]) -> str:
     devices = [
         d for mod, d in (("speech", "the microphone"), ("vision", "the camera")) if mod in used
     ]
+    # a module of one's own (`up --module`): its input is none of ours to name (session 21, a
+    # second walkthrough: "check the microphone and the camera" when neither was used)
+    own = sorted(
+        str(k)
+        for k, m in (report.get("metrics") or {}).items()
+        if isinstance(m, Mapping)
+        and m.get("measured")
+        and (k not in METRICS or METRICS[k].module not in ("speech", "vision"))
+    )
+    if own:
+        devices.append(f"the module that writes {_and(own)}")
     return _and(devices or ["the microphone", "the camera"])
 
 

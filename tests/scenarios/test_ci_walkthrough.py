@@ -401,3 +401,20 @@ def test_run_into_a_folder_of_ones_own_files_refuses_rather_than_overwrite(
     assert "holds config.toml but no talk that Prezence made again" in capsys.readouterr().err
     assert (proj / "config.toml").read_text() == "my precious config\n"
     assert sorted(p.name for p in proj.iterdir()) == ["config.toml", "notes.md"]
+
+
+def test_run_says_the_scenario_keeps_its_length_over_the_configs_allocated_time(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # session 21, a second walkthrough: `run fast_talker --config` with `allocated_s = 300`
+    # said "time used 10:00.0 of 10:00.0" and nothing of the config's 300 s
+    rules = Path(__file__).parents[2] / "prezence" / "config" / "defaults" / "rules.txt"
+    cfg = tmp_path / "five.toml"
+    cfg.write_text(f'format = 1\nrules_file = "{rules}"\n[time]\nallocated_s = 300\n')
+    with caplog.at_level(logging.WARNING):
+        argv = ["run", "fast_talker", "--config", str(cfg), "--out", str(tmp_path / "o")]
+        assert main([*argv, "--no-report"]) == 0
+    assert (
+        "its allocated time (300 s) is not used: the scenario fast_talker allocates 600 s"
+        in caplog.text
+    )

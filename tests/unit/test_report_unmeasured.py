@@ -392,3 +392,17 @@ def test_a_metric_too_briefly_measured_shows_no_share_in_the_report_tables(
     html = (session.root / "report" / "report.html").read_text()
     pace_row = next(r for r in html.split("<tr>") if r.startswith('<td class="l">pace</td>'))
     assert "<td>–*</td>" in pace_row and "0%" not in pace_row
+
+
+def test_nothing_judged_from_a_module_of_ones_own_names_that_module() -> None:
+    # session 21, a second walkthrough: `up --module fidget:fidget_rate=…` whose stamps were
+    # all unreadable: the robot said "check the microphone and the camera", neither used
+    from prezence.report.speech import nothing_judged_sentence
+
+    report = {
+        "talk_s": 15.0,
+        "metrics": {"fidget_rate": {"label": "fidget rate", "measured": True, "samples": 0}},
+    }
+    said = nothing_judged_sentence(report)
+    assert said.endswith("check the module that writes fidget_rate.")
+    assert "microphone" not in said and "camera" not in said
