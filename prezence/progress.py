@@ -460,12 +460,23 @@ def _table(
 
 
 def progress_for(session_root: Path) -> dict[str, Any] | None:
-    """:func:`progress` of the session ``session_root`` (None when it cannot be read)."""
+    """:func:`progress` of the session ``session_root`` (None when it cannot be read).
+
+    A talk's report reads the rehearsals beside it; what is wrong with those is for
+    ``prezence progress`` to say, not for every talk's log (session 21, a second walkthrough:
+    each ``run`` printed the warnings of damaged folders next to it): they are not repeated here.
+    """
+    quiet = logging.getLogger(__name__)
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
     try:
         return progress(Path(session_root))
     except (ConfigError, OSError) as e:
-        log.warning("progress across rehearsals left out: %s", e)
-        return None
+        error: Exception = e
+    finally:
+        quiet.setLevel(level)
+    log.warning("progress across rehearsals left out: %s", error)
+    return None
 
 
 def _slightly_off() -> float:

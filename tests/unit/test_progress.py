@@ -297,3 +297,22 @@ def test_the_trend_compares_the_newest_with_the_one_before_and_says_the_side(
     assert main(["progress", str(tmp_path)]) == 0
     pace = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("pace"))
     assert pace.endswith("steady, but from high to low")
+
+
+def test_a_talks_report_does_not_repeat_the_warnings_of_damaged_folders_beside_it(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # session 21, a second walkthrough: every `run` printed the warnings of damaged sibling
+    # folders that its report's progress section had read; `prezence progress` says them
+    from prezence.cli import main
+
+    assert main(["-q", "run", "short_talk", "--out", str(tmp_path / "a"), "--no-report"]) == 0
+    damaged = tmp_path / "a" / "summary.json"
+    damaged.write_text(damaged.read_text()[:40])
+    with caplog.at_level(logging.WARNING):
+        assert main(["-q", "run", "short_talk", "--out", str(tmp_path / "b")]) == 0
+    assert "summary.json" not in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        assert main(["progress", str(tmp_path)]) == 0
+    assert "a/summary.json" in caplog.text and "left out of the progress table" in caplog.text
