@@ -352,17 +352,22 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     config = _load_config(args)
     if config is not None:
-        from prezence.synthetic.scenario import load_scenario
-
         # the scenario's talk has its own length (scenarios/README.md): said, as replay says it
         # (session 21, a second walkthrough: a config's allocated_s was dropped without a word)
+        from prezence.config.load import load_config
+        from prezence.synthetic.scenario import load_scenario
+
         sc = load_scenario(args.scenario)
-        if config.time.allocated_s != sc.allocated_s:
+        default = load_config(None).time.allocated_s
+        own = config.time.allocated_s
+        # only a time the config sets (a rules file, or a config without [time], has the
+        # built-in one, which is no choice of the user's to be told about)
+        if own != default and sc.allocated_s is not None and own != sc.allocated_s:
             log.warning(
                 "%s: its allocated time (%s) is not used: the scenario %s allocates %g s, and "
                 "a scenario's talk keeps its own length",
                 args.config,
-                "none" if not config.time.allocated_s else f"{config.time.allocated_s:g} s",
+                "none" if not own else f"{own:g} s",
                 sc.name,
                 sc.allocated_s,
             )

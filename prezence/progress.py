@@ -22,6 +22,7 @@ another band than in the newest rehearsal is marked and left out of its trend, w
 
 from __future__ import annotations
 
+import contextvars
 import logging
 import math
 import time
@@ -466,17 +467,31 @@ def progress_for(session_root: Path) -> dict[str, Any] | None:
     ``prezence progress`` to say, not for every talk's log (session 21, a second walkthrough:
     each ``run`` printed the warnings of damaged folders next to it): they are not repeated here.
     """
-    quiet = logging.getLogger(__name__)
-    level = quiet.level
-    quiet.setLevel(logging.ERROR)
+    token = _QUIET.set(True)  # this thread's (and context's) only: evaluate's talks are apart
     try:
         return progress(Path(session_root))
     except (ConfigError, OSError) as e:
         error: Exception = e
     finally:
-        quiet.setLevel(level)
+        _QUIET.reset(token)
     log.warning("progress across rehearsals left out: %s", error)
     return None
+
+
+#: Set while a talk's report reads its neighbours (:func:`progress_for`).
+_QUIET: contextvars.ContextVar[bool] = contextvars.ContextVar("quiet_neighbours", default=False)
+
+
+class _QuietNeighbours(logging.Filter):
+    """Drops what reading the rehearsals beside a talk logs (their damaged files, their
+    configs' notes) while :data:`_QUIET` is set; ``prezence progress`` says it all."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not _QUIET.get()
+
+
+for _name in (__name__, "prezence.config.load", "prezence.config.lines"):
+    logging.getLogger(_name).addFilter(_QuietNeighbours())
 
 
 def _slightly_off() -> float:

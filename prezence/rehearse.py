@@ -252,7 +252,7 @@ def rehearse(
     logs = {name: (session.root / f"{name}.log").open("w") for name in cmds}
     started = time.perf_counter()
     procs: dict[str, subprocess.Popen[str]] = {}
-    total = 0.0
+    total = recording_length_s(recording)
     try:
         for name, argv in cmds.items():
             procs[name] = subprocess.Popen(
@@ -262,7 +262,6 @@ def rehearse(
                 text=True,
                 preexec_fn=die_with_parent_hook(),  # a killed coach leaves no module behind
             )
-        total = recording_length_s(recording)
         while any(p.poll() is None for p in procs.values()):
             if progress is not None:
                 progress(min(newest_stamp(session.streams), total or MAX_TALK_S), total)
@@ -270,10 +269,10 @@ def rehearse(
     except KeyboardInterrupt as e:
         # Session 21, a second walkthrough: a SIGTERM or SIGINT to this process alone left the
         # modules analysing on, writing into the folder just said to be kept.
-        _stop_modules(procs)
+        # what the folder holds, written first (a second Ctrl-C while the modules stop must
+        # not lose it): the recording's length is the time used; its figures cover the part
+        # analysed (the report says so, and "measured over 1:11 of 3:42")
         analysed = newest_stamp(session.streams)
-        # what the folder holds: the recording's length is the time used; its figures cover
-        # the part analysed (the report says "measured over 1:11 of 3:42")
         session.write_meta(
             {
                 "kind": "rehearsal",
@@ -283,6 +282,7 @@ def rehearse(
                 "analysed_s": round(analysed, 3),
             }
         )
+        _stop_modules(procs)
         log.warning(
             "stopped by %s while the modules analysed the recording (%.0f s of %.0f s "
             "analysed); what they measured is kept in %s: `prezence report %s` reports on it",

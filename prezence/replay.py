@@ -182,6 +182,8 @@ def replay(
         if src_session.truth.exists()
         else None
     )
+    if bad_truth and not truth:  # every line damaged: no truth, not a talk always in range
+        truth = None
     # absolute: a relative path means nothing once the command's folder is gone (a report
     # rebuilt from elsewhere could not find the recording its cues were heard in)
     source = str(src.absolute())

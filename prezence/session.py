@@ -168,12 +168,18 @@ class SessionDir:
             )
         if not keep_streams and not self._synthetic():
             # Session 21, a second walkthrough: `run demo --out .` in a project folder replaced
-            # the user's own config.toml. Only a synthetic talk's own files (its session.json
-            # says so) are replaced. (A report/ of one's own is left alone by a talk run with
-            # --no-report; a report writes its own files into it.)
+            # the user's own config.toml (and its report/, which the next run then removed
+            # whole). Only a synthetic talk's own files (its session.json says so) are replaced.
             theirs = [
-                p.name
-                for p in (self.config, self.summary, self.decisions, self.truth, self.gestures)
+                p.name + ("/" if p.is_dir() else "")
+                for p in (
+                    self.config,
+                    self.summary,
+                    self.decisions,
+                    self.truth,
+                    self.gestures,
+                    self.report,
+                )
                 if p.exists()
             ]
             if theirs:

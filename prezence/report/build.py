@@ -924,6 +924,8 @@ def _rebuild(
         if session.truth.exists()
         else None
     )
+    if bad_truth and not truth:  # every line damaged: no truth, not a talk always in range
+        truth = None
     stale_default = cfg.processor.stale_after_s
     if ended is None:  # a coach that ran to the end wrote when it ended
         ended = recorded.get("ended_at_s") is not None
@@ -1103,6 +1105,12 @@ def _rebuild(
         "policy": meta.get("policy"),
         "backend": meta.get("backend"),
         "complete": complete,
+        # a rehearsal stopped while its modules analysed it: how far they got
+        **(
+            {"analysis_stopped_s": float(meta["analysed_s"])}
+            if meta.get("interrupted") and isinstance(meta.get("analysed_s"), int | float)
+            else {}
+        ),
         "planned_s": meta.get("talk_s"),
         "talk_s": round(talk_s, 3),
         "time": time_used,

@@ -260,16 +260,14 @@ def _inputs_used(report: Mapping[str, Any]) -> str:
     ]
     # a module of one's own (`up --module`): its input is none of ours to name (session 21, a
     # second walkthrough: "check the microphone and the camera" when neither was used)
-    own = sorted(
-        str(k)
-        for k, m in (report.get("metrics") or {}).items()
-        if isinstance(m, Mapping)
-        and m.get("measured")
-        and (k not in METRICS or METRICS[k].module not in ("speech", "vision"))
-    )
+    metrics = {k: m for k, m in (report.get("metrics") or {}).items() if isinstance(m, Mapping)}
+    ours = [k for k in metrics if k in METRICS and METRICS[k].module in ("speech", "vision")]
+    own = sorted(str(k) for k in metrics if k not in ours)
+    if not devices and (ours or not own):  # nothing said which of ours ran: both
+        devices = ["the microphone", "the camera"]
     if own:
         devices.append(f"the module that writes {_and(own)}")
-    return _and(devices or ["the microphone", "the camera"])
+    return _and(devices)
 
 
 def nothing_judged_sentence(report: Mapping[str, Any]) -> str:
@@ -665,8 +663,18 @@ def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
     from prezence.report.build import metric_label
 
     beyond = beyond_sentence(report.get("beyond_talk") or {})
+    stopped = report.get("analysis_stopped_s")
+    analysis = (
+        [
+            f"the analysis of the recording was stopped at {mmss(float(stopped))} of its "
+            f"{mmss(_talk_s(report))}: the figures cover that part"
+        ]
+        if isinstance(stopped, int | float)
+        else []
+    )
     return (
-        cut_sentences(report)
+        analysis
+        + cut_sentences(report)
         + module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
         + unreadable_sentences(report.get("unreadable") or ())
         + ([beyond] if beyond else [])

@@ -651,3 +651,9 @@ def test_a_rehearsal_stopped_while_analysing_stops_its_modules_and_says_what_it_
     assert meta["talk_s"] == pytest.approx(length, abs=0.01)
     report = build_report(out)
     assert report["time"]["used_s"] == pytest.approx(length, abs=0.01)  # the recording's
+    assert report["analysis_stopped_s"] == 5.0
+    from prezence.report.speech import trouble_sentences
+
+    assert trouble_sentences(report)[0].startswith(
+        "the analysis of the recording was stopped at 0:05 of its 0:18"
+    )

@@ -325,12 +325,16 @@ def test_a_talk_run_again_into_its_folder_leaves_no_report_of_the_earlier_talk(
     assert main(["-q", "run", "quiet_speaker", "--out", str(out), "--no-report"]) == 0
     assert json.loads((out / "summary.json").read_text())["scenario"] == "quiet_speaker"
     assert not (out / "report").exists()  # was fast_talker's report beside quiet_speaker's files
-    # a report/ folder of one's own in an --out no talk wrote is left alone
+    # a report/ folder of one's own in an --out no talk wrote is left alone: refused, as a
+    # talk's report would be written into it and the next run would remove it whole (session
+    # 21's second review)
     own = tmp_path / "own"
     (own / "report").mkdir(parents=True)
     (own / "report/notes.txt").write_text("mine\n")
-    assert main(["-q", "run", "short_talk", "--out", str(own), "--no-report"]) == 0
+    assert main(["-q", "run", "short_talk", "--out", str(own)]) == 2
+    assert main(["-q", "run", "short_talk", "--out", str(own), "--no-report"]) == 2
     assert (own / "report/notes.txt").read_text() == "mine\n"
+    assert sorted(p.name for p in own.iterdir()) == ["report"]
 
 
 def test_a_replay_stopped_before_its_end_is_not_done(
@@ -418,3 +422,9 @@ def test_run_says_the_scenario_keeps_its_length_over_the_configs_allocated_time(
         "its allocated time (300 s) is not used: the scenario fast_talker allocates 600 s"
         in caplog.text
     )
+    # a rules file sets no time: nothing of the user's is dropped, nothing to say
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        argv = ["run", "quiet_speaker", "--config", str(rules), "--out", str(tmp_path / "p")]
+        assert main([*argv, "--no-report"]) == 0
+    assert "allocated time" not in caplog.text

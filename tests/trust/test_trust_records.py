@@ -204,7 +204,10 @@ def test_a_bad_line_in_truth_jsonl_names_file_and_line(tmp_path: Path) -> None:
     s.truth.write_text('{"metric": "speech_speed", "start": 0, "end": 10}\nnot json\n{}\n')
     with pytest.raises(ConfigError, match=r"truth\.jsonl:2: not a JSON line"):
         read_jsonl(s.truth)
-    assert main(["report", str(s.root), "-q"]) == 2
+    # since session 21 the report skips the damaged lines and names them (as for cues.jsonl)
+    assert main(["report", str(s.root), "-q"]) == 0
+    skipped = json.loads((s.report / "report.json").read_text())["truth_skipped"]
+    assert [x.split(": ")[0] for x in skipped] == ["truth.jsonl:2", "truth.jsonl:3"]
 
 
 def test_deeply_nested_toml_in_check_config_is_an_error(
@@ -288,3 +291,14 @@ def test_a_guessed_end_never_cuts_off_recorded_samples(
     result = replay(s.root, out=tmp_path / "R", options=RunOptions.default(report=False))
     assert result.summary["talk_s"] == pytest.approx(595.0)
     assert not [r for r in caplog.records if "after the talk's end" in r.getMessage()]
+
+
+def test_a_truth_file_whose_every_line_is_damaged_gives_no_truth_figures(tmp_path: Path) -> None:
+    # session 21's second review: every line skipped left an empty ground truth, read as a
+    # talk always in range (truth 100 % and every cue a false alarm)
+    s = live_session(tmp_path / "S")
+    s.truth.write_text("not json\n{}\n")
+    assert main(["report", str(s.root), "-q"]) == 0
+    report = json.loads((s.report / "report.json").read_text())
+    assert len(report["truth_skipped"]) == 2
+    assert all(m.get("truth_time_in_range") is None for m in report["metrics"].values())

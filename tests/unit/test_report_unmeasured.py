@@ -406,3 +406,6 @@ def test_nothing_judged_from_a_module_of_ones_own_names_that_module() -> None:
     said = nothing_judged_sentence(report)
     assert said.endswith("check the module that writes fidget_rate.")
     assert "microphone" not in said and "camera" not in said
+    # one that wrote nothing at all: the same
+    report["metrics"]["fidget_rate"] = {"label": "fidget rate", "measured": False, "samples": 0}
+    assert nothing_judged_sentence(report).endswith("check the module that writes fidget_rate.")
