@@ -265,3 +265,15 @@ def test_the_lowest_speed_named_for_the_built_in_gestures_is_where_gestures_chec
     assert 0.1 < lowest < 0.6
     assert check_gestures(lowest, as_json=False, collisions=False)[1] == 0
     assert check_gestures(round(lowest - 0.01, 2), as_json=False, collisions=False)[1] == 1
+
+
+def test_the_built_in_gestures_pass_the_check_from_the_speed_a_talk_trusts() -> None:
+    # a talk with the built-in gestures at BUILTIN_PASS_FROM_SPEED or faster skips the check
+    # (it cost every process 0.15-0.2 s): the shipped gestures must pass there and above
+    from prezence.feedback.gesture_check import GestureCheckFailed, check_talk_gestures
+    from prezence.feedback.gestures import BUILTIN_PASS_FROM_SPEED
+
+    for speed in (BUILTIN_PASS_FROM_SPEED, 0.2, 0.35, 0.6, 0.85, 1.0):
+        check_talk_gestures(speed, library=None)  # raises if one fails
+    with pytest.raises(GestureCheckFailed):
+        check_talk_gestures(round(BUILTIN_PASS_FROM_SPEED - 0.01, 2), library=None)
