@@ -90,12 +90,6 @@ def same_bands(a: Config, b: Config) -> bool:
     return bands(a) == bands(b)
 
 
-#: Streams no rule judges that the coach or the report reads, copied into a replay of a folder
-#: of stream files when it has them: when a voice was heard, whether a gesture rate counted
-#: every arm, and the room's estimated SNR (a clarity cue in noise names it, as it did in the
-#: recorded talk). A replay of a session folder copies every stream it recorded: the report
-#: of a replay shows all the recording measured (head turns, …), only the coaching changes.
-CONTEXT_STREAMS = ("speech_activity.txt", "cv_gestures_source.txt", "speech_snr.txt")
 #: Summary keys of the recording that say what its modules did (a module that could not run,
 #: crashes and restarts: a replay's report explains the same gaps) and how long its
 #: recordings lasted (``up`` of files: the time used).
@@ -211,14 +205,11 @@ def replay(
     # (late first words, a time-limit stop's wording), whether the gesture rate counted every
     # arm, and the room's SNR (a clarity cue names the noise, as in the recorded talk)
     judged = {r.stream for r in config.rules}
-    context = {
-        name: folder / name
-        for name in CONTEXT_STREAMS
-        for folder in (rec.streams, src)
-        if (folder / name).is_file() and name not in judged
-    }
-    # every stream the recording measured (a session folder's; a folder of stream files: those
-    # named after a metric), so that the replay's report shows all of it (head turns, …)
+    # every stream the recording measured beyond the rules' (a session folder's; a folder of
+    # stream files: those named after a metric), so that the replay's coach and report read
+    # what the recording's did: when a voice was heard, whether a gesture rate counted every
+    # arm, the room's SNR (a clarity cue in noise names it), head turns, …
+    context: dict[str, Path] = {}
     for folder, known_only in ((rec.streams, False), (src, True)):
         if folder.is_dir():
             context.update(

@@ -607,7 +607,8 @@ def library_for_talk(path: str | Path | None, *, speed_fraction: float) -> Gestu
     clear of the robot's own body, a warning for each note ``gestures check`` gives (a gesture
     no command plays…), and every gesture the talk plays passing ``gestures check`` at
     ``speed_fraction`` (:func:`~prezence.feedback.gesture_check.check_talk_gestures`: none
-    takes so long that the robot could give no other cue). The file is read once per version.
+    takes so long that the robot could give no other cue). The file is read and checked once
+    per version and speed (the command's start and its talk both ask).
 
     Raises:
         ConfigError, LimitViolation: the file cannot be read or played (``file:line:``).
@@ -617,17 +618,25 @@ def library_for_talk(path: str | Path | None, *, speed_fraction: float) -> Gestu
         return None  # the built-in gestures at a speed they pass at (see the constant)
     from prezence.feedback.gesture_check import check_talk_gestures
 
-    library = None
-    if path is not None:
-        p = Path(path)
-        try:
-            st = p.stat()
-        except OSError:
-            load_library_file(p)  # raises, naming the file
-            raise
-        library = _for_talk(str(p), str(p.resolve()), st.st_mtime_ns, st.st_size)
-    check_talk_gestures(speed_fraction, library=library)
+    if path is None:
+        check_talk_gestures(speed_fraction, library=None)
+        return None
+    p = Path(path)
+    try:
+        st = p.stat()
+    except OSError:
+        load_library_file(p)  # raises, naming the file
+        raise
+    version = (str(p), str(p.resolve()), st.st_mtime_ns, st.st_size)
+    library = _for_talk(*version)
+    if (version, speed_fraction) not in _CHECKED:
+        check_talk_gestures(speed_fraction, library=library)  # raises: not remembered
+        _CHECKED.add((version, speed_fraction))
     return library
+
+
+#: The library versions and speeds :func:`library_for_talk` has found passing the check.
+_CHECKED: set[tuple[tuple[str, str, int, int], float]] = set()
 
 
 @functools.lru_cache(maxsize=8)

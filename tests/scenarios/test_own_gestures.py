@@ -134,7 +134,8 @@ def test_a_synthetic_talk_run_again_without_the_library_keeps_no_copy(
     assert "gestures" not in json.loads((out / "session.json").read_text())
 
 
-@pytest.mark.parametrize(
+#: every command that runs a talk (RECORDING: the played session)
+COMMANDS = pytest.mark.parametrize(
     "command",
     [
         ["run", "short_talk"],
@@ -145,6 +146,9 @@ def test_a_synthetic_talk_run_again_without_the_library_keeps_no_copy(
     ],
     ids=["run", "demo", "replay", "rehearse", "up"],
 )
+
+
+@COMMANDS
 def test_a_library_that_cannot_be_played_stops_every_talk_before_it_starts(
     played: tuple[Path, Path],
     tmp_path: Path,
@@ -218,18 +222,6 @@ TOO_LONG = 'format = 1\n[gestures.slow_down]\ndescription = "long"\n' + "".join(
 )
 #: the same with 1.5 s holds: within 10 s at 0.6, not at 0.08
 SLOW_AT_LOW_SPEED = TOO_LONG.replace("hold = 5", "hold = 1.5")
-
-COMMANDS = pytest.mark.parametrize(
-    "command",
-    [
-        ["run", "short_talk"],
-        ["demo"],
-        ["replay", "RECORDING"],
-        ["rehearse", "talk.wav"],
-        ["up", "--module", "x=true {session}", "--duration", "2"],
-    ],
-    ids=["run", "demo", "replay", "rehearse", "up"],
-)
 
 
 @COMMANDS

@@ -328,13 +328,18 @@ def _head_section(page: str) -> str:
     return page.split("<h2>Head turns</h2>", 1)[1].split("<h2>", 1)[0]
 
 
+def _head_after_report(session: SessionDir) -> str:
+    """The head-turn section of ``session``'s HTML report, written now."""
+    write_report(session.root, config=CONFIG, plots=False)
+    return _head_section((session.root / "report" / "report.html").read_text())
+
+
 def test_head_turns_not_measured_gives_advice_that_fits_the_command(tmp_path: Path) -> None:
     # an audio-only `prezence rehearse` was told "give --video cam or a video file": rehearse
     # has no --video option, it takes one recording
     pace = [(float(t), 160.0) for t in range(60)]
     heard = rehearsal(tmp_path / "r", {"speech_speed": pace}, talk_s=60.0, recording="/x/t.flac")
-    write_report(heard.root, config=CONFIG, plots=False)
-    head = _head_section((heard.root / "report" / "report.html").read_text())
+    head = _head_after_report(heard)
     assert "--video" not in head
     assert (
         "Not measured: t.flac is a sound recording: rehearse a video file (with sound) to "
@@ -343,8 +348,7 @@ def test_head_turns_not_measured_gives_advice_that_fits_the_command(tmp_path: Pa
     # `up` takes --video: the advice there is as it was
     live = rehearsal(tmp_path / "u", {"speech_speed": pace}, talk_s=60.0, recording=None)
     live.write_meta({"kind": "live", "talk_s": 60.0})
-    write_report(live.root, config=CONFIG, plots=False)
-    head = _head_section((live.root / "report" / "report.html").read_text())
+    head = _head_after_report(live)
     assert "give --video cam or a video file to prezence up" in head
 
 
@@ -359,8 +363,7 @@ def test_a_replay_does_not_say_no_camera_ran_when_its_recording_measured_head_tu
     )
     replay = rehearsal(tmp_path / "rep", {"speech_speed": pace}, talk_s=60.0, recording=None)
     replay.write_meta({"kind": "replay", "talk_s": 60.0, "source": str(src.root)})
-    write_report(replay.root, config=CONFIG, plots=False)
-    head = _head_section((replay.root / "report" / "report.html").read_text())
+    head = _head_after_report(replay)
     assert "no camera module ran" not in head
     assert (
         "the recording measured them but this replay did not copy them: see the report of "
@@ -369,8 +372,7 @@ def test_a_replay_does_not_say_no_camera_ran_when_its_recording_measured_head_tu
     # a replay of an audio-only rehearsal: the rehearsal's advice
     audio = rehearsal(tmp_path / "a", {"speech_speed": pace}, talk_s=60.0, recording="/x/t.flac")
     replay.write_meta({"kind": "replay", "talk_s": 60.0, "source": str(audio.root)})
-    write_report(replay.root, config=CONFIG, plots=False)
-    head = _head_section((replay.root / "report" / "report.html").read_text())
+    head = _head_after_report(replay)
     assert "the recording replayed has none: t.flac is a sound recording: rehearse a video" in head
 
 
