@@ -14,7 +14,6 @@ on, and the talk's length when the record ends early.
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import math
 from bisect import bisect_right
@@ -702,13 +701,50 @@ def _read_meta(session: SessionDir) -> dict[str, Any]:
         return {}
 
 
-def _load_session_config(session: SessionDir) -> Config:
-    from prezence.config.load import load_config
+def _judging_config(
+    session: SessionDir, config: Config | None, recorded: Mapping[str, Any]
+) -> tuple[Config, str | None]:
+    """The rules to judge the talk by, and what the report says when its ``config.toml`` is
+    damaged (None when it is not).
 
-    if session.config.exists():
-        return load_config(session.config)
-    log.warning("%s missing: using the built-in configuration", session.config)
-    return load_config(None)
+    ``config`` (rules given: ``--config``) judges the talk with the allocated time its own
+    ``config.toml`` records (replay does the same); None takes that file, or the built-in
+    configuration when the talk died before writing it. A ``config.toml`` that cannot be read
+    (torn mid-write: session 21, a second walkthrough) does not stop the report: it is named
+    (``file:line:col``) and the talk judged by the rules given, else by the built-in
+    configuration, with the allocated time its ``summary.json`` records when it records one.
+    """
+    from prezence.config.load import keep_recorded_time, load_config
+
+    if not session.config.exists():
+        if config is not None:
+            return config, None
+        log.warning("%s missing: using the built-in configuration", session.config)
+        return load_config(None), None
+    try:
+        own = load_config(session.config)
+    except ConfigError as e:
+        damaged = e
+    else:
+        if config is None:
+            return own, None
+        # rules given to judge the talk again keep its allocated time (replay does the same)
+        return keep_recorded_time(config, own, session.config), None
+    cfg = config if config is not None else load_config(None)
+    used = "the rules given (--config)" if config is not None else "the built-in configuration"
+    time_used = _recorded(recorded, "time")
+    allocated = time_used.get("allocated_s")
+    if "allocated_s" in time_used and (
+        allocated is None or isinstance(allocated, int | float) and not isinstance(allocated, bool)
+    ):
+        cfg = cfg.with_allocated(None if allocated is None else float(allocated))
+        said = "no time" if allocated is None else f"{float(allocated):g} s"
+        used += f", with the allocated time its summary.json records ({said})"
+    else:
+        used += " (no summary.json records its allocated time)"
+    log.warning("%s; the report judges the talk by %s", damaged, used)
+    note = f"the talk's config.toml is damaged, so it was judged by {used}: "
+    return cfg, note + _shown_record(str(damaged), session.root)
 
 
 def _talk_length(
@@ -800,7 +836,8 @@ def build_report(
     Args:
         session_dir: the session folder (see :mod:`prezence.session`).
         config: the rules to judge by; None reads the folder's ``config.toml`` (or the
-            built-in configuration if the talk died before writing it).
+            built-in configuration if the talk died before writing it, or it is damaged:
+            :func:`_judging_config`).
         ended: the coach ran the talk to its end (None: it did if its ``summary.json`` says
             when the talk ended, as a finished talk's does).
         modules: the launcher's record of the modules' crashes (None: ``summary.json``'s,
@@ -818,8 +855,9 @@ def build_report(
         ``complete`` (False when the record stops before the planned end) and ``streams``.
 
     Raises:
-        ConfigError: the folder does not exist, its ``config.toml`` is invalid, or it is not a
-            session folder (no ``session.json`` nor ``cues.jsonl``) and holds no stream file.
+        ConfigError: the folder does not exist, or it is not a session folder (no
+            ``session.json`` nor ``cues.jsonl``) and holds no stream file. A ``config.toml``
+            that cannot be read is named in ``config_damaged`` (the rules used instead said).
     """
     return _rebuild(session_dir, config, ended, modules, stopped_at_limit, recording_s)[0]
 
@@ -875,13 +913,8 @@ def _rebuild(
     if not session.root.is_dir():
         raise ConfigError("no such session folder", path=session.root)
     meta = _read_meta(session)
-    cfg = config if config is not None else _load_session_config(session)
-    if config is not None and session.config.is_file():
-        # rules given to judge the talk again keep its allocated time (replay does the same)
-        from prezence.config.load import keep_recorded_time, load_config
-
-        with contextlib.suppress(ConfigError):  # a damaged record: the rules given decide
-            cfg = keep_recorded_time(cfg, load_config(session.config), session.config)
+    recorded = _read_summary(session)  # the coach's summary.json, if it wrote one
+    cfg, config_damaged = _judging_config(session, config, recorded)
     from prezence.streams.locate import locate_streams, no_streams_error
     from prezence.streams.tail import read_stream
 
@@ -910,7 +943,6 @@ def _rebuild(
                     "example": None if first is None else f"line {first.line}: {first.reason}",
                 }
             )
-    recorded = _read_summary(session)  # the coach's summary.json, if it wrote one
     if modules is None:
         modules = _recorded_modules(recorded)
     # a bad cue line (a torn last line, a damaged one) is skipped and said, not fatal: the
@@ -1139,6 +1171,7 @@ def _rebuild(
     }
     # what went wrong on the way, only when something did (a clean talk's report is as before)
     troubles = {
+        "config_damaged": config_damaged,
         "unreadable": unreadable,
         "skipped_records": [_shown_record(p, session.root) for p in bad_cues],
         # this folder's truth.jsonl, and a replay's recording's (its summary.json names them)
@@ -1383,7 +1416,8 @@ def report_main(session_dir: str | Path, *, config: str | Path | None = None) ->
         config: a configuration file to judge by instead of the folder's ``config.toml``.
 
     Raises:
-        ConfigError: the folder does not exist or a configuration is invalid (the CLI prints it).
+        ConfigError: the folder does not exist or the configuration given is invalid (the CLI
+            prints it); the folder's own ``config.toml`` damaged is said in the report instead.
     """
     from prezence.bars import progress_bar
     from prezence.config.load import load_config

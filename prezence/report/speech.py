@@ -657,9 +657,10 @@ def beyond_sentence(beyond: Mapping[str, int]) -> str | None:
 
 
 def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
-    """What went wrong on the way, for the text and the HTML report alike: cues cut short and
-    an unsaid summary, modules that crashed or hung, unreadable stream lines, samples stamped
-    after the talk, damaged record and ground-truth lines ([] for a talk where nothing did)."""
+    """What went wrong on the way, for the text and the HTML report alike: a damaged
+    ``config.toml`` (and the rules judged by instead), cues cut short and an unsaid summary,
+    modules that crashed or hung, unreadable stream lines, samples stamped after the talk,
+    damaged record and ground-truth lines ([] for a talk where nothing did)."""
     from prezence.report.build import metric_label
 
     beyond = beyond_sentence(report.get("beyond_talk") or {})
@@ -672,8 +673,10 @@ def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
         if isinstance(stopped, int | float)
         else []
     )
+    damaged = report.get("config_damaged")
     return (
-        analysis
+        ([str(damaged)] if damaged else [])
+        + analysis
         + cut_sentences(report)
         + module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
         + unreadable_sentences(report.get("unreadable") or ())

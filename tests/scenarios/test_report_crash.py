@@ -171,3 +171,52 @@ def test_a_damaged_truth_line_is_skipped_and_named_in_the_report_and_the_replay(
     copied = (tmp_path / "rp" / "truth.jsonl").read_text().splitlines()
     assert [json.loads(x) for x in copied] == [json.loads(x) for x in kept]
     assert build_report(tmp_path / "rp")["truth_skipped"] == rp.summary["truth_skipped"]
+
+
+def test_a_torn_config_is_named_and_the_report_still_comes_out(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    # session 21, a second walkthrough: a config.toml torn mid-write stopped `prezence report`
+    # with its file:line:col; with --config it came out silently, judged by the given file's 600 s
+    from prezence.cli import main
+
+    out = tmp_path / "s"
+    assert main(["-q", "run", "short_talk", "--out", str(out), "--no-report"]) == 0  # 2:10
+    capsys.readouterr()
+    assert main(["report", str(out)]) == 0
+    whole = capsys.readouterr().out.splitlines()
+    config = out / "config.toml"
+    text = config.read_text()
+    cut = text.index("threshold =") + len("thre")
+    config.write_text(text[:cut])  # cut short mid-write, in a key
+    line = text[:cut].count("\n") + 1
+    where = f"config.toml:{line}:5: TOML: Expected '=' after a key in a key/value pair"
+    assert main(["report", str(out)]) == 0
+    printed = capsys.readouterr().out
+    said = (
+        "note: the talk's config.toml is damaged, so it was judged by the built-in "
+        f"configuration, with the allocated time its summary.json records (130 s): {where}"
+    )
+    assert said in printed
+    assert f"{out / where}" in caplog.text  # the warning names the file in full
+    # the built-in rules are short_talk's: the same report, the time used of 2:10 kept
+    assert [ln for ln in whole if ln.startswith("  ")] == [
+        ln for ln in printed.splitlines() if ln.startswith("  ") and "config.toml" not in ln
+    ]
+    # rules given: they judge, the recorded allocated time is kept, and the damage is said
+    rules = tmp_path / "rules.txt"  # the seed's format: no time of its own (600 s)
+    rules.write_text("speech_speed inRange 100 300\n")
+    assert main(["report", str(out), "--config", str(rules)]) == 0
+    printed = capsys.readouterr().out
+    assert (
+        "note: the talk's config.toml is damaged, so it was judged by the rules given "
+        f"(--config), with the allocated time its summary.json records (130 s): {where}"
+    ) in printed
+    assert "You used 40 seconds of 2 minutes 10 seconds" in printed
+    # no summary.json either: the built-in configuration, said
+    (out / "summary.json").unlink()
+    assert main(["report", str(out)]) == 0
+    assert (
+        "note: the talk's config.toml is damaged, so it was judged by the built-in "
+        f"configuration (no summary.json records its allocated time): {where}"
+    ) in capsys.readouterr().out
