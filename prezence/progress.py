@@ -6,8 +6,9 @@ was rehearsing: the speaker ``session.json`` records (``--speaker`` on ``up`` an
 ``rehearse``); for a synthetic talk, its scenario (a persona is one speaker; two personas are
 not); else, as before speakers were recorded, the folder (joined to the speaker of that
 folder's name). Replays are left out: they are the same talk coached again. Each session's
-``summary.json`` gives each metric's time in the ideal range; sessions are ordered by when
-they were recorded.
+``summary.json`` gives each metric's time in the ideal range (one that cannot be read, torn
+mid-write, has its figures rebuilt from the streams as ``prezence report`` rebuilds them, and
+said so); sessions are ordered by when they were recorded.
 
 A metric the report did not judge (measured for less than 10 s: ``too_brief``) has no figure
 ("–*", a note says why) and is left out of the trend. The trend is the newest rehearsal against
@@ -374,12 +375,14 @@ def _table(
     sides: list[dict[str, str]] = []  # per rehearsal, metric -> the side it was mostly out on
     bands: list[dict[str, str] | None] = []
     recordings: set[str] = set()
+    notes: list[str] = []  # the rehearsals rebuilt from their streams first
     for when, s, meta in sessions:
+        rebuilt: str | None = None  # why its figures come from its streams
         try:
-            summ = read_json_object(s.summary)
+            summ: dict[str, Any] | None = read_json_object(s.summary)
         except ConfigError as e:
-            log.warning("%s; left out of the progress table", e)
-            left_out.append({"path": str(s.root), "why": str(e)})
+            summ, rebuilt = _rebuilt(s, e, left_out), str(e)
+        if summ is None:
             continue
         metrics = summ.get("metrics")
         if not isinstance(metrics, dict):
@@ -395,12 +398,24 @@ def _table(
         if isinstance(rec, str) and rec:  # a rehearsal: which recording it coached
             label += f", {Path(rec).name}"
             recordings.add(rec)
-        cols.append({"path": str(s.root), "name": s.root.name, "label": label})
+        if rebuilt is not None:
+            label += ", rebuilt from its streams (its summary.json is damaged)"
+            notes.append(
+                f"rehearsal {len(cols) + 1} ({s.root.name}): figures rebuilt from its streams, "
+                f"as `prezence report` does: {rebuilt}"
+            )
+        cols.append(
+            {
+                "path": str(s.root),
+                "name": s.root.name,
+                "label": label,
+                **({"rebuilt": rebuilt} if rebuilt is not None else {}),
+            }
+        )
     names: list[str] = []
     for m in per:
         names += [k for k in m if k not in names]
     rows = []
-    notes: list[str] = []
     for name in names:
         # a figure the report did not judge (0 s of pace is "0 %") is no figure: "–", a note
         why = [u.get(name) for u in unjudged]
@@ -460,6 +475,30 @@ def _table(
     return {"speaker": speaker, "sessions": cols, "rows": rows, "notes": notes}
 
 
+def _rebuilt(
+    s: SessionDir, damaged: ConfigError, left_out: list[dict[str, str]]
+) -> dict[str, Any] | None:
+    """The figures of a rehearsal whose ``summary.json`` cannot be read (torn mid-write,
+    damaged), rebuilt from its streams by the report's own code (:func:`prezence.report.build.
+    build_report`, what ``prezence report`` prints), as ``{"metrics": …}``; None (and the
+    rehearsal added to ``left_out``) when even that fails. Session 21, a second walkthrough:
+    such a rehearsal was left out of the table though its report could be rebuilt."""
+    from prezence.report.build import build_report
+
+    log.warning("%s; its figures are rebuilt from its streams, as `prezence report` does", damaged)
+    token = _QUIET.set(True)  # what the rebuild finds is the report's to say, not the table's
+    try:
+        return {"metrics": build_report(s.root)["metrics"]}
+    except (PrezenceError, OSError) as e:
+        error: Exception = e
+    finally:
+        _QUIET.reset(token)
+    log.warning("%s: not rebuilt either (%s); left out of the progress table", s.root, error)
+    why = f"{damaged}; not rebuilt from its streams either: {error}"
+    left_out.append({"path": str(s.root), "why": why})
+    return None
+
+
 def progress_for(session_root: Path) -> dict[str, Any] | None:
     """:func:`progress` of the session ``session_root`` (None when it cannot be read).
 
@@ -490,7 +529,14 @@ class _QuietNeighbours(logging.Filter):
         return not _QUIET.get()
 
 
-for _name in (__name__, "prezence.config.load", "prezence.config.lines"):
+for _name in (
+    __name__,
+    "prezence.config.load",
+    "prezence.config.lines",
+    "prezence.report.build",
+    "prezence.session",
+    "prezence.streams.tail",
+):
     logging.getLogger(_name).addFilter(_QuietNeighbours())
 
 

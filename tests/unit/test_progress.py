@@ -315,4 +315,37 @@ def test_a_talks_report_does_not_repeat_the_warnings_of_damaged_folders_beside_i
     caplog.clear()
     with caplog.at_level(logging.WARNING):
         assert main(["progress", str(tmp_path)]) == 0
-    assert "a/summary.json" in caplog.text and "left out of the progress table" in caplog.text
+    assert "a/summary.json" in caplog.text and "rebuilt from its streams" in caplog.text
+
+
+def test_a_rehearsal_whose_summary_is_torn_is_rebuilt_from_its_streams_and_said_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 21, a second walkthrough: a rehearsal whose summary.json was torn (cut short
+    # mid-write) was left out of the table, though `prezence report` rebuilds it from its streams
+    for name in ("a", "b"):
+        assert main(["-q", "run", "short_talk", "--out", str(tmp_path / name), "--no-report"]) == 0
+    assert main(["progress", str(tmp_path)]) == 0
+    whole = capsys.readouterr().out.splitlines()
+    torn = tmp_path / "a" / "summary.json"
+    text = torn.read_text()
+    torn.write_text(text[: len(text) // 2])  # cut short mid-write
+    try:
+        json.loads(torn.read_text())
+    except json.JSONDecodeError as e:
+        line = e.lineno
+    assert main(["progress", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    assert lines[0].startswith("2 rehearsals of short_talk")
+    assert "left out: a" not in out
+    # the same figures as the summary.json had, rebuilt the way the report rebuilds them
+    rows = [ln for ln in whole if ln.startswith(("pace", "volume", "clarity", "gestures"))]
+    assert rows and all(row in lines for row in rows), out
+    first = next(ln for ln in lines if ln.startswith("1: a, "))
+    assert first.endswith("rebuilt from its streams (its summary.json is damaged)")
+    assert not next(ln for ln in lines if ln.startswith("2: b, ")).endswith("damaged)")
+    assert (
+        f"rehearsal 1 (a): figures rebuilt from its streams, as `prezence report` does: "
+        f"{torn}:{line}:"
+    ) in out
