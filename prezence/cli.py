@@ -219,19 +219,20 @@ def _violations(summary: dict[str, Any]) -> str:
 
 
 def _trouble_notes(summary: dict[str, Any]) -> list[str]:
-    """Modules that crashed or hung (and what they left unmeasured), unreadable lines and
-    damaged cue and ground-truth lines."""
+    """Modules that crashed or hung (and what they left unmeasured), metrics that went stale,
+    unreadable lines and damaged cue and ground-truth lines."""
     from prezence.report.speech import (
         module_sentences,
         skipped_sentences,
+        stale_sentences,
         truth_skipped_sentences,
     )
     from prezence.summary import module_notes
 
     metrics = summary.get("metrics") or {}
-    out = module_sentences(
-        module_notes(summary.get("modules"), metrics), float(summary.get("talk_s") or 0.0)
-    )
+    notes = module_notes(summary.get("modules"), metrics)
+    talk_s = float(summary.get("talk_s") or 0.0)
+    out = module_sentences(notes, talk_s) + stale_sentences(metrics, notes, talk_s)
     problems = [str(p) for p in summary.get("stream_problems") or []]
     for name, m in metrics.items():
         n = int((m.get("stream") or {}).get("malformed") or 0)

@@ -412,6 +412,29 @@ def module_outages(
     return out
 
 
+def stale_spans(ts: np.ndarray, talk_s: float, stale_s: float) -> list[dict[str, Any]]:
+    """A metric's stale episodes: each stretch with no new value for longer than ``stale_s``
+    (its last value holds that long), as ``{"after", "from", "to", "stale_after_s"}``: its
+    last value's time (None: no value at all), when that value stopped holding, and the next
+    value or the talk's end. One per stale episode: ``stale_episodes`` is their number.
+
+    Example:
+        >>> stale_spans(np.array([0.0, 1.0, 10.0]), 12.0, 6.0)
+        [{'after': 1.0, 'from': 7.0, 'to': 10.0, 'stale_after_s': 6.0}]
+        >>> stale_spans(np.array([]), 12.0, 6.0)
+        [{'after': None, 'from': 0.0, 'to': 12.0, 'stale_after_s': 6.0}]
+    """
+    ends = [(float(ts[i]), float(ts[i + 1])) for i in np.flatnonzero(np.diff(ts) > stale_s)]
+    if len(ts) and talk_s - float(ts[-1]) > stale_s:
+        ends.append((float(ts[-1]), talk_s))
+    spans: list[dict[str, Any]] = [
+        {"after": round(a, 3), "from": round(a + stale_s, 3), "to": round(b, 3)} for a, b in ends
+    ]
+    if not len(ts):  # the module that opened the file never reported: stale all the talk
+        spans = [{"after": None, "from": 0.0, "to": round(talk_s, 3)}]
+    return [{**sp, "stale_after_s": stale_s} for sp in spans]
+
+
 def _hung(crash: Mapping[str, Any]) -> bool:
     return "silent_since" in crash or "(hung)" in str(crash.get("why") or "")
 
@@ -540,11 +563,19 @@ def build_summary(
             :func:`estimate_notes`); its advice stands.
 
     A metric measured for less than :data:`MIN_JUDGED_S` has ``too_brief``: the report neither
-    advises on it nor praises it.
+    advises on it nor praises it. A metric's stale episodes are counted (``stale_episodes``)
+    and listed (``stale_spans``, :func:`stale_spans`, with the module that writes it when
+    ``modules`` says).
     """
     metrics: dict[str, Any] = {}
     stale_default = config.processor.stale_after_s
     lost = module_outages(modules, streams, talk_s)
+    writers = {  # metric -> the module that writes it, as the launcher records it
+        str(metric): str(name)
+        for name, rec in (modules or {}).items()
+        if isinstance(rec, Mapping) and isinstance(rec.get("metrics"), list)
+        for metric in rec["metrics"]
+    }
     for rule in config.rules:
         ss = sorted(streams.get(rule.metric, ()), key=attrgetter("t"))
         ts = np.array([s.t for s in ss], dtype=float)
@@ -575,7 +606,6 @@ def build_summary(
             m["offset"] = rule.offset
             if rule.at:
                 m["at"] = rule.at
-        gaps = int(np.count_nonzero(np.diff(ts) > stale_s))
         why = (unmeasured or {}).get(rule.metric)
         rec = METRICS.get(rule.metric)
         if not ss and why is None and rec is not None and talk_s < rec.first_after_s:
@@ -588,8 +618,13 @@ def build_summary(
                 m["not_measured_why"] = why
         else:
             # No sample at all is one stale episode as long as the talk: the module that
-            # opened the file never reported.
-            m["stale_episodes"] = gaps + (1 if not ss or talk_s - ss[-1].t > stale_s else 0)
+            # opened the file never reported. Each is said in the notes (session 21: a
+            # module silent again after its restart was counted, never said)
+            spans = stale_spans(ts, talk_s, stale_s)
+            m["stale_episodes"] = len(spans)
+            if spans:
+                who = writers.get(rule.metric)
+                m["stale_spans"] = [{**sp, "module": who} if who else sp for sp in spans]
         if ss and m["in_range_s"] + m["out_of_range_s"] < MIN_JUDGED_S:
             m["too_brief"] = True
         if ss and less_reliable and rule.metric in less_reliable:

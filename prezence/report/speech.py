@@ -518,6 +518,62 @@ def module_sentences(
     return out
 
 
+def stale_sentences(
+    metrics: Mapping[str, Any],
+    notes: Sequence[Mapping[str, Any]],
+    talk_s: float,
+    label: Callable[[str], str] = str,
+) -> list[str]:
+    """One sentence per metric that went stale (no new value for longer than a value holds:
+    its ``stale_spans``, one per stale episode counted) at a time a module's crash or hang
+    (``notes``, :func:`module_sentences`) does not already say: from when to when it was not
+    measured. Session 21, a second walkthrough: a module silent again after its restart was
+    counted as a stale episode but said nowhere.
+
+    Example:
+        >>> sp = {"after": 35.0, "from": 41.0, "to": 44.0, "stale_after_s": 6.0, "module": "f"}
+        >>> stale_sentences({"fidget_rate": {"stale_spans": [sp]}}, [], 45.0)
+        ['fidget_rate went stale (module f wrote no new value for over 6 s) after 0:35: not measured from 0:41 to 0:44']
+    """  # noqa: E501 - a doctest output line
+    said: dict[str, list[tuple[float, float]]] = {}
+    for n in notes:
+        for sp in n.get("lost") or ():
+            said.setdefault(str(sp["metric"]), []).append((float(sp["from"]), float(sp["to"])))
+    out: list[str] = []
+    for metric, m in metrics.items():
+        if not isinstance(m, Mapping):
+            continue
+        spans = [
+            sp
+            for sp in m.get("stale_spans") or ()
+            if isinstance(sp, Mapping)
+            and not any(
+                a < float(sp["to"]) and float(sp["from"]) < b for a, b in said.get(metric, ())
+            )
+        ]
+        if not spans:
+            continue
+        module = spans[0].get("module")
+        name = label(metric)
+        parts = []
+        for sp in spans:
+            to = float(sp["to"])
+            end = f"the end ({mmss(to)})" if to >= talk_s - 0.5 else mmss(to)
+            parts.append(f"from {mmss(float(sp['from']))} to {end}")
+        after = [mmss(float(sp["after"])) for sp in spans if sp.get("after") is not None]
+        if not after:  # no value at all: the table's "no data", said with its span
+            who = f"module {module} wrote no value" if module else "no value came"
+            out.append(f"{name} had no data {parts[0]}: {who}")
+            continue
+        who = f"module {module} wrote no new value" if module else "no new value came"
+        hold = float(spans[0].get("stale_after_s") or 0.0)
+        out.append(
+            f"{name} went stale ({who} for over {hold:g} s) after {_and(after)}: not measured "
+            + " and ".join(parts)
+        )
+    return out
+
+
 def unreadable_sentences(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """One sentence per stream file with lines skipped as unreadable.
 
@@ -659,8 +715,9 @@ def beyond_sentence(beyond: Mapping[str, int]) -> str | None:
 def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
     """What went wrong on the way, for the text and the HTML report alike: a damaged
     ``config.toml`` (and the rules judged by instead), cues cut short and an unsaid summary,
-    modules that crashed or hung, unreadable stream lines, samples stamped after the talk,
-    damaged record and ground-truth lines ([] for a talk where nothing did)."""
+    modules that crashed or hung, metrics that went stale, unreadable stream lines, samples
+    stamped after the talk, damaged record and ground-truth lines ([] for a talk where nothing
+    did)."""
     from prezence.report.build import metric_label
 
     beyond = beyond_sentence(report.get("beyond_talk") or {})
@@ -679,6 +736,9 @@ def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
         + analysis
         + cut_sentences(report)
         + module_sentences(report.get("modules") or (), _talk_s(report), metric_label)
+        + stale_sentences(
+            report.get("metrics") or {}, report.get("modules") or (), _talk_s(report), metric_label
+        )
         + unreadable_sentences(report.get("unreadable") or ())
         + ([beyond] if beyond else [])
         + skipped_sentences(report.get("skipped_records") or ())

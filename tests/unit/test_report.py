@@ -595,6 +595,43 @@ def test_a_restarted_module_is_measured_again_when_it_writes_again(tmp_path: Pat
     assert text.count("not measured from 0:06 to 0:12") == 1
 
 
+def test_a_module_silent_again_after_its_restart_is_in_the_not_measured_note(
+    tmp_path: Path,
+) -> None:
+    # session 21, a second walkthrough: a module restarted after a hang fell silent again for
+    # less than its hang limit: "stale episodes 2", but the note named only the hang
+    from prezence.cli import format_timeline
+    from prezence.summary import summarize_session
+
+    why = "showed no sign of life for 20 s (hung); killed"
+    hang = {"t": 25.3, "why": why, "silent_since": 5.3}
+    session = crashed_module_session(tmp_path / "s", [hang])
+    with session.stream("fidget_rate.txt").open("a") as f:  # back at 0:30, silent 0:35-0:44
+        f.write("".join(f"{t} 1.0\n" for t in [*range(30, 36), 44]))
+    hung = (
+        "module fidget hung at 0:05 (killed at 0:25) and was restarted; fidget_rate was not "
+        "measured from 0:05 to 0:30"
+    )
+    # the processor's default: a value holds 6 s, so 0:35's holds to 0:41
+    again = (
+        "fidget_rate went stale (module fidget wrote no new value for over 6 s) after 0:35: "
+        "not measured from 0:41 to 0:44"
+    )
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert f"note: {hung}\n" in text and f"note: {again}\n" in text
+    assert f"{again[0].upper()}{again[1:]}." in (session.report / "report.html").read_text()
+    assert build_report(session.root)["counts"]["stale_episodes"] == 2
+    # what `up` prints at the end of the talk: the count and the note agree
+    modules = json.loads(session.summary.read_text())["modules"]
+    config = Config(rules=(FIDGET,), time=TimeSettings(allocated_s=60.0))
+    printed = format_timeline(
+        summarize_session(session, config, talk_s=45.0, extra={"modules": modules})
+    )
+    assert "stale episodes 2," in printed
+    assert f"note: {hung}\n" in printed and f"note: {again}" in printed
+
+
 def test_unreadable_stream_lines_are_counted_per_file_in_the_report(tmp_path: Path) -> None:
     # session 13: 205 bad lines were skipped in silence; only 41 late stamps were mentioned
     session = crashed_module_session(tmp_path / "s", [])
