@@ -223,12 +223,15 @@ class Coach:
         self.performed: list[dict[str, Any]] = []
         self.decisions = 0
 
-    def tick(self, now: float, samples: Iterable[Sample]) -> Decision:
-        """One decision point at ``now`` with the samples that arrived since the last one."""
+    def tick(self, now: float, samples: Iterable[Sample], *, over: bool = False) -> Decision:
+        """One decision point at ``now`` with the samples that arrived since the last one
+        (``over``: the talk ends at ``now``, so no cue is given)."""
         self.backend.advance(now)
         self._settle()
         free_since = self._free_since if not self.backend.busy else None
-        decision = self.processor.step(now, samples, free_since=free_since, with_views=False)
+        decision = self.processor.step(
+            now, samples, free_since=free_since, with_views=False, over=over
+        )
         self.decisions += 1
         cue = decision.cue
         if cue is not None and cue.metric == NOISY_METRIC and self.noise is not None:

@@ -473,11 +473,12 @@ class Talk:
         if hold is not None:
             hold.release()
 
-    def step(self, now: float) -> Decision:
-        """One decision point at ``now`` with the source's new samples."""
+    def step(self, now: float, *, over: bool = False) -> Decision:
+        """One decision point at ``now`` with the source's new samples (``over``: the talk
+        ends at ``now``: the samples count, but no cue is given after the talk)."""
         assert self.coach is not None, "start() first"
         self.last_samples = self.source.poll(now)
-        d = self.coach.tick(now, self.last_samples)
+        d = self.coach.tick(now, self.last_samples, over=over)
         if self.on_decision is not None:
             self.on_decision(d)
         return d
@@ -701,11 +702,13 @@ def run_talk(
             if isinstance(clock, SteppedClock):
                 length = float(source.talk_s or 0.0)
                 pace = talk.pace if talk.paced else None
-                for now in clock.points(length):
+                points = clock.points(length)
+                last = points[-1] if points else None
+                for now in points:
                     clock.set(now)
                     if pace is not None:
                         pace(now)
-                    d = talk.step(now)
+                    d = talk.step(now, over=now == last)
                     if view is not None:
                         view.decision(_with_views(talk, d))
                     if progress is not None:
@@ -745,7 +748,7 @@ def run_talk(
         if clock.live:
             talk_s = clock.now()
             talk.source.finish_input()
-            talk.step(talk_s)  # the samples written while the modules stopped
+            talk.step(talk_s, over=True)  # the samples written while the modules stopped
             now = talk_s
         return talk.finish(
             now,

@@ -157,6 +157,7 @@ class Processor:
         *,
         free_since: float | None,
         with_views: bool = True,
+        over: bool = False,
     ) -> Decision:
         """Ingest ``samples``, integrate to ``now`` and decide.
 
@@ -167,6 +168,8 @@ class Processor:
                 gap is counted from here.
             with_views: put every metric's view in the decision (False: an empty tuple; ask
                 :meth:`views` when one is needed).
+            over: ``now`` is the talk's end (its last decision point): the samples are
+                taken in, but no cue is chosen, as the presenter can no longer act on one.
 
         Returns:
             The decision; its ``cue`` is set when a cue must be given now.
@@ -174,6 +177,8 @@ class Processor:
         if samples:
             self.ingest(samples, now=now)
         views = self.views(now) if with_views else ()
+        if over:
+            return Decision(now, None, "the talk is over", free_since is None, (), views)
         if self.policy.whole:
             chosen = self.policy.decide(now, free_since is not None)
             if chosen is None:

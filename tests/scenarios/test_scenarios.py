@@ -165,3 +165,20 @@ def test_every_record_is_standard_json(tmp_path: Path) -> None:
         for line in path.read_text().splitlines():
             json.loads(line, parse_constant=refuse)
     json.loads(s.summary.read_text(), parse_constant=refuse)
+
+
+@pytest.mark.parametrize(("name", "policy", "seed"), [("fast_talker", "rhema", 1826701614)])
+def test_no_cue_is_given_at_the_talks_end(
+    name: str, policy: str, seed: int, tmp_path: Path
+) -> None:
+    """A cue at the talk's last instant came after the talk: the presenter could not act on it,
+    yet it was counted, judged and performed (a 600 s fast_talker under rhema cued slowDown at
+    10:00.0, a cue the Gymnasium env, whose agent acts before each step, could never give).
+    The last decision point takes in its samples and says why it gives no cue."""
+    scenario = load_scenario(name)
+    result = runner.run_talk(scenario, out=tmp_path, seed=seed, backend="fake", policy=policy)
+    end = scenario.duration_s
+    assert result.cues, "the talk gave no cue at all: nothing to check"
+    assert all(c["t"] < end for c in result.cues), [(c["t"], c["command"]) for c in result.cues]
+    last = read_jsonl(result.session.decisions)[-1]
+    assert (last["t"], last["cue"], last["reason"]) == (end, None, "the talk is over")
