@@ -83,6 +83,8 @@ def format_timeline(summary: dict[str, Any]) -> str:
     for c in summary["cues"]:
         lat = c.get("latency_s")
         ok = "yes" if c.get("relevant") in (True, None) else "NO"
+        if c.get("cue_class") == "unmeasured":  # its metric was not measured then: unknown
+            ok = "?"
         if c.get("dropped"):
             ok = "drp"
         lines.append(
@@ -137,6 +139,8 @@ def format_timeline(summary: dict[str, Any]) -> str:
     c = summary["counts"]
     cut = f", cut short {c['cues_cut_short']}" if c.get("cues_cut_short") else ""
     stale = f", stale {c['stale']}" if c.get("stale") else ""  # as evaluate counts them
+    if c.get("cues_unmeasured"):  # given while its metric was not measured: not judged
+        stale += f", not judged {c['cues_unmeasured']}"
     lines.append(
         f"cues {c['cues']} (dropped {c['cues_dropped']}{cut}, false alarms {c['false_alarms']}"
         f"{stale}), "

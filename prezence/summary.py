@@ -343,6 +343,44 @@ def measured_intervals(
     return out
 
 
+def no_data_spans(
+    samples: Sequence[Sample],
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float] = (),
+) -> list[tuple[float, float]]:
+    """The stretches of the talk no recorded value held (each sample holds as in
+    :func:`measured_intervals`: until the next one, the stale time, the talk's end or its
+    module's death), as ``(from, to)``: before the first value, and from when a value stopped
+    holding until the next one or the talk's end.
+
+    A cue given in one cannot be judged: nothing says whether the metric was still out of
+    range (session 22: a cue 3 s after a module crashed was called "STALE: back in range").
+
+    Example:
+        >>> ss = [Sample("v", t, 1.0) for t in (2.0, 3.0, 10.0)]
+        >>> no_data_spans(ss, 20.0, 2.0, cuts=[4.0])
+        [(0.0, 2.0), (4.0, 10.0), (12.0, 20.0)]
+    """
+    ts = np.sort(np.fromiter((s.t for s in samples), dtype=float, count=len(samples)))
+    ts = ts[ts < talk_s]
+    if not len(ts):
+        return [(0.0, float(talk_s))] if talk_s > 0 else []
+    nxt = np.append(ts[1:], talk_s)
+    held = np.minimum(np.minimum(nxt, ts + stale_s), talk_s)
+    if len(cuts):
+        held = np.minimum(held, hold_ends(ts, cuts))
+    out = [(0.0, float(ts[0]))] if ts[0] > 0 else []
+    out += [(float(a), float(b)) for a, b in zip(held, nxt, strict=True) if a < b]
+    return out
+
+
+def _in_span(spans: Sequence[tuple[float, float]], t: float) -> tuple[float, float] | None:
+    """The span of ``spans`` (sorted, apart) that holds ``t`` (``from <= t < to``), if any."""
+    i = bisect.bisect_right([a for a, _ in spans], t) - 1
+    return spans[i] if i >= 0 and t < spans[i][1] else None
+
+
 def _truth_in_range_fraction(
     truth: Sequence[Mapping[str, Any]], metric: str, talk_s: float
 ) -> float:
@@ -641,11 +679,23 @@ def build_summary(
         metrics[rule.metric] = m
 
     rules = {r.metric: r for r in config.rules}
+    # when each cued metric had no value: a cue then cannot be judged by the recorded values
+    gaps: dict[str, list[tuple[float, float]]] = {}
     # what each corrective cue is judged by: the ground truth, else the recorded values
     if truth is not None:
         judged_by = Stretches(truth)
     else:  # only the metrics that were cued
         cued = {c.get("metric") for c in cues}
+        gaps = {
+            rule.metric: no_data_spans(
+                streams.get(rule.metric, ()),
+                talk_s,
+                rule.stale_after_s if rule.stale_after_s is not None else stale_default,
+                [sp["from"] for sp in lost.get(rule.metric, ())],
+            )
+            for rule in config.rules
+            if rule.metric in cued
+        }
         judged_by = Stretches(
             [
                 x
@@ -686,8 +736,19 @@ def build_summary(
         if cue_rule is not None:
             side = "below" if c["command"] == cue_rule.below else "above"
             kind, when = judged_by.classify(cue_rule.metric, side, t)
+            no_data = gaps.get(cue_rule.metric, [])
+            gap = _in_span(no_data, t) if kind != "relevant" else None
+            if gap is not None:
+                # no value held at t (its module died, the stream went stale): not "back in
+                # range" nor "in range", only not measured (session 22)
+                kind, when = "unmeasured", None
+                row["not_measured_since"] = round(gap[0], 3)
+            elif kind == "stale" and when is not None:
+                # measured back in range when the first value after a gap came, not when the
+                # last value out of range stopped holding
+                when = next((b for a, b in no_data if abs(a - when) < 1e-6 and b <= t), when)
             row["cue_class"] = kind
-            relevant = kind == "relevant"
+            relevant = None if kind == "unmeasured" else kind == "relevant"
             if kind == "relevant":
                 if truth is not None:  # the real onset; the coach's is its own view
                     onset = when
@@ -723,6 +784,7 @@ def build_summary(
         time_used["stopped_at_limit"] = True
     malformed = sum(int(s.get("malformed", 0)) for s in (stream_stats or {}).values())
     n_cut = sum(1 for r in cue_rows if "cut_short" in r)
+    n_unmeasured = sum(1 for r in cue_rows if r.get("cue_class") == "unmeasured")
     out: dict[str, Any] = {
         "talk_s": round(talk_s, 3),
         "time": time_used,
@@ -734,6 +796,7 @@ def build_summary(
             "false_alarms": sum(1 for r in cue_rows if r.get("cue_class") == "false_alarm")
             + sum(1 for r in cue_rows if r["relevant"] is False and "cue_class" not in r),
             "stale": sum(1 for r in cue_rows if r.get("cue_class") == "stale"),
+            **({"cues_unmeasured": n_unmeasured} if n_unmeasured else {}),
             "malformed_samples": malformed,
             "dropped_samples": sum(
                 int(pc.get("late", 0)) + int(pc.get("ahead", 0))

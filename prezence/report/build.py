@@ -1069,12 +1069,21 @@ def _rebuild(
             kind is None and row.get("relevant") is False and row.get("metric") is not None
         )
         row["stale"] = kind == "stale"
-        if row["false_alarm"] or row["stale"]:
+        row["unmeasured"] = kind == "unmeasured"
+        if row["false_alarm"] or row["stale"] or row["unmeasured"]:
             row["improved"] = None
+            row["back_in_range_s"] = None
             if cue_rule is not None:
                 now = judged_value(cue_rule, row.get("value"))
                 label = metric_label(cue_rule.metric)
-                if row["stale"]:
+                if row["unmeasured"]:
+                    since = float(row.get("not_measured_since") or 0.0)
+                    row["why"] = (
+                        f"cued as {row.get('side')} its ideal range; your {label} "
+                        f"{was(label)} not measured {_after(since)}, so whether it still "
+                        "was is not known"
+                    )
+                elif row["stale"]:
                     ago = float(row.get("ended_s_before") or 0.0)
                     row["why"] = (
                         f"cued as {row.get('side')} its ideal range, but your {label} had come "
@@ -1121,7 +1130,9 @@ def _rebuild(
     counts["cues_judged"] = len(helped)
     counts["cues_back_in_range"] = sum(1 for r in helped if r.get("back_in_range_s") is not None)
     unheard = sum(
-        1 for r in cue_rows if r.get("heard") is False and not (r["false_alarm"] or r["stale"])
+        1
+        for r in cue_rows
+        if r.get("heard") is False and not (r["false_alarm"] or r["stale"] or r["unmeasured"])
     )
     if unheard:
         counts["cues_not_heard"] = unheard
@@ -1188,6 +1199,11 @@ def _rebuild(
     if post.get("ok") is False:  # the robot was lost: its summary was never heard
         report["post_talk"] = post
     return report, streams
+
+
+def _after(t: float) -> str:
+    """``"after 0:21"``; ``"yet"`` when no value had come by then."""
+    return f"after {mmss(t)}" if t > 0 else "yet"
 
 
 def judged(m: Mapping[str, Any]) -> bool:

@@ -344,8 +344,9 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             mark = cue_mark(c)
             eff = c.get("improved")
             eff_html = f'<span class="{"yes" if eff else "no"}">{_e(mark)}</span>' if mark else "–"
-            if c.get("false_alarm") or c.get("stale") or c.get("dropped"):
+            if c.get("false_alarm") or c.get("stale") or c.get("unmeasured") or c.get("dropped"):
                 shown = mark.replace("FALSE ALARM", "false alarm").replace("STALE", "stale")
+                shown = shown.replace("NOT JUDGED", "not judged")
                 shown = shown.replace("DROPPED", "dropped")
                 eff_html = f'<span class="fa">{_e(shown)}</span>'
             cut = c.get("cut_short")

@@ -1049,12 +1049,19 @@ def cue_count_parts(report: Mapping[str, Any]) -> list[str]:
     stale = int(counts.get("stale") or 0)
     if stale:
         parts.append(f"{stale} stale (cued within 10 s after the problem had ended)")
+    unmeasured = int(counts.get("cues_unmeasured") or 0)
+    if unmeasured:
+        parts.append(
+            f"{unmeasured} not judged (cued while {'its' if unmeasured == 1 else 'their'} "
+            "metric was not measured: its module had stopped, or it went stale)"
+        )
     return parts
 
 
 def cue_mark(c: Mapping[str, Any]) -> str:
-    """One cue's outcome: a false alarm, a stale cue, or what followed it (and, where the
-    talk records it, whether the presenter reacted).
+    """One cue's outcome: a false alarm, a stale cue, one given while its metric was not
+    measured (its module had died: not judged), or what followed it (and, where the talk
+    records it, whether the presenter reacted).
 
     Example:
         >>> cue_mark({"effect": "back in range after 16 s", "reacted": False,
@@ -1062,6 +1069,8 @@ def cue_mark(c: Mapping[str, Any]) -> str:
         'back in range after 16 s; the presenter ignored it'
         >>> cue_mark({"stale": True, "ended_s_before": 4.2})
         'STALE: back in range 4 s before'
+        >>> cue_mark({"unmeasured": True, "not_measured_since": 21.06})
+        'NOT JUDGED: not measured after 0:21'
     """
     if c.get("dropped"):
         return f"DROPPED, not given: {c.get('drop_reason') or 'the robot did not give it'}"
@@ -1069,6 +1078,9 @@ def cue_mark(c: Mapping[str, Any]) -> str:
         return "FALSE ALARM: it was in range"
     if c.get("stale"):
         return f"STALE: back in range {float(c.get('ended_s_before') or 0.0):.0f} s before"
+    if c.get("unmeasured"):
+        since = float(c.get("not_measured_since") or 0.0)
+        return f"NOT JUDGED: not measured {f'after {mmss(since)}' if since > 0 else 'yet'}"
     if c.get("heard") is False:
         return "not heard by the speaker"
     mark = str(c.get("effect") or "")
