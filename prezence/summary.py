@@ -649,6 +649,8 @@ def build_summary(
         if not ss and why is None and rec is not None and talk_s < rec.first_after_s:
             first = f"first values after {rec.first_after_s:.0f} s"
             why = f"the talk was too short to measure it ({first})"
+        if not ss and why is None and rule.metric in not_measured and rec is None:
+            why = no_writer_why(rule.metric, rule.stream, writers.get(rule.metric))
         if not ss and (rule.metric in not_measured or why is not None):
             m["stale_episodes"] = 0  # nothing was asked to, or could, measure it
             m["measured"] = False
@@ -819,6 +821,24 @@ def build_summary(
     if extra:
         out.update(extra)
     return out
+
+
+def no_writer_why(metric: str, stream: str, module: str | None = None) -> str:
+    """Why a judged metric no shipped module writes has no stream file at all: the module
+    that should write it wrote none (``module``, when the modules' record names it), or none
+    does (a misspelled metric: session 22, a rule on ``speech_filers`` ended in "Well done!").
+
+    Example:
+        >>> no_writer_why("speech_sped", "speech_sped.txt")
+        "no module wrote streams/speech_sped.txt (no shipped module writes 'speech_sped'; did you mean 'speech_speed'?)"
+    """  # noqa: E501 - a doctest output line
+    import difflib
+
+    if module:
+        return f"module {module} wrote no streams/{stream}"
+    close = difflib.get_close_matches(metric, list(METRICS), n=1, cutoff=0.6)
+    hint = f"; did you mean '{close[0]}'?" if close else ""
+    return f"no module wrote streams/{stream} (no shipped module writes '{metric}'{hint})"
 
 
 def in_folder(path: Any, root: Any) -> str:

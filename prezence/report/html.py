@@ -19,6 +19,8 @@ from prezence.report.speech import (
     summary_phrase,
     time_sentence,
     trouble_sentences,
+    unmeasured_labels,
+    unmeasured_line,
 )
 
 _CSS = """
@@ -188,6 +190,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     out.append("</div>")
 
     out.append("<h2>Work on first</h2>")
+    if none := unmeasured_labels(report):  # named before the advice or the praise
+        out.append(f'<p class="fa">{_e(unmeasured_line(none))}</p>')
     pri = report.get("priorities") or []
     if pri:
         out.append('<ol class="work">')
@@ -381,7 +385,8 @@ def _praised(report: Mapping[str, Any], share: str) -> str:
     """The written praise (:func:`prezence.report.speech.praise_line`): "Well done" only when
     every judged metric covered the talk."""
     line = praise_line(report, share)
-    return line if "while it was measured" in line else f"{line[:-1]}. Well done."
+    partial = "while it was measured" in line or unmeasured_labels(report)
+    return line if partial else f"{line[:-1]}. Well done."
 
 
 def _head_section(head: Mapping[str, Any]) -> str:

@@ -171,14 +171,52 @@ def _and(words: Sequence[str]) -> str:
 
 def unjudged_labels(report: Mapping[str, Any]) -> list[str]:
     """The metrics something was known about but that were not judged: measured too briefly,
-    by a fallback, or not measured for a recorded reason (a module that could not run)."""
+    by a fallback, or not measured at all (:func:`unmeasured_labels`)."""
+    none = set(unmeasured_labels(report))
+    out = []
+    for k, m in (report.get("metrics") or {}).items():
+        label = str(m.get("label") or k) if isinstance(m, Mapping) else ""
+        if label and not _judged(m) and (m.get("samples") or label in none):
+            out.append(label)
+    return out
+
+
+def unmeasured_labels(report: Mapping[str, Any]) -> list[str]:
+    """The judged metrics that got no value at all, where one was looked for: not measured for
+    a recorded reason (a module that could not run), a file a module opened and left empty (a
+    module that ran but wrote nothing), or a metric no shipped module writes (a misspelled
+    one). A metric of ours whose module was not run at all (the camera's, in a rehearsal of a
+    sound file) is left out: nothing was asked to measure it (session 22: a rule on
+    ``speech_filers`` and a module that wrote nothing both ended in "Everything I could measure
+    stayed in the ideal range").
+
+    Example:
+        >>> unmeasured_labels({"metrics": {
+        ...     "speech_speed": {"label": "pace", "samples": 40},
+        ...     "cv_gestures": {"label": "gestures", "samples": 0, "measured": False},
+        ...     "speech_filers": {"samples": 0, "measured": False},
+        ...     "my_rate": {"label": "my rate", "samples": 0, "measured": True}}})
+        ['speech_filers', 'my rate']
+    """
+    from prezence.metrics import METRICS
+
     return [
         str(m.get("label") or k)
         for k, m in (report.get("metrics") or {}).items()
         if isinstance(m, Mapping)
-        and not _judged(m)
-        and (m.get("samples") or m.get("not_measured_why"))
+        and not m.get("samples")
+        and (m.get("not_measured_why") or m.get("measured") is not False or k not in METRICS)
     ]
+
+
+def unmeasured_line(labels: Sequence[str]) -> str:
+    """The report's headline for judged metrics that got no value at all.
+
+    Example:
+        >>> unmeasured_line(["filler words"])
+        'Not measured at all, so not judged: filler words (see the notes).'
+    """
+    return f"Not measured at all, so not judged: {_and(labels)} (see the notes)."
 
 
 def metric_notes(report: Mapping[str, Any]) -> list[str]:
@@ -774,6 +812,9 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         droppable.append(parts[-1])
     pri = list(report.get("priorities") or [])
     off = [o for o in report.get("slightly_off") or [] if isinstance(o, Mapping)]
+    none = unmeasured_labels(report)
+    if none and (pri or off):  # the praise names them itself; here, before the advice
+        parts.append(f"I could not measure your {_and(none)}.")
     if not pri and off:  # too little to work on first, too much to call in range
         o = off[0]
         lead = "Your" if lost else "Nothing was far off, but your"  # room for what was lost
@@ -915,6 +956,9 @@ def format_text(report: Mapping[str, Any]) -> str:
         )
     lines += [f"  note: {sentence}" for sentence in trouble_sentences(report)]
     lines.append("  " + time_sentence(report))
+    none = unmeasured_labels(report)
+    if none:  # not in the praise nor the advice: said before them
+        lines.append("  " + unmeasured_line(none))
     pri = report.get("priorities") or []
     if pri:
         lines.append("  Work on, first:")

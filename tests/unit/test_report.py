@@ -228,9 +228,16 @@ def test_praise_needs_something_measured() -> None:
         }
     )
     assert "Nothing was measured" in text and "ideal range" not in text
-    some = {"speech_speed": {"samples": 30}, "cv_headGaze": {"samples": 0}}
+    # head pitch not asked for (no camera module ran: measured false, as the report has it)
+    some = {"speech_speed": {"samples": 30}, "cv_headGaze": {"samples": 0, "measured": False}}
     phrase = summary_phrase({"time": time, "priorities": [], "metrics": some})
     assert "Everything I could measure stayed in the ideal range" in phrase
+    # its module ran and wrote nothing (session 22): named, no praise for everything
+    some["cv_headGaze"] = {"samples": 0, "label": "head pitch"}
+    phrase = summary_phrase({"time": time, "priorities": [], "metrics": some})
+    assert phrase.endswith(
+        "Your speech_speed stayed in the ideal range; I could not judge your head pitch."
+    )
     every = {"speech_speed": {"samples": 30}, "cv_headGaze": {"samples": 30}}
     phrase = summary_phrase({"time": time, "priorities": [], "metrics": every})
     assert "Your delivery stayed in the ideal range" in phrase

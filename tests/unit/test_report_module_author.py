@@ -10,7 +10,7 @@ from typing import Any
 
 from prezence.config.model import Check, Config, Rule, TimeSettings
 from prezence.config.tomlconf import dumps_config
-from prezence.report import build_report, write_report
+from prezence.report import build_report, summary_phrase, write_report
 from prezence.session import SessionDir
 from prezence.summary import summarize_session
 
@@ -122,3 +122,76 @@ def test_a_cue_after_the_metric_came_back_in_range_after_a_gap_is_stale_from_the
     )
     row = build_report(session.root)["cues"][0]
     assert row["cue_class"] == "stale" and row["ended_s_before"] == 2.0
+
+
+# -- findings 5 and 6: a judged metric with no value at all is named -------------------------
+
+FILERS = Rule("speech_filers", Check.MAX, high=4.0, above="slowDown", unit="fillers/min")
+FIDGET = Rule("fidget_rate", Check.MAX, high=4.0, above="slowDown", unit="/min")
+
+
+def in_range_talk(root: Path, config: Config, **streams: list[tuple[float, float]] | None) -> Any:
+    base: dict[str, list[tuple[float, float]] | None] = {
+        "speech_speed": steady(160.0, 1, 60),
+        "speech_volume": steady(66.0, 1, 60),
+    }
+    return folder(root, {**base, **streams}, talk_s=60.0, config=config)
+
+
+def test_a_rule_on_a_metric_no_module_writes_is_named_not_praised(tmp_path: Path) -> None:
+    # session 22, finding 5: a rule on a misspelled 'speech_filers' ended with "Everything I
+    # could measure stayed in the ideal range. Well done!" and a headline that said nothing
+    config = Config(rules=(SPEED, VOLUME, FILERS), time=TimeSettings(allocated_s=60.0))
+    session = in_range_talk(tmp_path / "s", config)
+    summary = summarize_session(session, config, talk_s=60.0)
+    m = summary["metrics"]["speech_filers"]
+    assert m["measured"] is False
+    assert m["not_measured_why"].startswith(
+        "no module wrote streams/speech_filers.txt (no shipped module writes 'speech_filers'"
+    )
+    write_report(session.root, plots=False)
+    said = (session.report / "spoken.txt").read_text()
+    assert "Well done" not in said and "Everything I could measure" not in said
+    assert "I could not judge your speech_filers." in said
+    text = (session.report / "summary.txt").read_text()
+    assert "  Not measured at all, so not judged: speech_filers (see the notes)." in text
+    assert "speech_filers: not measured: no module wrote streams/speech_filers.txt" in text
+    page = (session.report / "report.html").read_text()
+    assert "Not measured at all, so not judged: speech_filers" in page
+    assert "Well done" not in page
+
+
+def test_a_module_that_wrote_nothing_is_named_in_the_praise(tmp_path: Path) -> None:
+    # session 22, finding 6: its file there and empty, the robot named only the metrics
+    # measured in part ("Everything I could measure stayed in the ideal range, but …")
+    config = Config(rules=(SPEED, VOLUME, FIDGET), time=TimeSettings(allocated_s=60.0))
+    session = in_range_talk(tmp_path / "s", config, fidget_rate=None)
+    report = build_report(session.root)
+    said = summary_phrase(report)
+    assert "Everything I could measure" not in said and "Well done" not in said
+    assert said.endswith("Your pace and volume stayed in the ideal range; I could not judge "
+                         "your fidget_rate.")  # fmt: skip
+    write_report(session.root, plots=False)
+    text = (session.report / "summary.txt").read_text()
+    assert "  Not measured at all, so not judged: fidget_rate (see the notes)." in text
+    assert "fidget_rate had no data from 0:00 to the end (1:00)" in text
+
+
+def test_a_metric_with_no_value_is_named_beside_the_advice(tmp_path: Path) -> None:
+    # the same with something to work on: the advice alone left it unsaid
+    config = Config(rules=(SPEED, VOLUME, FIDGET), time=TimeSettings(allocated_s=60.0))
+    session = in_range_talk(
+        tmp_path / "s", config, speech_speed=steady(200.0, 1, 60), fidget_rate=None
+    )
+    said = summary_phrase(build_report(session.root))
+    assert "I could not measure your fidget_rate. Work first on this: slow down." in said
+
+
+def test_a_camera_metric_never_asked_for_is_not_named(tmp_path: Path) -> None:
+    # a rehearsal of a sound file: the camera's metrics had no module to measure them, and
+    # the robot does not list them after every audio rehearsal
+    gaze = Rule("cv_headGaze", Check.MIN, low=-15, scale=10, below="lookUp", unit="deg")
+    config = Config(rules=(SPEED, VOLUME, gaze), time=TimeSettings(allocated_s=60.0))
+    session = in_range_talk(tmp_path / "s", config)
+    said = summary_phrase(build_report(session.root))
+    assert "head pitch" not in said and "could not" not in said
