@@ -10,6 +10,7 @@ from typing import Any
 from prezence.report.speech import (
     cue_count_parts,
     cue_mark,
+    heard_none,
     measured_s,
     measured_share,
     metric_notes,
@@ -21,6 +22,7 @@ from prezence.report.speech import (
     trouble_sentences,
     unmeasured_labels,
     unmeasured_line,
+    was,
 )
 
 _CSS = """
@@ -247,6 +249,15 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
 
         out.append('<ul class="work">')
         for n in stopped:
+            if heard_none(report, [str(n.get("metric"))]):  # a rehearsal: nobody was reminded
+                label = metric_label(str(n.get("metric")))
+                out.append(
+                    f"<li>Your <b>{_e(label)}</b> {was(label)} cued {_e(str(n.get('cues')))} "
+                    f"times without getting back in range, and the coach stopped cueing it "
+                    f"from {float(n.get('t') or 0.0) / 60:.0f} min on (you heard none of these "
+                    "cues): work on it before the next rehearsal.</li>"
+                )
+                continue
             out.append(
                 f"<li>The robot stopped reminding you about your "
                 f"<b>{_e(metric_label(str(n.get('metric'))))}</b> after "

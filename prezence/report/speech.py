@@ -808,7 +808,11 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         from prezence.report.build import metric_label
 
         names = " and ".join(dict.fromkeys(metric_label(str(n.get("metric"))) for n in stopped))
-        parts.append(f"I stopped reminding you about your {names}: work on it next time.")
+        if heard_none(report, [str(n.get("metric")) for n in stopped]):
+            # a recorded rehearsal: nobody was reminded of anything (session 22)
+            parts.append(f"Your {names} needed reminders again and again: work on it next time.")
+        else:
+            parts.append(f"I stopped reminding you about your {names}: work on it next time.")
         droppable.append(parts[-1])
     pri = list(report.get("priorities") or [])
     off = [o for o in report.get("slightly_off") or [] if isinstance(o, Mapping)]
@@ -862,6 +866,20 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         kept = kept[: ends[-1] + 1] if ends else kept
         text = " ".join(kept).rstrip(",.;:") + ("" if kept[-1].endswith(("!", "?")) else ".")
     return text
+
+
+def heard_none(report: Mapping[str, Any], metrics: Sequence[str]) -> bool:
+    """Whether the speaker heard none of the cues about ``metrics`` (a recorded rehearsal, an
+    `up` of recordings: the report's cues say ``heard`` false), so that nothing may be said to
+    have reminded them.
+
+    Example:
+        >>> cues = [{"metric": "speech_speed", "heard": False}]
+        >>> heard_none({"cues": cues}, ["speech_speed"]), heard_none({"cues": []}, ["x"])
+        (True, False)
+    """
+    about = [c for c in report.get("cues") or () if c.get("metric") in metrics]
+    return bool(about) and all(c.get("heard") is False for c in about)
 
 
 def _why_pointer(report: Mapping[str, Any]) -> str:

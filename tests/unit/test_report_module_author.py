@@ -195,3 +195,30 @@ def test_a_camera_metric_never_asked_for_is_not_named(tmp_path: Path) -> None:
     session = in_range_talk(tmp_path / "s", config)
     said = summary_phrase(build_report(session.root))
     assert "head pitch" not in said and "could not" not in said
+
+
+# -- finding 9: no "I stopped reminding you" to a speaker who heard no reminder --------------
+
+
+def test_a_rehearsal_is_not_told_the_robot_stopped_reminding(tmp_path: Path) -> None:
+    # session 22, finding 9: `rehearse` (coached after it was recorded) ended with "I stopped
+    # reminding you about your filler words", to a speaker who heard no cue at all
+    note = {"metric": "speech_speed", "command": "slowDown", "cues": 2, "t": 40.0, "value": 200.0,
+            "phrase": "…"}  # fmt: skip
+    streams = {"speech_speed": steady(200.0, 1, 60), "speech_volume": steady(66.0, 1, 60)}
+    recorded = {"stopped_repeating": [note]}
+    cues = [cue(10.0), cue(30.0)]
+    session = folder(
+        tmp_path / "r", streams, talk_s=60.0, kind="rehearsal", recorded=recorded, cues=cues
+    )
+    write_report(session.root, plots=False)
+    said = (session.report / "spoken.txt").read_text()
+    assert "stopped reminding" not in said
+    assert "Your pace needed reminders again and again: work on it next time." in said
+    page = (session.report / "report.html").read_text()
+    assert "The robot stopped reminding" not in page
+    assert "<b>pace</b> was cued 2 times without getting back in range" in page
+    # a live talk's speaker heard them: said as before
+    live = folder(tmp_path / "l", streams, talk_s=60.0, recorded=recorded, cues=cues)
+    said = summary_phrase(build_report(live.root))
+    assert "I stopped reminding you about your pace: work on it next time." in said
