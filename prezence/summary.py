@@ -450,6 +450,47 @@ def module_outages(
     return out
 
 
+def with_failures(
+    modules: Mapping[str, Any] | None,
+    failures: Mapping[str, Any] | None,
+    streams: Mapping[str, Sequence[Sample]],
+) -> dict[str, Any]:
+    """``modules`` (the launcher's record) with each module ``failures`` names (``rehearse``'s
+    ``module_failures``: module → its last error line) that wrote values before it failed,
+    recorded as ``up`` records a crash, so that the notes, the report and the robot say what
+    it left unmeasured (session 22: a crash in ``rehearse`` was in ``module_failures`` and
+    nowhere else). Which metrics it writes is its metric records'; when it died is not
+    recorded, so its crash is at its last value (``after_last_value``). A module that wrote no
+    value is left out: its metrics are "not measured: the … module could not run"
+    (:func:`measurement_notes`).
+
+    Example:
+        >>> ss = {"speech_speed": [Sample("speech_speed", t, 150.0) for t in (10.0, 19.0)]}
+        >>> with_failures({}, {"speech": "boom"}, ss)["speech"]["crashes"]
+        [{'t': 19.0, 'why': 'boom', 'after_last_value': True}]
+    """
+    out: dict[str, Any] = dict(modules or {})
+    for name, why in (failures or {}).items() if isinstance(failures, Mapping) else ():
+        rec = out.get(name)
+        if isinstance(rec, Mapping) and _crashes(rec):
+            continue  # the launcher recorded its crashes itself
+        wrote = {
+            metric: max(s.t for s in streams[metric])
+            for metric, m in METRICS.items()
+            if m.module == name and streams.get(metric)
+        }
+        if not wrote:
+            continue
+        crash = {"t": round(max(wrote.values()), 3), "why": str(why), "after_last_value": True}
+        out[name] = {
+            **(rec if isinstance(rec, Mapping) else {}),
+            "restarts": 0,
+            "crashes": [crash],
+            "metrics": sorted(wrote),
+        }
+    return out
+
+
 def stale_spans(ts: np.ndarray, talk_s: float, stale_s: float) -> list[dict[str, Any]]:
     """A metric's stale episodes: each stretch with no new value for longer than ``stale_s``
     (its last value holds that long), as ``{"after", "from", "to", "stale_after_s"}``: its
@@ -525,6 +566,8 @@ def module_notes(
                 "last_why": str(crashes[-1].get("why") or ""),
                 "lost": lost,
                 **({} if isinstance(rec.get("metrics"), list) else {"metrics_unknown": True}),
+                # rehearse's failure: it died some time after its last value, then
+                **({"after_last_value": True} if crashes[0].get("after_last_value") else {}),
                 **({"cut_short": cut} if isinstance(cut, str) and cut else {}),
             }
         )
@@ -571,6 +614,7 @@ def build_summary(
     unmeasured: Mapping[str, str] | None = None,
     less_reliable: Mapping[str, str] | None = None,
     estimates: Mapping[str, str] | None = None,
+    module_failures: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The ``summary.json`` of a talk.
 
@@ -599,6 +643,8 @@ def build_summary(
         less_reliable: per metric, why its figures are less reliable (``less_reliable``).
         estimates: per metric, why its figures are an estimate (``estimate``,
             :func:`estimate_notes`); its advice stands.
+        module_failures: ``rehearse``'s modules that failed (module → its last error line):
+            one that wrote values first is in ``modules`` as a crash (:func:`with_failures`).
 
     A metric measured for less than :data:`MIN_JUDGED_S` has ``too_brief``: the report neither
     advises on it nor praises it. A metric's stale episodes are counted (``stale_episodes``)
@@ -607,6 +653,8 @@ def build_summary(
     """
     metrics: dict[str, Any] = {}
     stale_default = config.processor.stale_after_s
+    recorded_modules = modules
+    modules = with_failures(modules, module_failures, streams)
     lost = module_outages(modules, streams, talk_s)
     writers = {  # metric -> the module that writes it, as the launcher records it
         str(metric): str(name)
@@ -820,6 +868,8 @@ def build_summary(
     }
     if extra:
         out.update(extra)
+    if modules != dict(recorded_modules or {}):  # a failure of rehearse's, as up records it
+        out["modules"] = modules
     return out
 
 
@@ -947,6 +997,7 @@ def summarize_session(
         not_measured=absent,
         modules=(extra or {}).get("modules"),
         skipped_records=bad_cues,
+        module_failures=(extra or {}).get("module_failures"),
     )
     write_json(session.summary, summary)
     return summary

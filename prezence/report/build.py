@@ -40,6 +40,7 @@ from prezence.summary import (
     hold_ends,
     measurement_notes,
     module_notes,
+    with_failures,
 )
 
 log = logging.getLogger(__name__)
@@ -830,6 +831,7 @@ def build_report(
     modules: Mapping[str, Any] | None = None,
     stopped_at_limit: bool | None = None,
     recording_s: float | None = None,
+    module_failures: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Rebuild the report of one talk from its session folder.
 
@@ -847,6 +849,9 @@ def build_report(
             used only when the talk was still going on (:func:`still_going`).
         recording_s: how long the recordings an ``up`` of files played to their end lasted
             (None: ``summary.json``'s ``recording_s``): the time used.
+        module_failures: ``rehearse``'s modules that failed, module → its last error line
+            (None: ``summary.json``'s, which a rehearsal not yet ended has not written): one
+            that wrote values first is reported as a crash at its last value.
 
     Returns:
         The report as a JSON-ready dict: ``time`` (used vs allocated), ``metrics`` (the
@@ -859,7 +864,9 @@ def build_report(
             ``session.json`` nor ``cues.jsonl``) and holds no stream file. A ``config.toml``
             that cannot be read is named in ``config_damaged`` (the rules used instead said).
     """
-    return _rebuild(session_dir, config, ended, modules, stopped_at_limit, recording_s)[0]
+    return _rebuild(
+        session_dir, config, ended, modules, stopped_at_limit, recording_s, module_failures
+    )[0]
 
 
 def _read_summary(session: SessionDir) -> dict[str, Any]:
@@ -908,6 +915,7 @@ def _rebuild(
     modules: Mapping[str, Any] | None = None,
     stopped_at_limit: bool | None = None,
     recording_s: float | None = None,
+    module_failures: Mapping[str, Any] | None = None,
 ) -> tuple[dict[str, Any], dict[str, list[Sample]]]:
     session = SessionDir(Path(session_dir))
     if not session.root.is_dir():
@@ -945,6 +953,10 @@ def _rebuild(
             )
     if modules is None:
         modules = _recorded_modules(recorded)
+    if module_failures is None:
+        module_failures = _recorded(recorded, "module_failures")
+    # rehearse's failed modules, as up records a crash (summary.json's own, else from here)
+    modules = with_failures(modules, module_failures, streams)
     # a bad cue line (a torn last line, a damaged one) is skipped and said, not fatal: the
     # rest of the record still makes a report
     bad_cues: list[str] = []
@@ -983,7 +995,9 @@ def _rebuild(
         if measured
         else {}
     )
-    unmeasured, less_reliable = measurement_notes(session.root, recorded)
+    unmeasured, less_reliable = measurement_notes(
+        session.root, {**recorded, "module_failures": module_failures}
+    )
     rec_s = recording_s if recording_s is not None else recorded.get("recording_s")
     summary = build_summary(
         cfg,

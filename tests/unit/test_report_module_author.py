@@ -222,3 +222,47 @@ def test_a_rehearsal_is_not_told_the_robot_stopped_reminding(tmp_path: Path) -> 
     live = folder(tmp_path / "l", streams, talk_s=60.0, recorded=recorded, cues=cues)
     said = summary_phrase(build_report(live.root))
     assert "I stopped reminding you about your pace: work on it next time." in said
+
+
+# -- finding 10: a module that failed in `rehearse` is said as `up` says a crash ------------
+
+
+def test_a_module_failed_in_a_rehearsal_is_said_where_up_says_a_crash(tmp_path: Path) -> None:
+    # session 22, finding 10: rehearse recorded module_failures, and the printed notes, the
+    # report's summary.txt and the spoken summary said nothing of it; `up` says "I could not
+    # follow your filler words after 21 seconds"
+    from prezence.cli import format_timeline
+
+    failures = {"speech": "boom: crashed"}
+    streams = {"speech_speed": steady(160.0, 1, 21), "speech_volume": steady(66.0, 1, 21)}
+    session = folder(
+        tmp_path / "r",
+        streams,
+        talk_s=60.0,
+        kind="rehearsal",
+        recorded={"module_failures": failures, "kind": "rehearsal"},
+    )
+    recorded = {"kind": "rehearsal", "module_failures": failures, "ended_at_s": 60.0}
+    summary = summarize_session(session, CONFIG, talk_s=60.0, extra=recorded)
+    crash = summary["modules"]["speech"]["crashes"]
+    assert crash == [{"t": 20.0, "why": "boom: crashed", "after_last_value": True}]
+    assert summary["metrics"]["speech_speed"]["lost"] == [
+        {"module": "speech", "from": 20.0, "to": 60.0}
+    ]
+    assert (
+        "note: module speech failed after its last value at 0:20 and was not restarted (boom: "
+        "crashed); speech_speed was not measured from 0:20 to the end (1:00)"
+        in format_timeline(summary)
+    )
+    write_report(session.root, plots=False)
+    text = (session.report / "summary.txt").read_text()
+    assert (
+        "note: module speech failed after its last value at 0:20 and was not restarted (boom: "
+        "crashed); pace was not measured from 0:20 to the end (1:00)" in text
+    )
+    said = (session.report / "spoken.txt").read_text()
+    assert "I could not follow your pace and volume after 20 seconds." in said
+    # the robot's words at the end of a rehearsal, before summary.json is written
+    session.summary.unlink()
+    report = build_report(session.root, ended=True, module_failures=failures)
+    assert "I could not follow your pace and volume after 20 seconds." in summary_phrase(report)
