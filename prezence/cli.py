@@ -144,7 +144,9 @@ def format_timeline(summary: dict[str, Any]) -> str:
     lines.append(
         f"cues {c['cues']} (dropped {c['cues_dropped']}{cut}, false alarms {c['false_alarms']}"
         f"{stale}), "
-        f"malformed samples {c['malformed_samples']}, stale episodes {c['stale_episodes']}, "
+        f"malformed samples {c['malformed_samples']}, "
+        + (f"out-of-order times {c['out_of_order']}, " if c.get("out_of_order") else "")
+        + f"stale episodes {c['stale_episodes']}, "
         f"joint-limit violations {_violations(summary)}"
     )
     lines += [f"note: {n}" for n in _trouble_notes(summary)]
@@ -246,6 +248,7 @@ def _trouble_notes(summary: dict[str, Any]) -> list[str]:
                 f"{n} unreadable line{'s' if n != 1 else ''} of {name} skipped"
                 + (f" (e.g. {first})" if first else "")
             )
+    out += [f"a module's clock went back: {x}" for x in summary.get("out_of_order_times") or []]
     return (
         out
         + skipped_sentences(summary.get("skipped_records") or [])

@@ -615,6 +615,7 @@ def build_summary(
     less_reliable: Mapping[str, str] | None = None,
     estimates: Mapping[str, str] | None = None,
     module_failures: Mapping[str, Any] | None = None,
+    out_of_order: Sequence[str] = (),
 ) -> dict[str, Any]:
     """The ``summary.json`` of a talk.
 
@@ -643,6 +644,8 @@ def build_summary(
         less_reliable: per metric, why its figures are less reliable (``less_reliable``).
         estimates: per metric, why its figures are an estimate (``estimate``,
             :func:`estimate_notes`); its advice stands.
+        out_of_order: per stream file whose times went back, its first such sample as
+            ``file:line: t=… goes back from …`` (``out_of_order_times``).
         module_failures: ``rehearse``'s modules that failed (module → its last error line):
             one that wrote values first is in ``modules`` as a crash (:func:`with_failures`).
 
@@ -833,6 +836,7 @@ def build_summary(
         # time used is at least this
         time_used["stopped_at_limit"] = True
     malformed = sum(int(s.get("malformed", 0)) for s in (stream_stats or {}).values())
+    backwards = sum(int(s.get("out_of_order", 0)) for s in (stream_stats or {}).values())
     n_cut = sum(1 for r in cue_rows if "cut_short" in r)
     n_unmeasured = sum(1 for r in cue_rows if r.get("cue_class") == "unmeasured")
     out: dict[str, Any] = {
@@ -848,6 +852,8 @@ def build_summary(
             "stale": sum(1 for r in cue_rows if r.get("cue_class") == "stale"),
             **({"cues_unmeasured": n_unmeasured} if n_unmeasured else {}),
             "malformed_samples": malformed,
+            # kept as written, but a module's clock went back: said with the first (session 22)
+            **({"out_of_order": backwards} if backwards else {}),
             "dropped_samples": sum(
                 int(pc.get("late", 0)) + int(pc.get("ahead", 0))
                 for pc in (processor_counts or {}).values()
@@ -864,6 +870,7 @@ def build_summary(
         },
         "backend_stats": dict(backend_stats or {}),
         "stream_problems": list(problems)[:100],
+        **({"out_of_order_times": list(out_of_order)} if out_of_order else {}),
         **({"skipped_records": list(skipped_records)[:100]} if skipped_records else {}),
     }
     if extra:
@@ -973,6 +980,24 @@ def summarize_session(
         f"{copies.get(str(p.path)) or in_folder(p.path, session.root)}:{p.line}: {p.reason}"
         for p in found
     ]
+    backwards: list[str] = []  # the first time that went back, per file (read again: rare)
+    for rule in config.rules:
+        n = int(stats.get(rule.metric, {}).get("out_of_order") or 0)
+        if n:
+            first: list[StreamProblem] = []
+            path = session.stream(rule.stream)
+            read_stream(
+                path, rule.metric, problems=[], value_range=rule.value_range, out_of_order=first
+            )
+            where = in_folder(path, session.root)
+            if first:
+                where = (
+                    f"{in_folder(first[0].path, session.root)}:{first[0].line}: {first[0].reason}"
+                )
+            backwards.append(
+                f"{where} (kept as written; {n} sample{'s' if n != 1 else ''} of {rule.metric} "
+                "went back in time)"
+            )
     bad_cues: list[str] = []
     cues = read_jsonl(session.cues, require=CUE_KEYS, skipped=bad_cues)
     prefix = f"{session.cues}:"
@@ -998,6 +1023,7 @@ def summarize_session(
         modules=(extra or {}).get("modules"),
         skipped_records=bad_cues,
         module_failures=(extra or {}).get("module_failures"),
+        out_of_order=backwards,
     )
     write_json(session.summary, summary)
     return summary

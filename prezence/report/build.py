@@ -933,13 +933,28 @@ def _rebuild(
     streams: dict[str, list[Sample]] = {}
     stats: dict[str, dict[str, Any]] = {}
     unreadable: list[dict[str, Any]] = []
+    backwards: list[dict[str, Any]] = []
     limit = sample_time_limit(session, meta)  # a stamp of 1e9 s is not a 30-year talk
     for rule in cfg.rules:
         path = paths.get(rule.metric, session.stream(rule.stream))
         skipped: list[Any] = []
+        back: list[Any] = []
         samples, st = read_stream(
-            path, rule.metric, max_t=limit, problems=skipped, value_range=rule.value_range
+            path,
+            rule.metric,
+            max_t=limit,
+            problems=skipped,
+            value_range=rule.value_range,
+            out_of_order=back,
         )
+        if st.out_of_order:  # kept as written, but a module's clock went back: said
+            backwards.append(
+                {
+                    "file": _shown_path(Path(path), session.root),
+                    "samples": st.out_of_order,
+                    "example": f"line {back[0].line}: {back[0].reason}" if back else None,
+                }
+            )
         streams[rule.metric] = sorted(samples, key=lambda s: s.t)
         stats[rule.metric] = st.to_dict()
         if st.malformed:
@@ -1198,6 +1213,7 @@ def _rebuild(
     troubles = {
         "config_damaged": config_damaged,
         "unreadable": unreadable,
+        "out_of_order": backwards,
         "skipped_records": [_shown_record(p, session.root) for p in bad_cues],
         # this folder's truth.jsonl, and a replay's recording's (its summary.json names them)
         "truth_skipped": list(

@@ -632,6 +632,25 @@ def unreadable_sentences(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     return out
 
 
+def backwards_sentences(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """One sentence per stream file whose times went back (kept as written, counted).
+
+    Example:
+        >>> backwards_sentences([{"file": "streams/x.txt", "samples": 13,
+        ...                       "example": "line 4: t=8 goes back from 12"}])
+        ["13 samples in streams/x.txt went back in time and were kept as written (e.g. line 4: t=8 goes back from 12): a module's clock went wrong"]
+    """  # noqa: E501 - a doctest output line
+    out = []
+    for r in rows:
+        n = int(r.get("samples") or 0)
+        first = f" (e.g. {r['example']})" if r.get("example") else ""
+        out.append(
+            f"{n} sample{'s' if n != 1 else ''} in {r['file']} went back in time and "
+            f"{'were' if n != 1 else 'was'} kept as written{first}: a module's clock went wrong"
+        )
+    return out
+
+
 def _spoken_after(t: float, start: str) -> str:
     """``"after 6 seconds"``, ``"after 2 and a half minutes"``; ``start`` under half a second."""
     return start if t < 0.5 else f"after {_spoken_minutes(max(t, 1.0))}"
@@ -780,6 +799,7 @@ def trouble_sentences(report: Mapping[str, Any]) -> list[str]:
             report.get("metrics") or {}, report.get("modules") or (), _talk_s(report), metric_label
         )
         + unreadable_sentences(report.get("unreadable") or ())
+        + backwards_sentences(report.get("out_of_order") or ())
         + ([beyond] if beyond else [])
         + skipped_sentences(report.get("skipped_records") or ())
         + truth_skipped_sentences(report.get("truth_skipped") or ())

@@ -218,6 +218,7 @@ class StreamTailer:
         self._truncations = 0
         self._replaced = 0
         self._out_of_order = 0
+        self._first_back: StreamProblem | None = None  # the first t that went back
         self._missing = 0
         # position in the current file
         self._ident: tuple[int, int] | None = None  # (st_dev, st_ino) being read; None: none
@@ -285,6 +286,11 @@ class StreamTailer:
     def problems(self) -> list[StreamProblem]:
         """The most recent skipped lines, oldest first."""
         return list(self._problems)
+
+    def first_out_of_order(self) -> StreamProblem | None:
+        """The first sample whose ``t`` went back (kept, and counted as ``out_of_order``), as
+        ``file:line: t=… goes back from …``; None when none did."""
+        return self._first_back
 
     @property
     def line_no(self) -> int:
@@ -600,6 +606,8 @@ class StreamTailer:
             if last_t is not None and t < last_t:
                 self._out_of_order += 1
                 if self._out_of_order == 1:
+                    reason = f"t={t:g} goes back from {last_t:g}"
+                    self._first_back = StreamProblem(self._name, self._line_no, reason)
                     log.warning(
                         "%s:%d: t=%r goes back from %r (kept; further ones only counted)",
                         self._name,
@@ -687,6 +695,7 @@ def read_stream(
     problems: list[StreamProblem] | None = None,
     max_t: float | None = None,
     value_range: tuple[float, float] | None = None,
+    out_of_order: list[StreamProblem] | None = None,
 ) -> tuple[list[Sample], TailStats]:
     """Read a whole stream file at once (report, replay, rebuild after a crash).
 
@@ -706,6 +715,8 @@ def read_stream(
         max_t: samples stamped after this are skipped and counted as ``beyond_talk``.
         value_range: values outside ``(lo, hi)`` are skipped as malformed lines (see
             :class:`StreamTailer`); None accepts every finite value.
+        out_of_order: if given, the first sample whose ``t`` went back (kept) is appended
+            to it (:meth:`StreamTailer.first_out_of_order`).
 
     A path that is not a regular file (a FIFO, a device) gives no samples (``missing == 1``)
     and is never opened; at most :data:`MAX_STREAM_BYTES` are read.
@@ -725,6 +736,9 @@ def read_stream(
     tailer.finish()
     if problems is not None:
         problems += tailer.problems()
+    back = tailer.first_out_of_order()
+    if out_of_order is not None and back is not None:
+        out_of_order.append(back)
     return samples, tailer.stats()
 
 

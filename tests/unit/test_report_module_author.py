@@ -266,3 +266,42 @@ def test_a_module_failed_in_a_rehearsal_is_said_where_up_says_a_crash(tmp_path: 
     session.summary.unlink()
     report = build_report(session.root, ended=True, module_failures=failures)
     assert "I could not follow your pace and volume after 20 seconds." in summary_phrase(report)
+
+
+# -- finding 11: times that went back are shown where unreadable lines are ------------------
+
+
+def test_times_that_went_back_are_counted_and_shown_with_the_first(tmp_path: Path) -> None:
+    # session 22, finding 11: summary.json's stream.out_of_order was 13, and the printed line
+    # ("malformed samples 0"), stream_problems and the report said nothing of it
+    from prezence.cli import format_timeline
+
+    pace = steady(160.0, 1, 11) + [(9.0, 160.0), (8.0, 160.0), (7.0, 160.0)]
+    streams = {"speech_speed": pace + steady(160.0, 11, 60), "speech_volume": steady(66.0, 1, 60)}
+    session = folder(tmp_path / "r", streams, talk_s=60.0, kind="rehearsal")
+    summary = summarize_session(session, CONFIG, talk_s=60.0, extra={"ended_at_s": 60.0})
+    assert summary["counts"]["out_of_order"] == 3
+    first = (
+        "streams/speech_speed.txt:11: t=9 goes back from 10 (kept as written; 3 samples of "
+        "speech_speed went back in time)"
+    )
+    assert summary["out_of_order_times"] == [first]
+    out = format_timeline(summary)
+    assert "malformed samples 0, out-of-order times 3, stale episodes" in out
+    assert f"note: a module's clock went back: {first}" in out
+    write_report(session.root, plots=False)
+    said = (
+        "3 samples in streams/speech_speed.txt went back in time and were kept as written (e.g. "
+        "line 11: t=9 goes back from 10): a module's clock went wrong"
+    )
+    assert f"  note: {said}" in (session.report / "summary.txt").read_text()
+    assert said.split(": a module")[0] in (session.report / "report.html").read_text()
+    report = json.loads((session.report / "report.json").read_text())
+    assert report["counts"]["out_of_order"] == 3
+    assert report["out_of_order"] == [
+        {
+            "file": "streams/speech_speed.txt",
+            "samples": 3,
+            "example": "line 11: t=9 goes back from 10",
+        }
+    ]
