@@ -460,14 +460,15 @@ def with_failures(
     recorded as ``up`` records a crash, so that the notes, the report and the robot say what
     it left unmeasured (session 22: a crash in ``rehearse`` was in ``module_failures`` and
     nowhere else). Which metrics it writes is its metric records'; when it died is not
-    recorded, so its crash is at its last value (``after_last_value``). A module that wrote no
-    value is left out: its metrics are "not measured: the … module could not run"
+    recorded: it is put one step (its metrics' usual time between values) after its last
+    value (``last_value_t``), so that value holds as long as the others did. A module that
+    wrote no value is left out: its metrics are "not measured: the … module could not run"
     (:func:`measurement_notes`).
 
     Example:
-        >>> ss = {"speech_speed": [Sample("speech_speed", t, 150.0) for t in (10.0, 19.0)]}
+        >>> ss = {"speech_speed": [Sample("speech_speed", t, 150.0) for t in (17.0, 18.0, 19.0)]}
         >>> with_failures({}, {"speech": "boom"}, ss)["speech"]["crashes"]
-        [{'t': 19.0, 'why': 'boom', 'after_last_value': True}]
+        [{'t': 20.0, 'why': 'boom', 'last_value_t': 19.0}]
     """
     out: dict[str, Any] = dict(modules or {})
     for name, why in (failures or {}).items() if isinstance(failures, Mapping) else ():
@@ -475,13 +476,18 @@ def with_failures(
         if isinstance(rec, Mapping) and _crashes(rec):
             continue  # the launcher recorded its crashes itself
         wrote = {
-            metric: max(s.t for s in streams[metric])
+            metric: np.sort(np.fromiter((s.t for s in streams[metric]), dtype=float))
             for metric, m in METRICS.items()
             if m.module == name and streams.get(metric)
         }
         if not wrote:
             continue
-        crash = {"t": round(max(wrote.values()), 3), "why": str(why), "after_last_value": True}
+        last = max(float(ts[-1]) for ts in wrote.values())
+        died = max(
+            float(ts[-1]) + (float(np.median(np.diff(ts))) if len(ts) > 1 else 0.0)
+            for ts in wrote.values()
+        )
+        crash = {"t": round(died, 3), "why": str(why), "last_value_t": round(last, 3)}
         out[name] = {
             **(rec if isinstance(rec, Mapping) else {}),
             "restarts": 0,
@@ -567,7 +573,11 @@ def module_notes(
                 "lost": lost,
                 **({} if isinstance(rec.get("metrics"), list) else {"metrics_unknown": True}),
                 # rehearse's failure: it died some time after its last value, then
-                **({"after_last_value": True} if crashes[0].get("after_last_value") else {}),
+                **(
+                    {"last_value_t": float(crashes[0]["last_value_t"])}
+                    if isinstance(crashes[0].get("last_value_t"), int | float)
+                    else {}
+                ),
                 **({"cut_short": cut} if isinstance(cut, str) and cut else {}),
             }
         )

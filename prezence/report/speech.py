@@ -517,8 +517,8 @@ def module_sentences(
                 continue
         what: list[str] = []
         crashes, hangs = int(n.get("crashes") or 0), int(n.get("hangs") or 0)
-        if n.get("after_last_value"):  # rehearse's: when it died is not known
-            what.append(f"failed after its last value at {mmss(n.get('first_crash_t'))}")
+        if n.get("last_value_t") is not None:  # rehearse's: when it died is not known
+            what.append(f"failed after its last value at {mmss(n.get('last_value_t'))}")
         elif crashes:
             what.append(f"crashed {_times(crashes)} (first at {mmss(n.get('first_crash_t'))})")
         if hangs == 1:

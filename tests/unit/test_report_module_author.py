@@ -245,27 +245,28 @@ def test_a_module_failed_in_a_rehearsal_is_said_where_up_says_a_crash(tmp_path: 
     recorded = {"kind": "rehearsal", "module_failures": failures, "ended_at_s": 60.0}
     summary = summarize_session(session, CONFIG, talk_s=60.0, extra=recorded)
     crash = summary["modules"]["speech"]["crashes"]
-    assert crash == [{"t": 20.0, "why": "boom: crashed", "after_last_value": True}]
+    # it died after its last value (0:20) and before the next was due (a value a second)
+    assert crash == [{"t": 21.0, "why": "boom: crashed", "last_value_t": 20.0}]
     assert summary["metrics"]["speech_speed"]["lost"] == [
-        {"module": "speech", "from": 20.0, "to": 60.0}
+        {"module": "speech", "from": 21.0, "to": 60.0}
     ]
     assert (
         "note: module speech failed after its last value at 0:20 and was not restarted (boom: "
-        "crashed); speech_speed was not measured from 0:20 to the end (1:00)"
+        "crashed); speech_speed was not measured from 0:21 to the end (1:00)"
         in format_timeline(summary)
     )
     write_report(session.root, plots=False)
     text = (session.report / "summary.txt").read_text()
     assert (
         "note: module speech failed after its last value at 0:20 and was not restarted (boom: "
-        "crashed); pace was not measured from 0:20 to the end (1:00)" in text
+        "crashed); pace was not measured from 0:21 to the end (1:00)" in text
     )
     said = (session.report / "spoken.txt").read_text()
-    assert "I could not follow your pace and volume after 20 seconds." in said
+    assert "I could not follow your pace and volume after 21 seconds." in said
     # the robot's words at the end of a rehearsal, before summary.json is written
     session.summary.unlink()
     report = build_report(session.root, ended=True, module_failures=failures)
-    assert "I could not follow your pace and volume after 20 seconds." in summary_phrase(report)
+    assert "I could not follow your pace and volume after 21 seconds." in summary_phrase(report)
 
 
 # -- finding 11: times that went back are shown where unreadable lines are ------------------
