@@ -636,6 +636,7 @@ class Talk:
             modules=extra.get("modules"),
             stopped_at_limit=bool(extra.get("stopped_at_time_limit")),
             recording_s=extra.get("recording_s"),
+            module_failures=extra.get("module_failures"),
         )
         report["stopped_repeating"] = notes  # summary.json is written after this
         phrase = summary_phrase(report)

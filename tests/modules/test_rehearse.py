@@ -657,3 +657,29 @@ def test_a_rehearsal_stopped_while_analysing_stops_its_modules_and_says_what_it_
     assert trouble_sentences(report)[0].startswith(
         "the analysis of the recording was stopped at 0:05 of its 0:18"
     )
+
+
+def test_the_robot_says_a_module_failed_in_a_rehearsal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Session 22 (a module author's walkthrough): a module of one's own that failed half way
+    through a rehearsal was in ``summary.json``'s ``module_failures``, and the robot's closing
+    words judged its metric as if it had been measured to the end."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    crashing = _FILLERS_MODULE.replace(
+        "        streams.write(",
+        "        if t > 8:\n            raise SystemExit('boom')\n" + "        streams.write(",
+    )
+    (pkg / "fillers_stub.py").write_text(crashing)
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(pkg), *sys.path]))
+    _add_the_fillers_records(monkeypatch)
+    rules = tmp_path / "rules.txt"
+    rules.write_text("speech_fillers max 6 above=slowDown\n")
+    out = tmp_path / "s"
+    argv = ["rehearse", str(FAST), "--out", str(out), "--config", str(rules), "--allocated", "20"]
+    assert main(argv) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert "fillers" in summary["module_failures"]
+    said = summary["post_talk"]["phrase"]
+    assert "I could not follow your filler words after 9 seconds" in said, said
