@@ -333,15 +333,21 @@ def _config_or_default(args: argparse.Namespace) -> Config:
     return config if config is not None else load_config(None)
 
 
-def _options(args: argparse.Namespace) -> RunOptions:
-    """The run options of a coaching command (pacing to a real robot is the loop's business)."""
+def _options(args: argparse.Namespace, config: Config | None) -> RunOptions:
+    """The run options of a coaching command (pacing to a real robot is the loop's business).
+    ``config``: the talk's rules, when known here (``replay`` takes the recording's later)."""
     from prezence.feedback.gestures import library_for_talk
     from prezence.talk import RunOptions
 
     gestures = getattr(args, "gestures", None)
-    # refused now, before the robot, a module or a folder: a file that cannot be played, or a
-    # gesture (of the file or built in) that fails `gestures check` at --speed
-    library_for_talk(gestures or None, speed_fraction=args.speed)
+    # refused now, before the robot, a module or a folder: a file that cannot be played, a
+    # command the talk can give whose gesture is in no library, or a gesture (of the file or
+    # built in) that fails `gestures check` at --speed
+    library_for_talk(
+        gestures or None,
+        speed_fraction=args.speed,
+        commands=config.talk_commands() if config is not None else None,
+    )
     return RunOptions(
         policy=args.policy,
         seed=args.seed if args.seed is not None else 0,
@@ -383,7 +389,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     result = run_talk(
         args.scenario,
         out=out,
-        options=_options(args),
+        options=_options(args, config if config is not None else _config_or_default(args)),
         seed=args.seed,
         backend=args.backend,
         backend_kwargs=_backend_kwargs(args),
@@ -487,7 +493,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         )
     config = _load_config(args)
     kw = _backend_kwargs(args)
-    options = _options(args)
+    options = _options(args, config)  # None: the recording's rules, checked by replay()
     out = claim_session_dir(
         args.out,
         "replay",
@@ -516,7 +522,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
     rec = Path(args.recording)
     config = _config_or_default(args)
     kw = _backend_kwargs(args)
-    options = _options(args)
+    options = _options(args, config)
     margs = {
         "speech": module_args("--speech-args", "speech", args.speech_args),
         "vision": module_args("--vision-args", "vision", args.vision_args),
@@ -581,7 +587,7 @@ def cmd_up(args: argparse.Namespace) -> int:
 
     kw = _backend_kwargs(args)
     check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
-    options = _options(args)
+    options = _options(args, config)
     backend = make_backend(args.backend, **kw)
     out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
     view = None if args.quiet else _live_view(config, specs)
@@ -670,11 +676,19 @@ def cmd_check_config(args: argparse.Namespace) -> int:
 
     files = [Path(p) for p in args.files]
     room = None
+    library = None
     problems: list[str] = []
     if args.room:
         try:
             room = load_room(args.room)
         except ConfigError as e:
+            problems.append(str(e))
+    if args.gestures:
+        from prezence.feedback.gestures import load_library_file
+
+        try:
+            library = load_library_file(args.gestures)
+        except PrezenceError as e:  # not a library: checked as `gestures check FILE` does
             problems.append(str(e))
     notes: list[str] = []
     good: list[Path] = []  # each file is checked, and said ok, on its own: a lint step's view
@@ -686,7 +700,7 @@ def cmd_check_config(args: argparse.Namespace) -> int:
                     "the rules that use its named values"
                 ]
             else:
-                found = check_config_files([f], room=room, notes=notes)
+                found = check_config_files([f], room=room, notes=notes, library=library)
             problems += found
             if not found:
                 good.append(f)
@@ -1023,6 +1037,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("files", nargs="+", help="TOML configs or seed-format rules files")
     p.add_argument(
         "--room", metavar="FILE", help="room profile TOML whose named values the rules use"
+    )
+    p.add_argument(
+        "--gestures",
+        metavar="FILE",
+        help="the gesture library of your own the talks will play: every command the rules "
+        "can give must have its gesture there or built in",
     )
     p.set_defaults(func=cmd_check_config)
 

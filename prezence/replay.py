@@ -24,6 +24,7 @@ from prezence.backends.registry import make_backend
 from prezence.config.load import keep_recorded_time, load_config
 from prezence.config.model import Config
 from prezence.errors import ConfigError
+from prezence.feedback.gestures import library_for_talk
 from prezence.metrics import METRICS
 from prezence.samples import Sample
 from prezence.session import (
@@ -164,6 +165,13 @@ def replay(
     if options.gestures is None and rec_meta.get("gestures"):
         # the robot plays what it played in the recording, as the rules are the recording's
         options = replace(options, gestures=str(recorded_gestures(rec, rec_meta)))
+    # before anything is written: a command these rules (the recording's, or the ones given)
+    # can give whose gesture the library lacks would stop the talk at its first cue
+    library_for_talk(
+        options.gestures or None,
+        speed_fraction=options.speed_fraction,
+        commands=config.talk_commands(),
+    )
     readings = read_streams(paths, max_t=limit, ranges=config.value_ranges())
     samples = merge_readings(readings)
     talk_s = float(meta.get("talk_s") or min(limit, samples[-1].t if samples else 0.0))

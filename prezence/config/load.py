@@ -12,6 +12,7 @@ import logging
 from collections.abc import Iterable, Sequence
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from prezence.config.lines import SLOTS, parse_lines
 from prezence.config.model import Config, RoomProfile, Rule
@@ -19,6 +20,9 @@ from prezence.config.tomlconf import loads_config, loads_room
 from prezence.errors import ConfigError
 from prezence.metrics import METRICS
 from prezence.tomlio import read_text
+
+if TYPE_CHECKING:
+    from prezence.feedback.gestures import GestureLibrary
 
 log = logging.getLogger(__name__)
 
@@ -139,7 +143,11 @@ def load_room(path: str | Path) -> RoomProfile:
 
 
 def config_problems(
-    path: str | Path, *, room: RoomProfile | None = None, notes: list[str] | None = None
+    path: str | Path,
+    *,
+    room: RoomProfile | None = None,
+    notes: list[str] | None = None,
+    library: GestureLibrary | None = None,
 ) -> list[ConfigError]:
     """Every problem found in one config file (empty when it is fine).
 
@@ -149,20 +157,35 @@ def config_problems(
             built-in one).
         notes: if given, warnings that are not errors (see :func:`complete_rules`) are
             appended to it.
+        library: the gesture library the talks will play (``--gestures``; None: the built-in
+            one): a command the rules (or the coach, by these settings) can give whose gesture
+            it lacks is a problem, as a talk refuses it
+            (:func:`prezence.feedback.gestures.missing_gestures`).
     """
+    from prezence.feedback.gestures import missing_gestures
+
     errors: list[ConfigError] = []
     rules: Sequence[Rule] = ()
+    config: Config | None = None
     try:
         text = read_text(path)
         if Path(path).suffix.lower() == ".toml":
-            rules = loads_config(text, path=path, room=room, errors=errors).rules
+            config = loads_config(text, path=path, room=room, errors=errors)
+            rules = config.rules
         else:
             base_room = room if room is not None else default_config().room
             rules = parse_lines(text, path=path, room=base_room, errors=errors)
             if not rules and not errors:
                 errors.append(ConfigError("no rules", path=path))
+            base = default_config()
+            config = Config(
+                rules=tuple(rules), processor=base.processor, time=base.time, source=str(path)
+            )
     except ConfigError as e:  # fatal ones: unreadable, TOML syntax, format
         errors.append(e)
+    if not errors and config is not None:
+        completed = dataclasses.replace(config, rules=complete_rules(rules)[0])
+        errors += [ConfigError(m) for m in missing_gestures(library, completed.talk_commands())]
     if notes is not None and not errors:
         notes += complete_rules(rules)[1]
     return errors
@@ -173,6 +196,7 @@ def check_config_files(
     *,
     room: RoomProfile | None = None,
     notes: list[str] | None = None,
+    library: GestureLibrary | None = None,
 ) -> list[str]:
     """Validate config files without running anything (``prezence check-config FILE…``).
 
@@ -181,6 +205,7 @@ def check_config_files(
         room: the room profile for named values (``--room``); None: each file's own or the
             built-in room.
         notes: if given, warnings (unknown metric, rule without command) are appended to it.
+        library: the gesture library of the talks (``--gestures``; None: the built-in one).
 
     Returns:
         One message per problem, each starting with ``file:line:col:`` or ``file: key:``;
@@ -188,7 +213,7 @@ def check_config_files(
     """
     out: list[str] = []
     for p in paths:
-        problems = config_problems(p, room=room, notes=notes)
+        problems = config_problems(p, room=room, notes=notes, library=library)
         log.info("%s: %d problem(s)", p, len(problems))
         out += [str(e) for e in problems]
     return out

@@ -359,6 +359,28 @@ class Config:
         """Metric → the values its stream may hold (:attr:`Rule.value_range`), where known."""
         return {r.metric: vr for r in self.rules if (vr := r.value_range) is not None}
 
+    def talk_commands(self) -> dict[str, list[str]]:
+        """Every command a talk on this config can give, with what gives it: the rules'
+        ``below``/``above`` commands (``rules.txt:10 (above= of speech_fillers)``), the praise,
+        time warnings and overtime warning the coach gives by these settings, and the
+        post-talk summary. A talk is refused when one has no gesture
+        (:func:`prezence.feedback.gestures.check_command_gestures`)."""
+        out: dict[str, list[str]] = {}
+
+        def add(command: str | None, what: str) -> None:
+            if command:
+                out.setdefault(command, []).append(what)
+
+        for r in self.rules:
+            for side in ("below", "above"):
+                where = r.source or self.source or "a rule"
+                add(getattr(r, side), f"{where} ({side}= of {r.metric})")
+        add(self.processor.praise_command, "the coach's praise")
+        add(self.time.warn_command, "the coach's time warnings")
+        add(self.time.overtime_command, "the coach's overtime warning")
+        add("summary", "the robot's post-talk summary")
+        return out
+
     def with_allocated(self, allocated_s: float | None) -> Config:
         """A copy with another allocated time."""
         return replace(self, time=replace(self.time, allocated_s=allocated_s))

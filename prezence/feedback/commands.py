@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any
 
 from prezence.errors import ConfigError, UnknownName
 from prezence.feedback.direction import Direction
-from prezence.tomlio import loads_toml
+from prezence.tomlio import KeyLines, loads_toml
 
 COMMANDS_FILE = "commands.toml"
 
@@ -29,6 +29,9 @@ class Command:
     phrase_noisy: str | None = None
     #: The parameters the processor gives each cue of this command (``minutes``).
     params: tuple[str, ...] = ()
+    #: Where the command is defined: ``commands.toml:LINE`` (its ``gesture =`` line), for
+    #: messages about it; "" when not known.
+    where: str = field(default="", compare=False)
 
     def say(self, params: Mapping[str, Any] | None = None) -> str:
         """The phrase with the cue's parameters filled in.
@@ -54,12 +57,14 @@ class Command:
             ) from e
 
 
-def _parse(doc: Mapping[str, Any], path: str) -> dict[str, Command]:
+def _parse(doc: Mapping[str, Any], path: str, text: str = "") -> dict[str, Command]:
     if doc.get("format") != 1:
         raise ConfigError(f"expected format = 1, found {doc.get('format')!r}", path=path)
+    lines = KeyLines(text)
     out: dict[str, Command] = {}
     for name, entry in dict(doc.get("commands", {})).items():
         key = f"commands.{name}"
+        line = lines.line(("commands", name, "gesture")) if text else None
         try:
             direction = Direction(entry["direction"])
             out[name] = Command(
@@ -70,6 +75,7 @@ def _parse(doc: Mapping[str, Any], path: str) -> dict[str, Command]:
                 phrase_one=entry.get("phrase_one"),
                 phrase_noisy=entry.get("phrase_noisy"),
                 params=tuple(str(p) for p in entry.get("params", ())),
+                where=f"{path}:{line}" if line is not None else path,
             )
         except KeyError as e:
             raise ConfigError(f"missing key {e}", path=path, key=key) from e
@@ -82,11 +88,17 @@ def _parse(doc: Mapping[str, Any], path: str) -> dict[str, Command]:
     return out
 
 
+def commands_path() -> str:
+    """The built-in command table's file (``…/prezence/feedback/data/commands.toml``)."""
+    return str(resources.files("prezence.feedback").joinpath("data", COMMANDS_FILE))
+
+
 @functools.cache
 def load_commands() -> Mapping[str, Command]:
     """The built-in command table."""
+    path = commands_path()
     text = resources.files("prezence.feedback").joinpath("data", COMMANDS_FILE).read_text()
-    return _parse(loads_toml(text, path=COMMANDS_FILE), COMMANDS_FILE)
+    return _parse(loads_toml(text, path=path), path, text)
 
 
 def get_command(name: str) -> Command:

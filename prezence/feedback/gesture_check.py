@@ -36,6 +36,7 @@ from prezence.feedback.gestures import (
     library_notes,
     load_library,
     load_library_file,
+    missing_gestures,
     time_optimal_minimum,
 )
 from prezence.feedback.limits import HANDS, JointLimits, load_limits
@@ -243,7 +244,9 @@ def check_gestures(
     except PrezenceError as e:
         return f"error: {e}", 2
     notes = library_notes(lib) if lib is not None else []
-    status = 0 if all(r["ok"] for r in rows) else 1
+    # a command of the table whose gesture is in neither library stops a talk at its cue
+    missing = missing_gestures(lib)
+    status = 0 if all(r["ok"] for r in rows) and not missing else 1
     settings = {
         "speed_fraction": speed_fraction,
         "profile": "trapezoidal velocity, S-curve blends, rest at every keyframe",
@@ -261,7 +264,9 @@ def check_gestures(
     if lib is not None:
         settings["library"] = str(library)
     if as_json:
-        doc = {"settings": settings, "ok": status == 0, "gestures": rows}
+        doc: dict[str, Any] = {"settings": settings, "ok": status == 0, "gestures": rows}
+        if missing:
+            doc["missing_gestures"] = missing
         return json.dumps({**doc, "notes": notes} if lib else doc, indent=2), status
     of = f"gestures of {library}" if lib is not None else "gestures"
     lines = [
@@ -320,6 +325,7 @@ def check_gestures(
             f"the other {kept} gestures a talk with --gestures {library} plays are the built-in "
             "ones (prezence gestures check)"
         )
+    lines += [f"FAIL: {m}" for m in missing]
     lines += [f"note: {n}" for n in notes]
     return "\n".join(lines), status
 

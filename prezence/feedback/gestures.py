@@ -601,19 +601,87 @@ def check_plannable(library: GestureLibrary, *, limits: JointLimits) -> None:
 BUILTIN_PASS_FROM_SPEED = 0.11
 
 
-def library_for_talk(path: str | Path | None, *, speed_fraction: float) -> GestureLibrary | None:
+@functools.cache
+def builtin_gesture_names() -> frozenset[str]:
+    """The names of the built-in gestures: the data file's ``[gestures.NAME]`` tables, read
+    without planning them (a talk on the built-in library needs no more)."""
+    text = resources.files("prezence.feedback").joinpath("data", GESTURES_FILE).read_text()
+    return frozenset(loads_toml(text, path=GESTURES_FILE).get("gestures", {}))
+
+
+def missing_gestures(
+    library: GestureLibrary | None, commands: Mapping[str, Sequence[str]] | None = None
+) -> list[str]:
+    """One line per command whose gesture ``library`` (None: the built-in one) lacks: each of
+    ``commands`` (command → what gives it: a talk's, from
+    :meth:`~prezence.config.model.Config.talk_commands`), or, with None, every command of the
+    command table. Each names the command and its ``commands.toml:line``, the missing gesture
+    with a "did you mean", and what gives the command (a rules line)."""
+    from prezence.feedback.commands import load_commands
+
+    table = load_commands()
+    given = commands if commands is not None else {name: () for name in table}
+    names = set(library.names) if library is not None else set(builtin_gesture_names())
+    own = library.source if library is not None and library.own else ""
+    out = []
+    for name, wheres in given.items():
+        command = table.get(name)
+        if command is None or command.gesture in names:
+            continue  # an unknown command is the config loader's error, with its line
+        hint = did_you_mean(command.gesture, sorted(names)).removeprefix("; ")
+        out.append(
+            f"{command.where}: command '{name}' plays gesture '{command.gesture}', which is not "
+            f"in the built-in gestures{f' nor in {own}' if own else ''}"
+            + (f" ({hint})" if hint else "")
+            + (f"; {', '.join(wheres)} gives {name}" if wheres else "")
+            + f": define [gestures.{command.gesture}] in a --gestures file (or in the built-in "
+            "gestures.toml), or give the command a gesture that exists"
+        )
+    return out
+
+
+def check_command_gestures(
+    library: GestureLibrary | None, commands: Mapping[str, Sequence[str]]
+) -> None:
+    """Refuse a talk that would give a command whose gesture ``library`` lacks (see
+    :func:`missing_gestures`): it would stop at the first such cue, its summary and report
+    unwritten.
+
+    Raises:
+        GestureCheckFailed: one line per such command.
+    """
+    from prezence.feedback.gesture_check import GestureCheckFailed
+
+    lines = missing_gestures(library, commands)
+    if lines:
+        raise GestureCheckFailed("\n".join(lines))
+
+
+def library_for_talk(
+    path: str | Path | None,
+    *,
+    speed_fraction: float,
+    commands: Mapping[str, Sequence[str]] | None = None,
+) -> GestureLibrary | None:
     """The library a talk with ``--gestures path`` plays (None: the built-in one), checked
     before the talk starts: the file's gestures planned within the limits and, with PyBullet,
     clear of the robot's own body, a warning for each note ``gestures check`` gives (a gesture
-    no command plays…), and every gesture the talk plays passing ``gestures check`` at
-    ``speed_fraction`` (:func:`~prezence.feedback.gesture_check.check_talk_gestures`: none
-    takes so long that the robot could give no other cue). The file is read and checked once
-    per version and speed (the command's start and its talk both ask).
+    no command plays…), every command the talk can give (``commands``, from
+    :meth:`~prezence.config.model.Config.talk_commands`: its rules', and the coach's own:
+    praise, time warnings, the summary; None: not checked) having its gesture in the library
+    (:func:`check_command_gestures`), and
+    every gesture the talk plays passing ``gestures check`` at ``speed_fraction``
+    (:func:`~prezence.feedback.gesture_check.check_talk_gestures`: none takes so long that
+    the robot could give no other cue). The file is read and checked once per version and
+    speed (the command's start and its talk both ask).
 
     Raises:
         ConfigError, LimitViolation: the file cannot be read or played (``file:line:``).
-        GestureCheckFailed: a gesture the talk would play fails the check at this speed.
+        GestureCheckFailed: a command the talk can give has no gesture in the library, or a
+            gesture the talk would play fails the check at this speed.
     """
+    if path is None and commands is not None:
+        check_command_gestures(None, commands)
     if path is None and BUILTIN_PASS_FROM_SPEED <= speed_fraction <= 1.0:
         return None  # the built-in gestures at a speed they pass at (see the constant)
     from prezence.feedback.gesture_check import check_talk_gestures
@@ -629,6 +697,8 @@ def library_for_talk(path: str | Path | None, *, speed_fraction: float) -> Gestu
         raise
     version = (str(p), str(p.resolve()), st.st_mtime_ns, st.st_size)
     library = _for_talk(*version)
+    if commands is not None:
+        check_command_gestures(library, commands)
     if (version, speed_fraction) not in _CHECKED:
         check_talk_gestures(speed_fraction, library=library)  # raises: not remembered
         _CHECKED.add((version, speed_fraction))
@@ -890,12 +960,15 @@ __all__ = [
     "Keyframe",
     "LimitViolation",
     "build_trajectory",
+    "builtin_gesture_names",
+    "check_command_gestures",
     "check_path",
     "check_plannable",
     "library_for_talk",
     "library_notes",
     "load_library",
     "load_library_file",
+    "missing_gestures",
     "parse_library",
     "parse_own_library",
     "radians_like",

@@ -20,6 +20,7 @@ from prezence.backends.base import Backend
 from prezence.backends.registry import make_backend
 from prezence.config.load import load_config
 from prezence.config.model import Config
+from prezence.feedback.gestures import library_for_talk
 from prezence.processor import Cue, Decision
 from prezence.samples import MAX_AHEAD_S, Sample
 from prezence.session import SessionDir
@@ -174,6 +175,11 @@ def run_talk(
         raise TypeError("give either options or option keywords, not both")
     opts = dataclasses.replace(opts, seed=seed)
     cfg = (config or load_config(None)).with_allocated(sc.allocated_s)
+    # before the robot opens or the folder is written: a command the rules can give whose
+    # gesture the library lacks would stop the talk at its first cue
+    library_for_talk(
+        opts.gestures or None, speed_fraction=opts.speed_fraction, commands=cfg.talk_commands()
+    )
     bk = (
         backend if isinstance(backend, Backend) else make_backend(backend, **(backend_kwargs or {}))
     )
