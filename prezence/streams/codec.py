@@ -3,7 +3,9 @@
 ``t`` is seconds since the talk began and ``value`` the measurement, both written with Python's
 shortest round-tripping float form (``repr``), so ``parse_line(format_line(t, v)) == (t, v)``
 exactly. A line holding only ``<value>`` (the seed report's format, where modules wrote bare
-values) is accepted too; the reader stamps it with its own clock (see :mod:`.tail`).
+values) is read too: a live reader stamps it with its own clock and notes the stamp in the
+stream's ``.stamps`` sidecar; read afterwards without such a note it has no time, and the
+readers skip it as a bad line (see :mod:`.tail`).
 
 Numbers are plain ASCII decimals as Python's ``float()`` reads them (``12``, ``-0.5``, ``1e-3``);
 NaN and infinities, digit-group underscores (``1_000``) and non-ASCII digits are refused, and so

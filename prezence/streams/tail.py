@@ -23,10 +23,14 @@ reached last time) and returns the samples of the *complete* lines among them. W
 - **replaced file** (another inode at the path, e.g. after ``os.replace``): reading restarts at
   byte 0 of the new file and ``replaced`` is counted. The tailer does not keep files open (so a
   writer can replace one on any OS); unread bytes of the old file are therefore lost.
-- **bare ``<value>`` lines** (the seed's format): stamped with the ``now`` given to ``poll``.
-  With ``record_stamps`` (the coach sets it), each stamp is also appended as ``<line> <t>`` to
-  the sidecar file ``<stream>.stamps`` (:func:`stamps_path`), so that :func:`read_stream` gives
-  those lines the same times afterwards and the report and replay see what the coach saw.
+- **bare ``<value>`` lines** (the seed's format): stamped with the ``now`` given to ``poll``
+  (a live talk: the coach reads each line as it is written). With ``record_stamps`` (the coach
+  sets it), each stamp is also appended as ``<line> <t>`` to the sidecar file
+  ``<stream>.stamps`` (:func:`stamps_path`), so that :func:`read_stream` gives those lines the
+  same times afterwards and the report and replay see what the coach saw. Read afterwards
+  (:func:`read_stream` with no ``now``: ``rehearse``, ``replay``, ``report``), a bare line the
+  sidecar gives no time cannot be placed in time: it is a bad line (``no time stamp: …``),
+  not a sample of the instant the file happened to be read at.
 - **a time ahead of the reader's clock**, when the tailer is given ``max_ahead_s`` (the coach
   gives :data:`prezence.samples.MAX_AHEAD_S`): a line stamped more than that after the ``now``
   given to ``poll`` is a bad line like the others (skipped, counted as malformed, logged with
@@ -586,8 +590,13 @@ class StreamTailer:
             if t is None:  # bare value: stamped by the reader
                 if self._line_no in recorded:
                     t = recorded[self._line_no]
+                elif now is not None:
+                    t = now
                 else:
-                    t = now if now is not None else (last_t if last_t is not None else 0.0)
+                    # read afterwards (rehearse, replay, report) with no time the coach gave
+                    # it: when it was measured cannot be known
+                    self._problem(self._line_no, _no_time_reason(line))
+                    continue
                 if self._stamps_out is not None:
                     stamped.append(f"{self._line_no} {t!r}\n")
             elif ahead is not None and now is not None and t > now + ahead:
@@ -645,6 +654,14 @@ class StreamTailer:
             log.warning("%s:%d: %s; line skipped", self._name, line_no, reason)
             if self._logged == MAX_LOGGED_PROBLEMS:
                 log.warning("%s: further bad lines are counted but not logged", self._name)
+
+
+def _no_time_reason(line: str) -> str:
+    shown = line.strip()
+    shown = shown if len(shown) <= 40 else shown[:40] + "…"
+    return (
+        f"no time stamp: {shown!r} (write '<t> <value>': only a live coach can time a bare value)"
+    )
 
 
 def _ahead_reason(t: float, now: float) -> str:
@@ -709,8 +726,8 @@ def read_stream(
         path: the stream file.
         metric: the metric name given to the samples.
         now: the time given to bare ``<value>`` lines that have no recorded stamp (see
-            :func:`stamps_path`); None gives each the ``t`` of the sample before it (0.0 at the
-            start).
+            :func:`stamps_path`); None: such a line is skipped and counted as malformed
+            (``no time stamp: …``): read after the fact, nothing says when it was measured.
         problems: if given, the skipped lines (up to 100) are appended to it.
         max_t: samples stamped after this are skipped and counted as ``beyond_talk``.
         value_range: values outside ``(lo, hi)`` are skipped as malformed lines (see

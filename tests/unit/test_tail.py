@@ -288,10 +288,22 @@ def test_read_stream_of_a_missing_file_is_empty(stream: Path) -> None:
     assert read_stream(stream, M) == ([], TailStats(missing=1))
 
 
-def test_read_stream_stamps_bare_values(stream: Path) -> None:
+def test_read_stream_skips_bare_values_no_live_reader_stamped(stream: Path) -> None:
+    # Session 22's walkthrough: `rehearse` read a module's 52 bare values (51 s of talk) as
+    # one instant ("measured for only 6 s", no advice, nothing flagged). Read afterwards, a
+    # bare value has no time: it is a bad line, named with its file and line.
     stream.write_bytes(b"150\n2 160\n170\n")
-    samples, _ = read_stream(stream, M)
-    assert [s.t for s in samples] == [0.0, 2.0, 2.0]  # the t before them
+    problems: list[StreamProblem] = []
+    samples, stats = read_stream(stream, M, problems=problems)
+    assert samples == [Sample(M, 2.0, 160.0)]
+    assert (stats.samples, stats.malformed) == (1, 2)
+    assert [str(p) for p in problems] == [
+        f"{stream}:1: no time stamp: '150' (write '<t> <value>': only a live coach can time a "
+        "bare value)",
+        f"{stream}:3: no time stamp: '170' (write '<t> <value>': only a live coach can time a "
+        "bare value)",
+    ]
+    # a time given by the caller stamps them, as a live reader does
     samples, _ = read_stream(stream, M, now=30.0)
     assert [s.t for s in samples] == [30.0, 2.0, 30.0]
 
