@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 import re
 from pathlib import Path
@@ -675,3 +676,47 @@ def test_no_collisions_asked_for_is_not_blamed_on_a_missing_pybullet(
     assert "needs pybullet" not in text
     report = json.loads(check_gestures(0.6, as_json=True, collisions=False)[0])
     assert report["settings"]["self_collision"] == "not checked (--no-collisions)"
+
+
+def test_a_phrase_the_robots_voice_cannot_say_as_written_is_warned_of_with_its_line(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # session 22's walkthrough: a French phrase with an emoji went to NAO's text-to-speech,
+    # whose language is English, with no word of it anywhere
+    from prezence.feedback.commands import TTS_LANGUAGE, parse_commands
+
+    text = (
+        "format = 1\n"
+        "[commands.fewerFillers]\n"
+        'direction = "lower"\n'
+        'gesture = "fewer_fillers"\n'
+        'phrase = "Moins de « euh », s\\u2019il vous plaît 🙂"\n'
+        "[commands.slowDown]\n"
+        'direction = "lower"\n'
+        'gesture = "slow_down"\n'
+        'phrase = "Slow down a little."\n'
+    )
+    with caplog.at_level(logging.WARNING, logger="prezence.feedback.commands"):
+        table = parse_commands(text, "mine/commands.toml")
+    assert table["fewerFillers"].phrase.endswith("🙂")  # kept as written: a warning, not an error
+    said = [r.getMessage() for r in caplog.records]
+    assert len(said) == 1, said
+    assert said[0].startswith(
+        "mine/commands.toml:5: commands.fewerFillers.phrase: "
+        "'\u2019' (RIGHT SINGLE QUOTATION MARK), 'î' (LATIN SMALL LETTER I WITH CIRCUMFLEX), "
+        "'🙂' (SLIGHTLY SMILING FACE) may not be said as written"
+    ), said
+    assert f"its {TTS_LANGUAGE} voice" in said[0] and "emoji" in said[0]
+
+
+def test_the_built_in_phrases_are_all_sayable_by_the_robots_voice(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    from importlib import resources
+
+    from prezence.feedback.commands import COMMANDS_FILE, parse_commands
+
+    text = resources.files("prezence.feedback").joinpath("data", COMMANDS_FILE).read_text()
+    with caplog.at_level(logging.WARNING, logger="prezence.feedback.commands"):
+        parse_commands(text, COMMANDS_FILE)
+    assert caplog.records == []
