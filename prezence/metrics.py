@@ -14,6 +14,7 @@ jitter; a metric written every 2 s (speech at most) goes stale after 6 s, one wr
 
 from __future__ import annotations
 
+import difflib
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -223,6 +224,44 @@ METRICS: Mapping[str, Metric] = {
         ),
     )
 }
+
+
+def record_problems(metrics: Mapping[str, Metric], modules: Mapping[str, InputModule]) -> list[str]:
+    """What is wrong between the records: a :class:`Metric` whose ``module`` names no
+    :class:`InputModule` (its metric would never be started, waited for or named when its
+    module fails), an input module's ``heartbeat_metric`` that is not one of its metrics.
+
+    Example:
+        >>> m = {"x": Metric("x", "1", "x", "filler", 1.0)}
+        >>> record_problems(m, {"fillers": InputModule("fillers", "f", "--audio", (), None)})
+        ["prezence/metrics.py: Metric 'x' names module 'filler', which has no InputModule \
+record in INPUT_MODULES; did you mean 'fillers'?"]
+    """
+    out = []
+    for m in metrics.values():
+        if m.module not in modules:
+            close = difflib.get_close_matches(m.module, list(modules), n=1, cutoff=0.6)
+            hint = f"; did you mean '{close[0]}'?" if close else f" (known: {', '.join(modules)})"
+            out.append(
+                f"prezence/metrics.py: Metric '{m.name}' names module '{m.module}', which has no "
+                f"InputModule record in INPUT_MODULES{hint}"
+            )
+    for mod in modules.values():
+        hb = mod.heartbeat_metric
+        if hb is not None and (hb not in metrics or metrics[hb].module != mod.name):
+            out.append(
+                f"prezence/metrics.py: InputModule '{mod.name}' has heartbeat_metric '{hb}', "
+                "which is not one of its metrics (no Metric record with that name and "
+                f"module='{mod.name}')"
+            )
+    return out
+
+
+# Checked when the records are read: a record that names a module no InputModule record
+# defines is a mistake in this file, said at once rather than found as a metric never measured.
+_problems = record_problems(METRICS, INPUT_MODULES)
+if _problems:
+    raise ValueError("\n".join(_problems))
 
 #: Metrics a synthetic presenter can play (those with a physical range).
 SYNTHETIC_METRICS: tuple[str, ...] = tuple(

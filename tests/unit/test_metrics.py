@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from prezence import metrics as M
@@ -56,3 +58,51 @@ def test_a_rules_own_staleness_wins(monkeypatch: pytest.MonkeyPatch) -> None:
     rule = Rule("slow_metric", Check.MIN, low=1.0, below="louder", stale_after_s=4.0)
     proc = Processor(Config(rules=(rule,)), policy=make_policy("weighted"))
     assert proc.state("slow_metric").stale_after_s == 4.0
+
+
+def test_a_metric_record_naming_no_module_record_is_an_error_with_a_did_you_mean() -> None:
+    # session 22's walkthrough: Metric(..., "filler", ...) for the module "fillers" was taken
+    # without a word: its metric was never started, waited for, or named when it failed
+    fillers = M.InputModule("fillers", "fillers_stub", "--audio", (), M.DEFAULT_HANG_S)
+    typo = M.Metric("speech_fillers", "fillers/min", "filler words", "filler", 1.0)
+    assert M.record_problems({"speech_fillers": typo}, {"fillers": fillers}) == [
+        "prezence/metrics.py: Metric 'speech_fillers' names module 'filler', which has no "
+        "InputModule record in INPUT_MODULES; did you mean 'fillers'?"
+    ]
+    right = M.Metric("speech_fillers", "fillers/min", "filler words", "fillers", 1.0)
+    assert M.record_problems({"speech_fillers": right}, {"fillers": fillers}) == []
+    assert M.record_problems(M.METRICS, M.INPUT_MODULES) == []  # the shipped records
+
+
+def test_a_metric_record_naming_no_module_record_stops_prezence_at_import(
+    tmp_path: Path,
+) -> None:
+    import shutil
+    import subprocess
+    import sys
+
+    copy = tmp_path / "prezence"
+    shutil.copytree(Path(M.__file__).parent, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    metrics = copy / "metrics.py"
+    text = metrics.read_text()
+    # the vision module's record, and cv_headYaw's record names it "vison"
+    assert text.count('Metric("cv_headYaw", "degrees", "head turn", "vision", _VISION)') == 1
+    metrics.write_text(
+        text.replace(
+            'Metric("cv_headYaw", "degrees", "head turn", "vision", _VISION)',
+            'Metric("cv_headYaw", "degrees", "head turn", "vison", _VISION)',
+        )
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", "import prezence.metrics"],
+        cwd=tmp_path,
+        env={"PYTHONPATH": str(tmp_path), "PYTHONDONTWRITEBYTECODE": "1"},
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 1
+    assert done.stderr.rstrip().endswith(
+        "ValueError: prezence/metrics.py: Metric 'cv_headYaw' names module 'vison', which has "
+        "no InputModule record in INPUT_MODULES; did you mean 'vision'?"
+    ), done.stderr
