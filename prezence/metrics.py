@@ -1,9 +1,17 @@
 """One record per metric, and per input module: what everything else reads.
 
-Adding a metric is its input module (which writes ``streams/<name>.txt``) plus one
-:class:`Metric` record in :data:`METRICS`. The config checker's list of known metrics, the
-synthetic presenters' physical ranges (and so the scenarios that may script it), the launcher's
-view of which module writes what, and the coach's default staleness all come from here.
+Adding a metric measured by a module of its own is that module (which writes
+``streams/<name>.txt``) plus two records here: an :class:`InputModule` in
+:data:`INPUT_MODULES` (``rehearse`` and ``up`` start it on their input) and a :class:`Metric`
+in :data:`METRICS` per metric it writes, whose ``module`` names it (checked on import). The
+config checker's list of known metrics, the synthetic presenters' physical ranges (and so the
+scenarios that may script it), the launcher's view of which module writes what, the coach's
+default staleness, and the report's and spoken summary's label, unit and advice all come from
+here. The records judge nothing: a rule does (the user's rules file, or the built-in
+``config/defaults/default.toml`` and ``rules.txt``, whose rules :attr:`Metric.band` and
+:attr:`Metric.scale` only describe). A phrase and gesture of its own are a command in
+``feedback/data/commands.toml`` and a gesture in ``feedback/data/gestures.toml`` (or a
+``--gestures`` file). docs/modules.md, "Adding a metric of your own", has every step.
 
 Default staleness follows from the writing module's cadence: a metric goes stale when no sample
 came for ``max(floor, STALE_CADENCES × cadence_s)`` seconds, where ``floor`` is the config's
