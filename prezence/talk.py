@@ -396,10 +396,13 @@ class Talk:
         self.options = options
         self.on_decision = on_decision
         self.processor = Processor(config, policy=make_policy(options.policy, seed=options.seed))
-        # a library of one's own is read and planned, and every gesture the talk plays
-        # checked at its speed, before the robot opens
+        # a library of one's own is read and planned, every command the talk can give
+        # found in it, and every gesture the talk plays checked at its speed, before the
+        # robot opens (the Gymnasium env and any caller of Talk included)
         self.library = library_for_talk(
-            options.gestures or None, speed_fraction=options.speed_fraction
+            options.gestures or None,
+            speed_fraction=options.speed_fraction,
+            commands=config.talk_commands(),
         )
         self.coach: Coach | None = None
         #: The folder held for this talk from :meth:`start` until it is finished or abandoned.

@@ -189,3 +189,26 @@ def test_gestures_check_fails_a_command_whose_gesture_is_in_no_library(
     assert [m.split(": command ")[1][:14] for m in report["missing_gestures"]] == ["'fewerFillers'"]
     assert main(["gestures", "check", str(right), "--no-collisions"]) == 0
     assert "FAIL" not in capsys.readouterr().out
+
+
+@pytest.mark.usefixtures("with_fewer_fillers")
+def test_a_talk_built_in_code_is_refused_too(tmp_path: Path) -> None:
+    """The Gymnasium env and any other code that builds a :class:`~prezence.talk.Talk` get the
+    same check as the commands: refused when it is built, before anything runs."""
+    from prezence.backends.registry import make_backend
+    from prezence.config.load import load_config
+    from prezence.feedback.gesture_check import GestureCheckFailed
+    from prezence.session import SessionDir
+    from prezence.talk import RunOptions, SourceBase, Talk
+
+    rules = tmp_path / "myrules.txt"
+    rules.write_text(RULES)
+    with pytest.raises(GestureCheckFailed, match="command 'fewerFillers' plays gesture"):
+        Talk(
+            SourceBase(),  # type: ignore[arg-type]
+            config=load_config(rules),
+            session=SessionDir(tmp_path / "s"),
+            backend=make_backend("fake"),
+            options=RunOptions.default(),
+        )
+    assert not (tmp_path / "s").exists()
