@@ -224,6 +224,38 @@ def _violations(summary: dict[str, Any]) -> str:
     return f"not measured ({f'{backend} backend: ' if backend else ''}--backend sim measures them)"
 
 
+#: A module that exited 0 this long or more before the talk's end is said to have ended while
+#: the talk went on (seconds): sooner, it ended with the others (a file's end).
+ENDED_BEFORE_S = 2.0
+
+
+def _ended_sentences(modules: Any, talk_s: float) -> list[str]:
+    """One sentence per module that exited 0 (``modules.NAME.ended_t``) while the talk went on.
+
+    Example:
+        >>> _ended_sentences({"fill": {"ended_t": 30.2, "metrics": ["speech_fillers"]}}, 60.0)
+        ['module fill ended (exit 0) at 0:30 while the talk went on; speech_fillers was not measured from then']
+    """  # noqa: E501 - a doctest output line
+    from prezence.report.speech import mmss
+
+    out = []
+    for name, rec in (modules or {}).items() if isinstance(modules, dict) else ():
+        t = rec.get("ended_t") if isinstance(rec, dict) else None
+        if not isinstance(t, int | float) or talk_s - float(t) < ENDED_BEFORE_S:
+            continue
+        metrics = rec.get("metrics")
+        what = (
+            f"{', '.join(map(str, metrics))} {'was' if len(metrics) == 1 else 'were'}"
+            if isinstance(metrics, list) and metrics
+            else "its metrics were"
+        )
+        out.append(
+            f"module {name} ended (exit 0) at {mmss(t)} while the talk went on; {what} not "
+            "measured from then"
+        )
+    return out
+
+
 def _trouble_notes(summary: dict[str, Any]) -> list[str]:
     """Modules that crashed or hung (and what they left unmeasured), metrics that went stale,
     unreadable lines and damaged cue and ground-truth lines."""
@@ -238,7 +270,8 @@ def _trouble_notes(summary: dict[str, Any]) -> list[str]:
     metrics = summary.get("metrics") or {}
     notes = module_notes(summary.get("modules"), metrics)
     talk_s = float(summary.get("talk_s") or 0.0)
-    out = module_sentences(notes, talk_s) + stale_sentences(metrics, notes, talk_s)
+    out = module_sentences(notes, talk_s) + _ended_sentences(summary.get("modules"), talk_s)
+    out += stale_sentences(metrics, notes, talk_s)
     problems = [str(p) for p in summary.get("stream_problems") or []]
     for name, m in metrics.items():
         n = int((m.get("stream") or {}).get("malformed") or 0)

@@ -4,9 +4,12 @@ Each input module is a separate process that writes its stream files into the se
 the coach tails those files (waking on file changes, not polling slowly), decides, and has the
 robot perform cues. Modules are supervised: one that exits with an error is reported and
 restarted with exponential backoff while its metrics go stale (the processor excludes them
-meanwhile); the talk goes on. One that exits within :data:`QUICK_EXIT_S` of starting
-:data:`MAX_QUICK_EXITS` times in a row is given up (it fails the same way each time), with its
-last error; the talk stops when no module is left. Ctrl-C, or the allocated time plus a grace
+meanwhile); the talk goes on. One that exits with status 0 has finished: it is not restarted
+(a file played to its end, or a module of one's own that stopped by itself, said in the log
+and the printed notes), and the talk ends when every module has ended. One that exits with an
+error within :data:`QUICK_EXIT_S` of starting :data:`MAX_QUICK_EXITS` times in a row is given
+up (it fails the same way each time), with its last error; the talk stops when no module is
+left. Ctrl-C, or the allocated time plus a grace
 period, stops everything cleanly, writes the summary and (with ``report=True``) the report, and
 the robot says the post-talk summary.
 
@@ -99,7 +102,10 @@ class ModuleSpec:
     #: The metrics it writes (``streams/<metric>.txt``); empty: unknown, any stream file counts
     #: as its sign of life.
     metrics: tuple[str, ...] = ()
-    #: True when the input is a file: a clean exit then means "input finished", not a crash.
+    #: True when the input is a file (the built-in modules on ``--audio FILE``, ``--video
+    #: FILE``). Any module's clean exit (status 0) means it has finished, not crashed; a
+    #: module not known to read a file that exits 0 is said to have ended (its metrics are
+    #: not measured from then), and only a file's end can be cut short (status 3).
     finite: bool = False
     #: Kill and restart it after this many seconds without a sign of life while it runs;
     #: None: never (only an exit restarts it).
@@ -245,6 +251,10 @@ class ModuleProcess:
     #: Set when it exited with :data:`CUT_SHORT_STATUS`: its input file broke off before its
     #: end (its own warning); everything it read was measured, and it has finished.
     cut_short: str | None = None
+    #: Set (talk seconds) when a module not known to read a file exited with status 0: it has
+    #: ended by itself, and is neither a crash nor restarted (session 22: a ``--module``
+    #: playing a file was restarted five times at its end, and the talk ran to the time limit).
+    ended_t: float | None = None
     started_at: float = 0.0
     #: When it last showed a sign of life (talk seconds).
     last_life: float = 0.0
@@ -339,10 +349,18 @@ class ModuleProcess:
         rc = self.proc.poll()
         if rc is None and not hung:
             return None
-        if rc == 0 and self.spec.finite:
+        if rc == 0:
             self.finished = True
             self.proc = None
-            return f"module {self.spec.name} finished its input"
+            if self.spec.finite:
+                return f"module {self.spec.name} finished its input"
+            self.ended_t = round(now, 3)
+            log.warning(
+                "module %s ended (exit 0) at %s; its metrics are not measured from then",
+                self.spec.name,
+                clock_text(now),
+            )
+            return f"module {self.spec.name} ended (exit 0); its metrics are not measured from then"
         if rc == CUT_SHORT_STATUS and self.spec.finite:
             self.cut_short = (
                 self.last_error(prefix="warning:") or f"exited with status {rc} (input cut short)"
@@ -432,6 +450,16 @@ class ModuleProcess:
             except subprocess.TimeoutExpired:
                 continue
         self._kill()
+
+
+def clock_text(t: float) -> str:
+    """Talk seconds as ``m:ss.s``.
+
+    Example:
+        >>> clock_text(90.0), clock_text(5.25)
+        ('1:30.0', '0:05.2')
+    """
+    return f"{int(t // 60)}:{t % 60:04.1f}"
 
 
 def die_with_parent_hook() -> Callable[[], None] | None:
@@ -543,7 +571,7 @@ class LiveSource(SourceBase):
 
     def ended(self, now: float) -> bool:
         if self.end_at is not None and now >= self.end_at:
-            going_on = [p for p in self.procs if not (p.spec.finite and p.finished)]
+            going_on = [p for p in self.procs if not p.finished]
             if self.grace_s is not None and going_on and not self.stopped_at_limit:
                 # Session 20: a 360 s file played with --allocated 5m stopped at 5:30 and was
                 # reported as "5:30 used, 10 % over", nothing said it was cut.
@@ -553,7 +581,7 @@ class LiveSource(SourceBase):
                     "stopped while %s still went on: the time used is at least that "
                     "(--grace gives more time)",
                     self.grace_s,
-                    f"{int(self.end_at // 60)}:{self.end_at % 60:04.1f}",
+                    clock_text(self.end_at),
                     ", ".join(p.spec.name for p in going_on),
                 )
             return True
@@ -566,15 +594,12 @@ class LiveSource(SourceBase):
             p = self.procs[0]
             self.error = f"module {p.spec.name} {p.gave_up}"
             return True
-        if (
-            self.procs
-            and all(p.finished for p in self.procs)
-            and any(p.gave_up for p in self.procs)
-        ):
-            log.info("every input has ended or was given up: the talk ends")
-            return True
-        if self.procs and all(p.spec.finite and p.finished for p in self.procs):
-            log.info("every input has ended: the talk ends")
+        if self.procs and all(p.finished for p in self.procs):
+            # a file played to its end, a module that exited 0, one given up: nothing is left
+            # to listen to (session 22: a --module that exited 0 at its file's end was
+            # restarted, and the talk ran on to the time limit)
+            gave_up = any(p.gave_up for p in self.procs)
+            log.info("every input has ended%s: the talk ends", " or was given up" * gave_up)
             return True
         return False
 
@@ -603,8 +628,9 @@ class LiveSource(SourceBase):
         return self._tailer
 
     def recording_s(self) -> float | None:
-        """How long the recordings lasted when every input was a file played to its end (the
-        newest stamp the modules wrote, on the recordings' own clock); None otherwise.
+        """How long the recordings lasted when every input ended by itself (a file played to
+        its end; a module of one's own that exited 0, as one playing a file does at its end):
+        the newest stamp the modules wrote, on the recordings' own clock; None otherwise.
 
         The talk's own clock runs on while the modules start up and catch up (a 48 s file
         ended the talk at 50.6 s), so that is not the time the presenter used.
@@ -614,7 +640,7 @@ class LiveSource(SourceBase):
             or self._streams is None
             or self.stopped_at_limit
             or self.error is not None
-            or not all(p.spec.finite and p.finished and not p.gave_up for p in self.procs)
+            or not all(p.finished and not p.gave_up for p in self.procs)
         ):
             return None
         newest = newest_stamp(self._streams)
@@ -644,9 +670,11 @@ class LiveSource(SourceBase):
                 rec["gave_up"] = p.gave_up
             if p.cut_short:
                 rec["cut_short"] = p.cut_short
-            if p.crashes:
-                # which metrics a crash took with it (the report says when they were lost);
-                # none recorded: not known (the report says so)
+            if p.ended_t is not None:
+                rec["ended_t"] = p.ended_t
+            if p.crashes or p.ended_t is not None:
+                # which metrics a crash (or its end) took with it (the report says when they
+                # were lost); none recorded: not known (the report says so)
                 metrics = self.written_by(p.spec)
                 if metrics is not None:
                     rec["metrics"] = list(metrics)

@@ -450,3 +450,120 @@ def test_the_talk_goes_on_while_a_module_is_left_and_stops_when_none_is(tmp_path
         source.procs[0].finished = True
         assert source.ended(30.0)
         assert source.error == "module speech exited within 2 s of starting 5 times in a row"
+
+
+#: A module of one's own playing a "file": ``N`` samples half a second apart at real-time pace,
+#: stamped on the file's own clock (0.5 … N/2 s), then exit 0 at the file's end.
+_PLAYS_A_FILE = """
+import sys, time
+from pathlib import Path
+
+out, n = Path(sys.argv[1]), int(sys.argv[2])
+(out / "streams").mkdir(parents=True, exist_ok=True)
+with open(out / "streams" / "speech_speed.txt", "a") as f:
+    for i in range(1, n + 1):
+        time.sleep(0.5)
+        f.write(f"{i * 0.5} 160.0\\n")
+        f.flush()
+print("played to the end")
+"""
+
+#: A live module of one's own that stops by itself: it writes on the talk's clock for
+#: ``SECONDS``, then exits 0.
+_STOPS_BY_ITSELF = """
+import sys, time
+from pathlib import Path
+
+out, t0, seconds = Path(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
+(out / "streams").mkdir(parents=True, exist_ok=True)
+start = time.time()
+with open(out / "streams" / "speech_speed.txt", "a") as f:
+    while time.time() - start < seconds:
+        f.write(f"{time.time() - t0:.3f} 160.0\\n")
+        f.flush()
+        time.sleep(0.1)
+"""
+
+
+@pytest.mark.slow
+def test_a_module_of_ones_own_that_exits_0_at_its_files_end_ends_the_talk(
+    tmp_path: Path,
+) -> None:
+    # Session 22, a module author's walkthrough: `up --audio um60.wav --module "fill:…
+    # --audio um60.wav"`: the module's exit 0 at the end of its file was taken for a crash
+    # ("exited with status 0; restarting in 1.0 s" … "16.0 s"), the talk ran to the allocated
+    # time plus the grace, and the robot said "You used 1 and a half minutes of 1 minute, 50%
+    # over" of a 61 s recording.
+    from prezence.cli import format_timeline
+
+    script = tmp_path / "play.py"
+    script.write_text(_PLAYS_A_FILE)
+    spec = ModuleSpec.parse(f"play:speech_speed={sys.executable} {script} {{session}} 6")
+    result = up(
+        CONFIG.with_allocated(5.0),
+        session_dir=tmp_path / "s",
+        modules=[spec],
+        backend=FakeBackend(time_scale=0.01),
+        grace_s=3.0,
+        options=RunOptions.default(report=True),
+    )
+    summary = result.summary
+    mod = summary["modules"]["play"]
+    assert mod["restarts"] == 0 and mod["crashes"] == []
+    assert not any("restart" in e or "status 0" in e for e in result.events), result.events
+    assert "stopped_at_time_limit" not in summary and summary["talk_s"] < 8.0
+    # the file's length is the time used: its newest stamp, not the coach's clock
+    assert summary["recording_s"] == 3.0
+    assert summary["time"]["used_s"] == 3.0 and summary["time"]["over_under_pct"] == -40.0
+    printed = format_timeline(summary)
+    assert "time used 0:03.0 of 0:05.0 (-40.0%)" in printed, printed
+    assert "crashed" not in printed and "ended (exit 0)" not in printed  # ended with the talk
+    assert summary["post_talk"]["phrase"].startswith("You used 3 seconds of 5 seconds, 40% under")
+    assert (tmp_path / "s" / "play.log").read_text() == "played to the end\n"
+
+
+@pytest.mark.slow
+def test_a_module_that_exits_0_while_the_others_go_on_ended_and_is_not_restarted(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # A live talk (no file): a module of one's own that stops by itself is neither a crash nor
+    # restarted; the log, the live view's event and the printed notes say it ended, and that
+    # its metrics are not measured from then. The other module goes on, and so does the talk.
+    from prezence.cli import format_timeline
+
+    script = tmp_path / "stops.py"
+    script.write_text(_STOPS_BY_ITSELF)
+    stops = ModuleSpec.parse(f"stops:speech_speed={sys.executable} {script} {{session}} {{t0}} 2.5")
+    with caplog.at_level("WARNING", logger="prezence.launcher"):
+        result = up(
+            CONFIG,
+            session_dir=tmp_path / "s",
+            modules=[stops, beat("beat", "--metric", "cv_gestures")],
+            backend=FakeBackend(time_scale=0.01),
+            duration_s=7.0,
+            options=RunOptions.default(),
+        )
+    summary = result.summary
+    mod = summary["modules"]["stops"]
+    assert mod["restarts"] == 0 and mod["crashes"] == []
+    assert 2.0 <= mod["ended_t"] <= 4.5 and mod["metrics"] == ["speech_speed"]
+    assert summary["talk_s"] >= 6.5  # the talk went on with the other module
+    assert "recording_s" not in summary  # a live talk: its clock is the time used
+    ended = "module stops ended (exit 0); its metrics are not measured from then"
+    assert [e.split(" ", 1)[1] for e in result.events] == [ended]
+    said = [r.getMessage() for r in caplog.records]
+    assert any(
+        re.fullmatch(
+            r"module stops ended \(exit 0\) at 0:0\d\.\d; its metrics are not "
+            r"measured from then",
+            m,
+        )
+        for m in said
+    ), said
+    printed = format_timeline(summary)
+    note = (
+        r"note: module stops ended \(exit 0\) at 0:0\d while the talk went on; speech_speed "
+        r"was not measured from then"
+    )
+    assert re.search(note, printed), printed
+    assert "crashed" not in printed and "restarted" not in printed
