@@ -229,8 +229,10 @@ def _violations(summary: dict[str, Any]) -> str:
 ENDED_BEFORE_S = 2.0
 
 
-def _ended_sentences(modules: Any, talk_s: float) -> list[str]:
-    """One sentence per module that exited 0 (``modules.NAME.ended_t``) while the talk went on.
+def _ended_sentences(modules: Any, end_s: float) -> list[str]:
+    """One sentence per module that exited 0 (``modules.NAME.ended_t``) while the talk went on
+    to ``end_s`` (the talk's end; the recordings' when every input ended by itself, as files
+    do: the others may take seconds more to finish their analysis).
 
     Example:
         >>> _ended_sentences({"fill": {"ended_t": 30.2, "metrics": ["speech_fillers"]}}, 60.0)
@@ -241,7 +243,7 @@ def _ended_sentences(modules: Any, talk_s: float) -> list[str]:
     out = []
     for name, rec in (modules or {}).items() if isinstance(modules, dict) else ():
         t = rec.get("ended_t") if isinstance(rec, dict) else None
-        if not isinstance(t, int | float) or talk_s - float(t) < ENDED_BEFORE_S:
+        if not isinstance(t, int | float) or end_s - float(t) < ENDED_BEFORE_S:
             continue
         metrics = rec.get("metrics")
         what = (
@@ -270,7 +272,9 @@ def _trouble_notes(summary: dict[str, Any]) -> list[str]:
     metrics = summary.get("metrics") or {}
     notes = module_notes(summary.get("modules"), metrics)
     talk_s = float(summary.get("talk_s") or 0.0)
-    out = module_sentences(notes, talk_s) + _ended_sentences(summary.get("modules"), talk_s)
+    # a talk whose every input ended by itself ended with the recordings (`up` of files)
+    end_s = float(summary.get("recording_s") or talk_s)
+    out = module_sentences(notes, talk_s) + _ended_sentences(summary.get("modules"), end_s)
     out += stale_sentences(metrics, notes, talk_s)
     problems = [str(p) for p in summary.get("stream_problems") or []]
     for name, m in metrics.items():

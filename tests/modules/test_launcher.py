@@ -452,20 +452,22 @@ def test_the_talk_goes_on_while_a_module_is_left_and_stops_when_none_is(tmp_path
         assert source.error == "module speech exited within 2 s of starting 5 times in a row"
 
 
-#: A module of one's own playing a "file": ``N`` samples half a second apart at real-time pace,
-#: stamped on the file's own clock (0.5 … N/2 s), then exit 0 at the file's end.
+#: A module playing a "file": ``N`` samples of ``METRIC`` half a second apart at real-time
+#: pace, stamped on the file's own clock (0.5 … N/2 s), then, ``LINGER`` seconds later (the
+#: speech module's last decoding takes seconds), exit 0 at the file's end.
 _PLAYS_A_FILE = """
 import sys, time
 from pathlib import Path
 
-out, n = Path(sys.argv[1]), int(sys.argv[2])
+out, n, metric, linger = Path(sys.argv[1]), int(sys.argv[2]), sys.argv[3], float(sys.argv[4])
 (out / "streams").mkdir(parents=True, exist_ok=True)
-with open(out / "streams" / "speech_speed.txt", "a") as f:
+with open(out / "streams" / f"{metric}.txt", "a") as f:
     for i in range(1, n + 1):
         time.sleep(0.5)
         f.write(f"{i * 0.5} 160.0\\n")
         f.flush()
 print("played to the end")
+time.sleep(linger)
 """
 
 #: A live module of one's own that stops by itself: it writes on the talk's clock for
@@ -498,26 +500,36 @@ def test_a_module_of_ones_own_that_exits_0_at_its_files_end_ends_the_talk(
 
     script = tmp_path / "play.py"
     script.write_text(_PLAYS_A_FILE)
-    spec = ModuleSpec.parse(f"play:speech_speed={sys.executable} {script} {{session}} 6")
+    spec = ModuleSpec.parse(
+        f"play:speech_speed={sys.executable} {script} {{session}} 6 speech_speed 0"
+    )
+    # the built-in module on the same file, still finishing its analysis 2.5 s after its end
+    builtin = ModuleSpec(
+        "speech",
+        [sys.executable, str(script), "{session}", "6", "speech_volume", "2.5"],
+        metrics=("speech_volume",),
+        finite=True,
+    )
     result = up(
         CONFIG.with_allocated(5.0),
         session_dir=tmp_path / "s",
-        modules=[spec],
+        modules=[spec, builtin],
         backend=FakeBackend(time_scale=0.01),
-        grace_s=3.0,
+        grace_s=10.0,
         options=RunOptions.default(report=True),
     )
     summary = result.summary
     mod = summary["modules"]["play"]
     assert mod["restarts"] == 0 and mod["crashes"] == []
     assert not any("restart" in e or "status 0" in e for e in result.events), result.events
-    assert "stopped_at_time_limit" not in summary and summary["talk_s"] < 8.0
+    assert "stopped_at_time_limit" not in summary and 5.5 <= summary["talk_s"] < 15.0
     # the file's length is the time used: its newest stamp, not the coach's clock
     assert summary["recording_s"] == 3.0
     assert summary["time"]["used_s"] == 3.0 and summary["time"]["over_under_pct"] == -40.0
     printed = format_timeline(summary)
     assert "time used 0:03.0 of 0:05.0 (-40.0%)" in printed, printed
-    assert "crashed" not in printed and "ended (exit 0)" not in printed  # ended with the talk
+    # it ended with its file, as the other module did: nothing to say about it
+    assert "crashed" not in printed and "ended (exit 0)" not in printed
     assert summary["post_talk"]["phrase"].startswith("You used 3 seconds of 5 seconds, 40% under")
     assert (tmp_path / "s" / "play.log").read_text() == "played to the end\n"
 
