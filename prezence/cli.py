@@ -236,9 +236,9 @@ def _ended_sentences(modules: Any, end_s: float) -> list[str]:
 
     Example:
         >>> _ended_sentences({"fill": {"ended_t": 30.2, "metrics": ["speech_fillers"]}}, 60.0)
-        ['module fill ended (exit 0) at 0:30 while the talk went on; speech_fillers was not measured from then']
+        ['module fill ended (exit 0) at 0:30 while the talk went on; speech_fillers were not measured from then']
     """  # noqa: E501 - a doctest output line
-    from prezence.report.speech import mmss
+    from prezence.report.speech import mmss, was
 
     out = []
     for name, rec in (modules or {}).items() if isinstance(modules, dict) else ():
@@ -246,9 +246,10 @@ def _ended_sentences(modules: Any, end_s: float) -> list[str]:
         if not isinstance(t, int | float) or end_s - float(t) < ENDED_BEFORE_S:
             continue
         metrics = rec.get("metrics")
+        names = ", ".join(map(str, metrics)) if isinstance(metrics, list) else ""
         what = (
-            f"{', '.join(map(str, metrics))} {'was' if len(metrics) == 1 else 'were'}"
-            if isinstance(metrics, list) and metrics
+            f"{names} {was(names) if len(metrics) == 1 else 'were'}"
+            if names
             else "its metrics were"
         )
         out.append(

@@ -222,6 +222,43 @@ def modules_on(
     return out
 
 
+def heartbeat_file(session: Path, name: str) -> Path:
+    """``SESSION/streams/.<name>.alive``: the file module ``name`` touches to show it is alive
+    (its path is in the module's environment as :data:`HEARTBEAT_ENV`)."""
+    return session / "streams" / f".{name}.alive"
+
+
+def stream_files(session: Path, metrics: Sequence[str]) -> list[Path]:
+    """A module's stream files: ``streams/<metric>.txt`` of its ``metrics``; when it names
+    none, every stream file there now (not the heartbeats, nor the coach's ``.stamps``)."""
+    streams = session / "streams"
+    if metrics:
+        return [streams / f"{m}.txt" for m in metrics]
+    return sorted(f for f in streams.glob("*.txt") if not f.name.startswith("."))
+
+
+def files_changed(paths: Sequence[Path], seen: dict[Path, tuple[int, int]]) -> bool:
+    """Whether any of ``paths`` changed (size or modification time) since ``seen``, a
+    module's own table of file states, which is updated; a missing file is no change."""
+    changed = False
+    for path in paths:
+        try:
+            st = path.stat()
+        except FileNotFoundError:
+            continue
+        state = (st.st_size, st.st_mtime_ns)
+        if seen.get(path) != state:
+            seen[path] = state
+            changed = True
+    return changed
+
+
+def hang_why(limit_s: float) -> str:
+    """What a module killed as hung is recorded with (``crashes[].why``; the report reads
+    "(hung)" in it as a hang)."""
+    return f"showed no sign of life for {limit_s:g} s (hung); killed"
+
+
 @dataclass
 class ModuleProcess:
     """One supervised module process, with its own log and its own view of its files."""
@@ -264,7 +301,7 @@ class ModuleProcess:
     @property
     def heartbeat(self) -> Path:
         """``SESSION/streams/.<name>.alive``: touched by a module to show it is alive."""
-        return self.session / "streams" / f".{self.spec.name}.alive"
+        return heartbeat_file(self.session, self.spec.name)
 
     @property
     def log_path(self) -> Path:
@@ -305,27 +342,11 @@ class ModuleProcess:
 
     def watched(self) -> list[Path]:
         """The files whose change shows this module is alive (see the module docstring)."""
-        streams = self.session / "streams"
-        if self.spec.metrics:
-            files = [streams / f"{m}.txt" for m in self.spec.metrics]
-        else:
-            # stream files only: not the heartbeats of others, nor the coach's .stamps sidecars
-            files = sorted(f for f in streams.glob("*.txt") if not f.name.startswith("."))
-        return [*files, self.heartbeat, self.log_path]
+        return [*stream_files(self.session, self.spec.metrics), self.heartbeat, self.log_path]
 
     def alive_since_last_look(self) -> bool:
         """Whether any watched file changed since this module's last look (updates its table)."""
-        changed = False
-        for path in self.watched():
-            try:
-                st = path.stat()
-            except FileNotFoundError:
-                continue
-            state = (st.st_size, st.st_mtime_ns)
-            if self.seen.get(path) != state:
-                self.seen[path] = state
-                changed = True
-        return changed
+        return files_changed(self.watched(), self.seen)
 
     def hung(self, now: float) -> bool:
         """Look at its files; True when it runs, has a hang limit and showed no life for it."""
@@ -381,7 +402,7 @@ class ModuleProcess:
         why = (
             f"exited with status {rc}"
             if rc is not None
-            else f"showed no sign of life for {self.spec.hang_after_s:g} s (hung); killed"
+            else hang_why(self.spec.hang_after_s or 0.0)
         )
         crash: dict[str, Any] = {"t": round(now, 3), "why": why}
         if rc is None:

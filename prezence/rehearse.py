@@ -4,6 +4,15 @@ and report as a live talk.
 The input modules run over the recording as fast as the machine allows (in parallel, one
 process each), writing stream files stamped with the recording's own time; then the coach runs
 over those files on the recording's clock, exactly as it does on a live talk's files.
+
+Each module's stdout and stderr go to ``SESSION/<module>.log``, as in ``prezence up``. A module
+is watched for hangs as ``up`` watches it (:mod:`prezence.launcher`): one whose record has a
+hang limit (a module of one's own without a record: :data:`prezence.metrics.DEFAULT_HANG_S`)
+and shows no sign of life for that long, wall-clock (its stream files, its log and its
+heartbeat file, ``$PREZENCE_HEARTBEAT``, stay as they were), is killed; the rehearsal goes on
+with what was measured, and the module is recorded as ``up`` records a hang (``modules``), so
+that the printed notes, the report and the robot's summary say it hung and what it left
+unmeasured.
 """
 
 from __future__ import annotations
@@ -12,10 +21,12 @@ import argparse
 import contextlib
 import importlib
 import logging
+import os
 import shlex
 import subprocess
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +34,15 @@ from prezence.config.load import load_config
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
 from prezence.errors import ConfigError, PrezenceError
-from prezence.launcher import die_with_parent_hook
-from prezence.metrics import INPUT_MODULES
+from prezence.launcher import (
+    HEARTBEAT_ENV,
+    die_with_parent_hook,
+    files_changed,
+    hang_why,
+    heartbeat_file,
+    stream_files,
+)
+from prezence.metrics import DEFAULT_HANG_S, INPUT_MODULES
 from prezence.modules.common import CUT_SHORT_STATUS
 from prezence.replay import (
     ReplayResult,
@@ -34,7 +52,7 @@ from prezence.replay import (
     read_streams,
 )
 from prezence.session import MAX_TALK_S, SessionDir
-from prezence.streams.tail import newest_stamp
+from prezence.streams.tail import newest_stamp, newest_stamp_of
 from prezence.talk import RunOptions, Terminated
 
 log = logging.getLogger(__name__)
@@ -157,8 +175,91 @@ def module_commands(
     return cmds
 
 
-#: How often the progress of a rehearsal's modules is read (seconds).
+#: How often the progress of a rehearsal's modules is read, and their signs of life looked
+#: at (seconds).
 PROGRESS_PERIOD_S = 0.25
+
+
+@dataclass
+class _Watched:
+    """One rehearsal module's supervision: its signs of life, as ``up`` looks at them."""
+
+    name: str
+    session: Path
+    #: the metrics it writes (its record's); empty: not known, every stream file counts
+    metrics: tuple[str, ...]
+    #: kill it after this many seconds without a sign of life; None: never
+    hang_after_s: float | None
+    #: when it last showed a sign of life (``time.monotonic()``)
+    last_life: float
+    #: where in the recording it had got then: the newest time in its streams
+    stamp: float = 0.0
+    #: said once that it has been silent a while
+    warned: bool = False
+    #: set when it was killed as hung: its record, as ``up`` writes a hang
+    hang: dict[str, Any] | None = None
+    seen: dict[Path, tuple[int, int]] = field(default_factory=dict)
+
+    def streams(self) -> list[Path]:
+        return stream_files(self.session, self.metrics)
+
+    def look(self, now: float, proc: subprocess.Popen[str]) -> None:
+        """Look at its files; kill it when it has been silent past its hang limit."""
+        log_path = self.session / f"{self.name}.log"
+        files = [*self.streams(), heartbeat_file(self.session, self.name), log_path]
+        if files_changed(files, self.seen):
+            self.last_life, self.warned = now, False
+            self.stamp = newest_stamp_of(self.streams())
+        limit = self.hang_after_s
+        silent = now - self.last_life
+        if limit is None or proc.poll() is not None:
+            return
+        if silent > limit:
+            with contextlib.suppress(OSError):
+                proc.kill()
+            proc.wait()
+            why = hang_why(limit)
+            # on the recording's clock: it stopped measuring where it went silent
+            at = round(self.stamp, 3)
+            self.hang = {"t": at, "why": why, "silent_since": at}
+            log.warning(
+                "module %s %s: it measured the recording up to %s; the rehearsal goes on "
+                "with what was measured",
+                self.name,
+                why,
+                f"{int(at // 60)}:{at % 60:04.1f}",
+            )
+        elif silent >= limit / 2 and not self.warned:
+            self.warned = True
+            log.warning(
+                "waiting for module %s: no sign of life for %.0f s (at %.0f s of the "
+                "recording; killed as hung after %g s)",
+                self.name,
+                silent,
+                self.stamp,
+                limit,
+            )
+
+
+def _hang_limit(name: str) -> float | None:
+    """A rehearsal module's hang limit: its record's (a module of one's own without a record:
+    :data:`DEFAULT_HANG_S`, as ``up --module``)."""
+    rec = INPUT_MODULES.get(name)
+    if rec is None:
+        return DEFAULT_HANG_S
+    if rec.heartbeat_metric is not None and rec.heartbeat_metric not in rec.metrics:
+        return None  # it may write nothing for a long while: as `up`, no hang limit
+    return rec.hang_after_s
+
+
+def _module_line(text: str, prefix: str) -> str:
+    """A module's own last ``prefix`` line in its log (``error:``, ``warning:``), without the
+    prefix; else its last line; "" for an empty log. Its stdout is in the log too."""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    for ln in reversed(lines):
+        if ln.startswith(prefix):
+            return ln[len(prefix) :].strip()
+    return lines[-1] if lines else ""
 
 
 def _stop_modules(procs: Mapping[str, subprocess.Popen[str]], wait_s: float = 3.0) -> None:
@@ -175,6 +276,18 @@ def _stop_modules(procs: Mapping[str, subprocess.Popen[str]], wait_s: float = 3.
             with contextlib.suppress(OSError):
                 p.kill()
             p.wait()
+
+
+def _analysed(
+    watched: Mapping[str, _Watched], procs: Mapping[str, subprocess.Popen[str]], session: SessionDir
+) -> float:
+    """How far the analysis has got: where the slowest module still running is (the newest
+    time in its streams), so that a module that lags or hangs holds the progress where it is;
+    the newest time in any stream when no running module's streams are known."""
+    running = [w for n, w in watched.items() if procs[n].poll() is None and w.metrics]
+    if not running:
+        return newest_stamp(session.streams)
+    return min(newest_stamp_of(w.streams()) for w in running)
 
 
 def _remove_what_we_wrote(session: SessionDir, *, logs: Sequence[str]) -> None:
@@ -253,18 +366,36 @@ def rehearse(
     started = time.perf_counter()
     procs: dict[str, subprocess.Popen[str]] = {}
     total = recording_length_s(recording)
+    watched = {
+        name: _Watched(
+            name,
+            session.root,
+            INPUT_MODULES[name].metrics if name in INPUT_MODULES else (),
+            _hang_limit(name),
+            time.monotonic(),
+        )
+        for name in cmds
+    }
     try:
         for name, argv in cmds.items():
             procs[name] = subprocess.Popen(
                 argv,
-                stdout=subprocess.DEVNULL,
-                stderr=logs[name],
+                # its stdout too, as `up` keeps it (session 22: a module's debug prints
+                # vanished in rehearse)
+                stdout=logs[name],
+                stderr=subprocess.STDOUT,
                 text=True,
+                env={**os.environ, HEARTBEAT_ENV: str(heartbeat_file(session.root, name))},
                 preexec_fn=die_with_parent_hook(),  # a killed coach leaves no module behind
             )
+            watched[name].last_life = time.monotonic()
         while any(p.poll() is None for p in procs.values()):
+            # Session 22: a hung module of one's own was waited for in silence, for ever
+            now = time.monotonic()
+            for name, w in watched.items():
+                w.look(now, procs[name])
             if progress is not None:
-                progress(min(newest_stamp(session.streams), total or MAX_TALK_S), total)
+                progress(min(_analysed(watched, procs, session), total or MAX_TALK_S), total)
             time.sleep(PROGRESS_PERIOD_S)
     except KeyboardInterrupt as e:
         # Session 21, a second walkthrough: a SIGTERM or SIGINT to this process alone left the
@@ -301,27 +432,30 @@ def rehearse(
         progress(total, total)
     failures: dict[str, str] = {}
     cut_short: dict[str, str] = {}
+    hangs = {name: w.hang for name, w in watched.items() if w.hang is not None}
     for name, p in procs.items():
         err = (session.root / f"{name}.log").read_text(errors="replace")
-        if p.returncode == CUT_SHORT_STATUS:
+        if name in hangs:
+            failures[name] = hangs[name]["why"]  # said when it was killed
+        elif p.returncode == CUT_SHORT_STATUS:
             # a recording that breaks off (a phone that died mid-talk): the module analysed
             # all of it that could be read, so the talk is coached and reported on that
-            lines = err.strip().splitlines()
-            msg = next((ln for ln in reversed(lines) if ln.startswith("warning:")), "")
-            cut_short[name] = msg.removeprefix("warning:").strip() or "the input was cut short"
+            cut_short[name] = _module_line(err, "warning:") or "the input was cut short"
             log.warning("the recording is cut short: %s", cut_short[name])
         elif p.returncode != 0:
-            msg = err.strip().splitlines()[-1] if err.strip() else f"exit status {p.returncode}"
             # the module's own "error: …" line: the CLI says "error:" once, before them all
-            failures[name] = msg.removeprefix("error:").strip()
-    if len(failures) == len(procs):
+            failures[name] = _module_line(err, "error:") or f"exit status {p.returncode}"
+    # a hung module that measured something is no failure to run: the rehearsal goes on
+    ran = {n for n, h in hangs.items() if watched[n].stamp > 0.0}
+    if len(failures) - len(ran) == len(procs):
         if not any(f.stat().st_size for f in session.streams.glob("*")):
             # Nothing was measured: leave no half-made folder that a second try, once the
             # file is mended, would be refused for. The error carries the modules' messages.
             _remove_what_we_wrote(session, logs=[f"{n}.log" for n in cmds])
         raise PrezenceError("; ".join(f"{n}: {m}" for n, m in failures.items()))
     for name, msg in failures.items():
-        log.warning("module %s failed: %s", name, msg)
+        if name not in hangs:
+            log.warning("module %s failed: %s", name, msg)
     paths = find_streams(session.root, config)
     readings = read_streams(paths, max_t=MAX_TALK_S, ranges=config.value_ranges())
     samples = merge_readings(readings)
@@ -337,9 +471,18 @@ def rehearse(
         # the modules' analysis, most of a rehearsal's time (wall_s is the coaching's alone)
         "analysis_wall_s": round(analysis_wall_s, 3),
     }
-    if cut_short:  # recorded as `up` records its modules, for the report's notes
+    if cut_short or hangs:  # recorded as `up` records its modules, for the report's notes
         extra["modules"] = {
-            n: {"restarts": 0, "crashes": [], "cut_short": m} for n, m in cut_short.items()
+            **{n: {"restarts": 0, "crashes": [], "cut_short": m} for n, m in cut_short.items()},
+            **{
+                n: {
+                    "restarts": 0,
+                    "crashes": [h],
+                    # which metrics it left unmeasured (not known: the report says so)
+                    **({"metrics": list(watched[n].metrics)} if watched[n].metrics else {}),
+                }
+                for n, h in hangs.items()
+            },
         }
     return process_recorded(
         session,

@@ -1091,8 +1091,14 @@ def newest_stamp(streams: Path) -> float:
     modules have got. Only each file's last lines are read (4 kB), and only ``<t> <value>``
     lines count: a ``<value>`` line has no time of its own (the coach stamps it, in a
     ``.stamps`` file), and its value is not one."""
+    return newest_stamp_of(streams.glob("*.txt"))
+
+
+def newest_stamp_of(paths: Iterable[Path]) -> float:
+    """:func:`newest_stamp` of the stream files ``paths`` (those missing count as empty): how
+    far one module has got."""
     newest = 0.0
-    for path in streams.glob("*.txt"):
+    for path in paths:
         try:
             with path.open("rb") as f:
                 f.seek(max(0, path.stat().st_size - 4096))

@@ -96,14 +96,18 @@ with StreamSet(args.out, ["speech_fillers"], fresh=True) as streams:
 """
 
 
-def _add_the_fillers_records(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The two records of a metric added with its own module, ``fillers_stub``."""
+def _add_the_fillers_records(
+    monkeypatch: pytest.MonkeyPatch, hang_after_s: float | None = None
+) -> None:
+    """The two records of a metric added with its own module, ``fillers_stub`` (its hang
+    limit ``hang_after_s``, by default that of ``--module``)."""
     from prezence import metrics
 
+    hang = metrics.DEFAULT_HANG_S if hang_after_s is None else hang_after_s
     monkeypatch.setitem(
         metrics.INPUT_MODULES,
         "fillers",
-        metrics.InputModule("fillers", "fillers_stub", "--audio", (), metrics.DEFAULT_HANG_S),
+        metrics.InputModule("fillers", "fillers_stub", "--audio", (), hang),
     )
     monkeypatch.setitem(
         metrics.METRICS,
@@ -683,3 +687,132 @@ def test_the_robot_says_a_module_failed_in_a_rehearsal(
     assert "fillers" in summary["module_failures"]
     said = summary["post_talk"]["phrase"]
     assert "I could not follow your filler words after 9 seconds" in said, said
+
+
+#: ``fillers_stub`` that hangs: it writes five values (1-5 s), prints as it goes (its stdout),
+#: then sleeps without a sign of life.
+_HANGING_FILLERS_MODULE = """
+import argparse, time
+
+from prezence.modules.common import StreamSet, add_common_arguments
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--audio", required=True)
+add_common_arguments(ap)
+args = ap.parse_args()
+with StreamSet(args.out, ["speech_fillers"], fresh=True) as streams:
+    for t in range(1, 6):
+        streams.write("speech_fillers", float(t), 9.0)
+        print(f"DEBUG t={t} rate=9.0", flush=True)
+    time.sleep(600)
+"""
+
+
+def test_a_hung_module_is_killed_and_the_rehearsal_goes_on_saying_so(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # Session 22, a module author's walkthrough: `FILLERS_FAULT=hang prezence rehearse
+    # um60.wav`: still waiting, in silence, 150 s later (the speech module had finished in
+    # 8 s); `up` kills the same module after its 20 s hang limit.
+    import signal
+
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "fillers_stub.py").write_text(_HANGING_FILLERS_MODULE)
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(pkg), *sys.path]))
+    _add_the_fillers_records(monkeypatch, hang_after_s=2.0)
+    rules = tmp_path / "rules.txt"
+    rules.write_text("speech_speed inRange 140 180 below=speedUp above=slowDown\n")
+    rules.write_text(rules.read_text() + "speech_fillers max 6 above=slowDown\n")
+    out = tmp_path / "s"
+    argv = ["rehearse", str(FAST), "--out", str(out), "--config", str(rules), "--allocated", "20"]
+
+    def waited_too_long(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt  # the rehearsal stops, and says so: exit 130, not 0
+
+    previous = signal.signal(signal.SIGALRM, waited_too_long)
+    signal.alarm(60)
+    try:
+        with caplog.at_level("WARNING", logger="prezence.rehearse"):
+            status = main(argv)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert status == 0
+    said = [r.getMessage() for r in caplog.records]
+    assert (
+        "waiting for module fillers: no sign of life for 1 s (at 5 s of the recording; "
+        "killed as hung after 2 s)" in said
+    ), said
+    assert (
+        "module fillers showed no sign of life for 2 s (hung); killed: it measured the "
+        "recording up to 0:05.0; the rehearsal goes on with what was measured"
+    ) in said
+    summary = json.loads((out / "summary.json").read_text())
+    hung = "showed no sign of life for 2 s (hung); killed"
+    assert summary["module_failures"] == {"fillers": hung}
+    assert summary["modules"]["fillers"] == {
+        "restarts": 0,
+        "crashes": [{"t": 5.0, "why": hung, "silent_since": 5.0}],
+        "metrics": ["speech_fillers"],
+    }
+    # what was measured is kept: the speech module's streams, and the five values it wrote
+    assert summary["metrics"]["speech_speed"]["samples"] >= 1
+    fillers = summary["metrics"]["speech_fillers"]
+    assert fillers["samples"] == 5
+    talk = f"0:{summary['talk_s']:02.0f}"
+    note = (
+        "module fillers hung at 0:05 (killed at 0:05) and was not restarted (showed no sign of "
+        f"life for 2 s (hung); killed); speech_fillers were not measured from 0:05 to the end "
+        f"({talk})"
+    )
+    assert f"note: {note}" in capsys.readouterr().out
+    text = (out / "report" / "summary.txt").read_text()
+    assert "module fillers hung at 0:05" in text and "not measured from 0:05 to the end" in text
+    spoken = (out / "report" / "spoken.txt").read_text()
+    assert "I could not follow your filler words after 5 seconds." in spoken
+    # its prints, as `up` keeps them
+    printed = (out / "fillers.log").read_text().splitlines()
+    assert printed == [f"DEBUG t={t} rate=9.0" for t in range(1, 6)]
+
+
+def test_a_rehearsal_keeps_each_modules_stdout_in_its_log(tmp_path: Path) -> None:
+    # Session 22, a module author's walkthrough: `up` kept a module's prints in
+    # `<module>.log`; `rehearse` threw them away (`fillers.log` empty, nothing on the terminal)
+    prints = (
+        "import pathlib, sys\n"
+        f"s = pathlib.Path({str(tmp_path / 's' / 'streams')!r})\n"
+        "s.mkdir(parents=True, exist_ok=True)\n"
+        "(s / 'speech_speed.txt').write_text(''.join(f'{t} 160.0\\n' for t in range(1, 18)))\n"
+        "for t in range(1, 4):\n"
+        "    print(f'DEBUG t={t}')\n"
+        "print('speech: WARNING: a warning of its own', file=sys.stderr)\n"
+    )
+    # a module that says its error and prints more afterwards: its error is still the message
+    fails = (
+        "import sys\n"
+        "print('error: talk.wav: not a recording I can read', file=sys.stderr, flush=True)\n"
+        "print('DEBUG giving up')\n"
+        "sys.exit(2)\n"
+    )
+    result = rehearse(
+        FAST,
+        out=tmp_path / "s",
+        options=RunOptions.default(),
+        modules={
+            "mine": [sys.executable, "-c", prints],
+            "broken": [sys.executable, "-c", fails],
+        },
+    )
+    log = (tmp_path / "s" / "mine.log").read_text().splitlines()
+    assert sorted(log) == [
+        "DEBUG t=1",
+        "DEBUG t=2",
+        "DEBUG t=3",
+        "speech: WARNING: a warning of its own",
+    ]
+    assert "DEBUG giving up" in (tmp_path / "s" / "broken.log").read_text()
+    assert result.summary["module_failures"] == {"broken": "talk.wav: not a recording I can read"}
