@@ -103,6 +103,8 @@ class RichLiveView:
                 self.health[name] = f"running (restart {rest.split('attempt ')[-1].rstrip(')')})"
             elif "finished" in rest:
                 self.health[name] = "finished its input"
+            elif rest.startswith("ended (exit 0)"):  # a module that stopped by itself
+                self.health[name] = "ended (exit 0)"
             elif "exited" in rest or "hung" in rest:
                 self.health[name] = "down: " + rest.split(";")[0]
         self._print(f"{_mmss(now)}  {text}")

@@ -50,3 +50,10 @@ def test_the_view_shows_weight_toward_threshold_cues_and_module_health() -> None
     assert "above 180" in text
     assert "vision down" in text  # the module that exited
     assert view.health["speech"] == "running"
+
+
+def test_a_module_that_exited_0_is_shown_as_ended_not_running() -> None:
+    # session 22: a module of one's own that exits 0 is not restarted; the view said "running"
+    view = RichLiveView(load_config(None), ["speech", "fill"], stream=io.StringIO())
+    view.event(30.2, "module fill ended (exit 0); its metrics are not measured from then")
+    assert view.health == {"speech": "running", "fill": "ended (exit 0)"}
