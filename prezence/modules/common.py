@@ -17,9 +17,10 @@ traceback), as ``prezence``'s own command line does; 3 (:data:`CUT_SHORT_STATUS`
 breaks off before its end (a truncated recording: ``warning: FILE: …`` on stderr), whose every
 sample read has been analysed and written.
 
-Heartbeat: when the launcher sets :data:`HEARTBEAT_ENV` to a file's path, a module touches that
-file (:class:`Heartbeat`) about once a second while it reads and analyses its input, so that a
-module that is working but has nothing to write yet is not taken for a hung one.
+Heartbeat: when the launcher (``prezence up``, and ``prezence rehearse``) sets
+:data:`HEARTBEAT_ENV` to a file's path, a module touches that file (:class:`Heartbeat`) about
+once a second while it reads and analyses its input, so that a module that is working but has
+nothing to write yet is not taken for a hung one.
 """
 
 from __future__ import annotations
