@@ -668,7 +668,12 @@ def build_summary(
     stale_default = config.processor.stale_after_s
     recorded_modules = modules
     modules = with_failures(modules, module_failures, streams)
-    lost = module_outages(modules, streams, talk_s)
+    # `up` of recordings played to their end: nothing was measured after the recordings'
+    # end, though the coach's clock ran on while the modules stopped (session 22: a 61.4 s
+    # file read 'pace 0:55 of 1:01' in up, 0:50 in rehearse)
+    rec_s = (extra or {}).get("recording_s")
+    end_s = min(talk_s, float(rec_s)) if isinstance(rec_s, (int, float)) and rec_s > 0 else talk_s
+    lost = module_outages(modules, streams, end_s)
     writers = {  # metric -> the module that writes it, as the launcher records it
         str(metric): str(name)
         for name, rec in (modules or {}).items()
@@ -682,7 +687,7 @@ def build_summary(
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         m: dict[str, Any] = {"samples": len(ss), "unit": rule.unit}
         cuts = [sp["from"] for sp in lost.get(rule.metric, ())]
-        m.update(_in_range_time(rule, ts, vals, talk_s, stale_s, cuts))
+        m.update(_in_range_time(rule, ts, vals, end_s, stale_s, cuts))
         if rule.metric in lost:
             m["lost"] = lost[rule.metric]
         if len(vals):
@@ -721,7 +726,7 @@ def build_summary(
             # No sample at all is one stale episode as long as the talk: the module that
             # opened the file never reported. Each is said in the notes (session 21: a
             # module silent again after its restart was counted, never said)
-            spans = stale_spans(ts, talk_s, stale_s)
+            spans = stale_spans(ts, end_s, stale_s)
             m["stale_episodes"] = len(spans)
             if spans:
                 who = writers.get(rule.metric)
@@ -733,7 +738,7 @@ def build_summary(
         if ss and estimates and rule.metric in estimates:
             m["estimate"] = estimates[rule.metric]
         if truth is not None:
-            m["truth_time_in_range"] = _truth_in_range_fraction(truth, rule.metric, talk_s)
+            m["truth_time_in_range"] = _truth_in_range_fraction(truth, rule.metric, end_s)
         if stream_stats and rule.metric in stream_stats:
             m["stream"] = dict(stream_stats[rule.metric])
         if processor_counts and rule.metric in processor_counts:
@@ -752,7 +757,7 @@ def build_summary(
         gaps = {
             rule.metric: no_data_spans(
                 streams.get(rule.metric, ()),
-                talk_s,
+                end_s,
                 rule.stale_after_s if rule.stale_after_s is not None else stale_default,
                 [sp["from"] for sp in lost.get(rule.metric, ())],
             )
@@ -767,7 +772,7 @@ def build_summary(
                 for x in measured_intervals(
                     rule,
                     streams.get(rule.metric, ()),
-                    talk_s,
+                    end_s,
                     rule.stale_after_s if rule.stale_after_s is not None else stale_default,
                     [sp["from"] for sp in lost.get(rule.metric, ())],
                 )

@@ -1033,13 +1033,17 @@ def _rebuild(
         extra={"recording_s": rec_s} if rec_s is not None else None,
     )
 
+    # nothing was measured after the recordings' end (as build_summary judges)
+    end_s = talk_s
+    if isinstance(rec_s, (int, float)) and not isinstance(rec_s, bool) and rec_s > 0:
+        end_s = min(talk_s, float(rec_s))
     dev_s: dict[str, dict[str, float]] = {}
     metrics: dict[str, Any] = {}
     for rule in cfg.rules:
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         m = dict(summary["metrics"][rule.metric])
         cuts = [float(sp["from"]) for sp in m.get("lost") or ()]
-        dev_s[rule.metric] = deviation_seconds(rule, streams[rule.metric], talk_s, stale_s, cuts)
+        dev_s[rule.metric] = deviation_seconds(rule, streams[rule.metric], end_s, stale_s, cuts)
         # "not measured": no module wrote this metric's file at all; "no data": the file is
         # there but holds no sample of the talk
         measured = rule.metric in paths
@@ -1152,7 +1156,7 @@ def _rebuild(
         m = metrics[NOISY_METRIC]
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         cuts = [float(sp["from"]) for sp in m.get("lost") or ()]
-        noisy = noisy_low_seconds(rule, streams[NOISY_METRIC], snr, talk_s, stale_s, cuts)
+        noisy = noisy_low_seconds(rule, streams[NOISY_METRIC], snr, end_s, stale_s, cuts)
         noise_in_row(row, m, noisy)
     counts = dict(summary["counts"])
     counts["cues_improved"] = sum(1 for r in helped if r["improved"])

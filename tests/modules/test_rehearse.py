@@ -221,6 +221,12 @@ def test_up_of_a_file_played_to_its_end_used_the_recordings_length(tmp_path: Pat
     assert summary["talk_s"] > length  # the coach's clock, the module's start-up included
     assert summary["time"]["used_s"] == pytest.approx(length, abs=0.05)
     assert summary["time"]["over_under_pct"] == pytest.approx(100 * (length - 20) / 20, abs=0.3)
+    # session 22: nor is any metric measured past the recording's end (its last value held on
+    # the coach's clock: pace "0:55 of 1:01" in up, "0:50" in rehearse of the same file)
+    for name, m in summary["metrics"].items():
+        if m["samples"]:
+            first = float((out / "streams" / f"{name}.txt").read_text().split()[0])
+            assert m["in_range_s"] + m["out_of_range_s"] <= length - first + 0.05, name
     # the report (and the robot's spoken summary, made from it) and a replay say the same
     from prezence.report.build import build_report
 
