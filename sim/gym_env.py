@@ -15,8 +15,12 @@ camera images of it; ``"ansi"`` returns a text line.
 
 from __future__ import annotations
 
+import math
+import numbers
 import shutil
 import tempfile
+import warnings
+import weakref
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,7 +34,7 @@ from prezence.backends.base import Backend
 from prezence.backends.fake import FakeBackend
 from prezence.config.load import load_config
 from prezence.config.model import Config, Rule
-from prezence.errors import UnknownName
+from prezence.errors import UnknownName, did_you_mean
 from prezence.feedback.gestures import library_for_talk
 from prezence.processor import Cue, Processor
 from prezence.processor.types import Kind
@@ -49,6 +53,58 @@ GLOBAL_FEATURES = ("robot_busy", "busy_left_s", "time_fraction", "time_left")
 _DEV_CLIP = 10.0  # signed deviation / 100, clipped: ±1000 %
 _WEIGHT_CLIP = 10.0  # weight / threshold, clipped
 _BUSY_CLIP_S = 30.0
+
+#: The keys ``reset(options=…)`` takes.
+RESET_OPTIONS = ("presenter_seed", "scenario")
+
+
+_NO_COPY = (
+    "a CoachEnv cannot be copied or pickled: its episode is a running talk (a robot, open "
+    "files in its own folder); make another env with the same arguments and reset it with "
+    "the same seed for the same episode"
+)
+
+
+def _number(name: str, value: Any) -> float:
+    """``value`` as a finite float; a clear error naming the argument otherwise."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__} ({value!r})")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ValueError(f"{name} must be a finite number, got {x}")
+    return x
+
+
+def _render_size(size: Any) -> tuple[int, int]:
+    """``(width, height)`` of the rgb_array image: two positive integers."""
+    ok = (
+        isinstance(size, Sequence)
+        and not isinstance(size, str)
+        and len(size) == 2
+        and all(isinstance(v, numbers.Integral) and not isinstance(v, bool) for v in size)
+        and all(int(v) > 0 for v in size)
+    )
+    if not ok:
+        raise ValueError(f"render_size must be two positive integers (width, height), got {size!r}")
+    return (int(size[0]), int(size[1]))
+
+
+def _reset_options(options: Any) -> Mapping[str, Any]:
+    """``reset``'s options, checked: a mapping with only :data:`RESET_OPTIONS` as keys."""
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise ValueError(
+            f"options must be a dict (keys: {', '.join(RESET_OPTIONS)}) or None, got "
+            f"{type(options).__name__} ({options!r})"
+        )
+    for key in options:
+        if key not in RESET_OPTIONS:
+            raise ValueError(
+                f"unknown reset option {key!r}{did_you_mean(str(key), RESET_OPTIONS)} "
+                f"(the options are: {', '.join(RESET_OPTIONS)})"
+            )
+    return options
 
 
 class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
@@ -74,10 +130,17 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
 
     ``Discrete(1 + K)``: 0 is no cue; then, in the order of :attr:`actions`, every
     ``(command, metric)`` pair a rule of the configuration can give (its ``below`` then its
-    ``above`` command, rules in config order), then the time-left and overtime commands
-    (``metric`` None). With the default configuration ``K = 9`` (``Discrete(10)``): speedUp,
-    slowDown, louder, articulate, lookUp, gestureMore, gestureLess, timeLeft, overtime (see
-    :attr:`actions`).
+    ``above`` command, rules in config order), then the time-left and overtime commands and
+    the praise command (``processor.praise_command``, when the configuration has one; all three
+    with ``metric`` None). With the default configuration ``K = 10`` (``Discrete(11)``): speedUp,
+    slowDown, louder, articulate, lookUp, gestureMore, gestureLess, timeLeft, overtime,
+    encourage (see :attr:`actions`; :attr:`rules` says which command of a rule is its
+    ``below`` and which its ``above``). The praise action is what lets
+    :class:`~sim.policies.RuleBaseline` give a headless talk's cues, praise included.
+
+    An action is an ``int``, a numpy integer or a 0-d integer array; anything else (a float
+    such as 2.7, a string, None) raises ``TypeError``, an integer outside the space
+    ``ValueError``, both naming the action and the space.
 
     Every action is always legal (no exception), but not every one is given. A cue about a
     metric the episode's persona does not have (an audio-only persona has no ``cv_headGaze``
@@ -89,7 +152,9 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     ``info["action_mask"]`` (and :meth:`action_masks`, the name sb3-contrib's ``MaskablePPO``
     calls) is an ``int8`` array, 1 for the actions that would be given at the next step:
     always 0 (no cue), and the others only while the robot is free and only for metrics the
-    persona has.
+    persona has. Time and praise cues are never masked (only while the robot is busy): a
+    ``timeLeft`` or ``overtime`` is given whenever it is asked for, at t = 0 too ("You are over
+    time" with ``minutes_over`` 0), and costs ``cue_cost`` like any cue.
 
     ## Observation Space
 
@@ -121,29 +186,50 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     that was really (noise-free) in range when given. "Really in range" is the presenter's
     noise-free value judged by the rule; only the metrics the persona has are counted (an
     audio-only persona is judged on its three speech metrics). Without costs, an episode's
-    return is the talk's mean time in range (1.0 for a perfect talk); time cues earn nothing in
-    v0 (the presenter's talk length is scripted) and cost ``cue_cost``. A cue not given (the
-    robot busy, or a metric the persona does not have) costs nothing.
+    return is the talk's mean time in range (1.0 for a perfect talk); time cues and praise earn
+    nothing in v0 (the presenter's talk length is scripted, and the presenter does not react
+    to praise) and cost ``cue_cost``; ``in_range_penalty`` is charged for corrective cues only.
+    A cue not given (the robot busy, or a metric the persona does not have) costs nothing.
 
     ## Starting State
 
-    ``reset(seed=…)`` picks a scenario uniformly from ``scenarios`` (or ``options["scenario"]``)
-    and a presenter seed, both from the environment's generator, so the same seed gives the
-    same episode. The talk starts at t = 0 with the robot free and all weights 0.
+    ``reset(seed=…)`` picks a scenario uniformly from ``scenarios`` and a presenter seed, both
+    from the environment's generator, so the same seed gives the same episode. ``options``
+    (a dict, or None) may fix them: ``{"scenario": name or path, "presenter_seed": K}``.
+    With ``presenter_seed`` K the episode is the talk of ``prezence run SCENARIO --seed K``
+    and of ``prezence evaluate --first-seed K --seeds 1 --presenters free`` (the generator
+    still draws its own, so the draws after it do not move); ``info["presenter_seed"]`` says
+    the seed of every episode. Any other key, or options that are not a dict, raise
+    ``ValueError`` naming the known keys. The talk starts at t = 0 with the robot free and all
+    weights 0.
+
+    The presenter is always the ``free`` one of ``prezence evaluate`` (a cue costs the
+    presenter nothing); the ``cost`` presenter of its main tables is not available here, and
+    an env policy cannot be run inside ``prezence evaluate`` (whose policies of one's own are
+    conflict policies, ``MODULE:CLASS``).
 
     ## Episode End
 
-    Terminated when the talk's scripted length is reached. Truncated when the registration's
-    ``max_episode_steps`` (:data:`sim.MAX_EPISODE_STEPS`, or the one given to ``make``) cuts
-    the talk short.
+    Terminated when the talk's scripted length is reached; a further ``step`` raises
+    ``RuntimeError`` ("the episode ended at … s; call reset()"). Truncated when the
+    registration's ``max_episode_steps`` (:data:`sim.MAX_EPISODE_STEPS`, 2400, or the one
+    given to ``make``) cuts the talk short. The limit counts steps, not seconds: 2400 steps of
+    the default 0.5 s are 1200 s, longer than every built-in scenario (the longest is 690 s),
+    but with ``step_s=0.1`` they are 240 s. An env made by ``gymnasium.make`` warns
+    (``UserWarning``, at its first ``reset``) when ``step_s × 2400`` is shorter than one of
+    its scenarios, with the ``max_episode_steps`` to pass to ``make`` for whole talks (a limit
+    passed to ``make`` is not seen by the env, so the warning shows then too). A
+    ``CoachEnv`` made directly has no step limit.
 
     ## Info
 
     ``t`` (talk time), ``scenario``, ``presenter_seed``, ``samples`` (the step's new samples),
     ``robot_busy``, ``robot_free_since``, ``cue`` (the cue given at the start of the step, or
-    None), ``ignored`` (a cue asked for while the robot was busy), ``invalid_action`` (a cue
-    about a metric the persona does not have), ``action_mask`` (see Action Space) and
-    ``in_range`` (the share of the persona's metrics really in range at ``t``).
+    None: a dict of ``t``, ``command``, ``metric``, ``kind`` (``corrective``, ``time`` or
+    ``praise``), ``params``, ``phrase``, ``planned_s``), ``ignored`` (a cue asked for while
+    the robot was busy), ``invalid_action`` (a cue about a metric the persona does not have),
+    ``action_mask`` (see Action Space) and ``in_range`` (the share of the persona's metrics
+    really in range at ``t``).
 
     ## Arguments
 
@@ -151,17 +237,35 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     cue_cost=0.005, in_range_penalty=0.01, speed_fraction=0.6, render_mode=None,
     render_size=(240, 240))``
 
-    * ``scenarios``: names or paths of scenarios (default: every built-in scenario).
-    * ``config``: a :class:`~prezence.config.model.Config` (default: the built-in one); each
-      scenario's allocated time replaces the config's, as in headless talks.
-    * ``step_s``: seconds of talk per step (default: ``decision_period_s``).
-    * ``cue_cost``, ``in_range_penalty``: reward terms above.
+    * ``scenarios``: a name or path, or a list of them (default: every built-in scenario).
+    * ``config``: a :class:`~prezence.config.model.Config`, or the path of a config file
+      (read as ``--config FILE`` is, by :func:`prezence.config.load.load_config`); default:
+      the built-in one. Each scenario's allocated time replaces the config's, as in headless
+      talks.
+    * ``step_s``: seconds of talk per step (default: ``decision_period_s``), finite and > 0.
+      The step limit counts steps (see Episode End).
+    * ``cue_cost``, ``in_range_penalty``: reward terms above, finite and >= 0 (costs).
     * ``speed_fraction``: fraction of the joints' velocity limits used by gestures; one at
       which a gesture fails ``prezence gestures check`` (takes more than 10 s) raises
       :class:`~prezence.errors.GestureCheckFailed` (a ``ValueError``) naming the lowest that
       passes.
     * ``render_mode``: None, ``"ansi"`` (a one-line text state) or ``"rgb_array"`` (the talk
-      runs on the PyBullet NAO; ``render()`` returns a camera image of it, ``render_size``).
+      runs on the PyBullet NAO; ``render()`` returns a camera image of it, ``render_size``:
+      (width, height), two positive integers).
+
+    Every argument is checked here: a bad one raises ``ValueError`` (or ``TypeError`` for a
+    wrong type) naming it, before anything runs.
+
+    ## Copies and the working folder
+
+    An episode is a running talk with a working folder of its own (a private temporary
+    folder, ``prezence-gym-…``, reused by every episode: ``config.toml``, ``session.json``
+    with ``"policy": "agent"``, ``cues.jsonl``). It is not a session folder: the talk is never
+    finished, so there is no ``summary.json`` or report. The folder is removed at
+    :meth:`close`, when the env is garbage-collected, or at interpreter exit. ``copy.copy``,
+    ``copy.deepcopy`` and ``pickle`` of an env raise ``TypeError`` (Gymnasium does not ask
+    for them): make another env with the same arguments and reset it with the same seed.
+    Vector envs (``make_vec``, sync or async) work, as they make each env in its process.
 
     ## Version History
 
@@ -172,6 +276,12 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
       ``UnknownName``; ``action_mask`` is given; step ``k`` ends at ``k × step_s`` (it
       drifted with a ``step_s`` such as 0.2, so a cue due on a boundary, the 8:00 timeLeft,
       came a step late).
+      Session 22, kept v0 (actions 0 to 9 mean what they did; a policy trained on
+      ``Discrete(10)`` still runs, it never praises): the praise command has an action (the
+      last, ``Discrete(11)`` by default), so ``RuleBaseline`` gives a headless talk's cues
+      (it gave "no cue" for praise and drifted from ``prezence run``, by 16 points of time in
+      range with ``presentation_trainer``); ``reset`` options are checked and may give the
+      presenter seed; a step after the end raises; arguments and actions are checked.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}
@@ -180,7 +290,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         self,
         scenarios: str | Sequence[str] | None = None,
         *,
-        config: Config | None = None,
+        config: Config | str | Path | None = None,
         step_s: float | None = None,
         cue_cost: float = 0.005,
         in_range_penalty: float = 0.01,
@@ -192,25 +302,45 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             raise ValueError(
                 f"render_mode must be None, 'ansi' or 'rgb_array', got {render_mode!r}"
             )
-        names = [scenarios] if isinstance(scenarios, str) else list(scenarios or list_scenarios())
+        if isinstance(scenarios, str | Path):
+            names = [str(scenarios)]
+        else:
+            names = [str(n) for n in (scenarios if scenarios is not None else list_scenarios())]
         if not names:
-            raise ValueError("no scenarios")
+            raise ValueError("scenarios is empty: give scenario names or paths, or None for all")
         self.scenarios: tuple[Scenario, ...] = tuple(load_scenario(n) for n in names)
+        if isinstance(config, str | Path):
+            config = load_config(config)  # as every command's --config FILE
+        elif config is not None and not isinstance(config, Config):
+            raise TypeError(
+                f"config must be a Config, a path to a config file or None, got "
+                f"{type(config).__name__} ({config!r})"
+            )
         self.config = config if config is not None else load_config(None)
-        self.step_s = float(
-            step_s if step_s is not None else self.config.processor.decision_period_s
+        self.step_s = _number(
+            "step_s", step_s if step_s is not None else self.config.processor.decision_period_s
         )
         if not self.step_s > 0:
-            raise ValueError(f"step_s must be > 0, got {self.step_s}")
-        self.cue_cost = float(cue_cost)
-        self.in_range_penalty = float(in_range_penalty)
+            raise ValueError(f"step_s must be > 0 (seconds of talk per step), got {self.step_s}")
+        self.cue_cost = _number("cue_cost", cue_cost)
+        self.in_range_penalty = _number("in_range_penalty", in_range_penalty)
+        for name, value in (
+            ("cue_cost", self.cue_cost),
+            ("in_range_penalty", self.in_range_penalty),
+        ):
+            if value < 0:
+                raise ValueError(
+                    f"{name} must be >= 0 (a cost, subtracted from the reward), got {value:g}"
+                )
         self.render_mode = render_mode
-        self.render_size = render_size
+        self.render_size = _render_size(render_size)
         self.speed_fraction = float(speed_fraction)
         # as every talk: refused here, not at reset, when a gesture would take so long at this
         # speed that the robot could give no other cue (GestureCheckFailed, a ValueError)
         library_for_talk(None, speed_fraction=self.speed_fraction)
+        self._limit_checked = False
         self._tmp: Path | None = None
+        self._remove_tmp: weakref.finalize[Any, Any] | None = None
         self._camera: Any = None
         self.rules: tuple[Rule, ...] = self.config.rules
         acts: list[tuple[str | None, str | None]] = [(None, None)]
@@ -218,8 +348,10 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             for cmd in (r.below, r.above):
                 if cmd is not None and (cmd, r.metric) not in acts:
                     acts.append((cmd, r.metric))
-        for cmd in (self.config.time.warn_command, self.config.time.overtime_command):
-            if (cmd, None) not in acts:
+        self._time_commands = (self.config.time.warn_command, self.config.time.overtime_command)
+        praise = self.config.processor.praise_command
+        for cmd in (*self._time_commands, praise):
+            if cmd is not None and (cmd, None) not in acts:
                 acts.append((cmd, None))
         #: ``actions[i]`` is the ``(command, metric)`` of action ``i`` (``(None, None)``: no cue).
         self.actions: tuple[tuple[str | None, str | None], ...] = tuple(acts)
@@ -236,6 +368,39 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             np.array(low, dtype=np.float32), np.array(high, dtype=np.float32), dtype=np.float32
         )
         self._episode: dict[str, Any] = {}
+
+    def _check_step_limit(self) -> None:
+        """Warn once when the registered step limit would cut one of the scenarios short.
+
+        Only an env made by ``gymnasium.make`` (its ``spec`` is set then) has a step limit; a
+        limit given to ``make`` itself is not seen here.
+        """
+        self._limit_checked = True
+        spec = gym.registry.get(self.spec.id) if self.spec is not None else None
+        limit = spec.max_episode_steps if spec is not None else None
+        if limit is None:
+            return
+        longest = max(self.scenarios, key=lambda sc: sc.duration_s)
+        if self.step_s * limit < longest.duration_s - 1e-9:
+            need = math.ceil(longest.duration_s / self.step_s - 1e-9)
+            warnings.warn(
+                f"step_s={self.step_s:g}: the registered step limit, max_episode_steps={limit} "
+                f"(steps, not seconds), ends an episode at {self.step_s * limit:g} s of talk, "
+                f"so longer talks end truncated (the longest, {longest.name!r}, is "
+                f"{longest.duration_s:g} s); for whole talks pass max_episode_steps={need} (or "
+                "more) to gymnasium.make",
+                UserWarning,
+                stacklevel=3,
+            )
+
+    def __copy__(self) -> CoachEnv:
+        raise TypeError(_NO_COPY)
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> CoachEnv:
+        raise TypeError(_NO_COPY)
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        raise TypeError(_NO_COPY)
 
     # -- helpers -----------------------------------------------------------------------------
 
@@ -261,6 +426,11 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         """The current episode's persona."""
         sc: Scenario = self._episode["scenario"]
         return sc
+
+    @property
+    def presenter_seed(self) -> int:
+        """The current episode's presenter seed (``prezence run --seed`` of the same talk)."""
+        return int(self._episode["seed"])
 
     @property
     def now(self) -> float:
@@ -383,18 +553,42 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     def reset(
         self, *, seed: int | None = None, options: Mapping[str, Any] | None = None
     ) -> tuple[npt.NDArray[np.float32], dict[str, Any]]:
+        opts = _reset_options(options)  # refused before anything changes
+        if not self._limit_checked:
+            self._check_step_limit()
         super().reset(seed=seed)
         self._end_episode()
-        options = options or {}
-        if "scenario" in options:
-            sc = next((s for s in self.scenarios if s.name == options["scenario"]), None)
-            sc = sc if sc is not None else load_scenario(str(options["scenario"]))
+        if "scenario" in opts:
+            name = opts["scenario"]
+            if not isinstance(name, str | Path):
+                raise ValueError(
+                    f"options['scenario'] must be a scenario name or path, got {name!r}"
+                )
+            sc = next((s for s in self.scenarios if s.name == name), None)
+            sc = sc if sc is not None else load_scenario(str(name))
         else:
             sc = self.scenarios[int(self.np_random.integers(len(self.scenarios)))]
+        # drawn even when the option gives it, so the generator's later draws do not move
         pseed = int(self.np_random.integers(0, 2**31 - 1))
+        if "presenter_seed" in opts:
+            given = opts["presenter_seed"]
+            if (
+                isinstance(given, bool)
+                or not isinstance(given, numbers.Integral)
+                or not 0 <= int(given) < 2**63
+            ):
+                raise ValueError(
+                    "options['presenter_seed'] must be an integer >= 0 (prezence run --seed, "
+                    f"prezence evaluate --first-seed), got {given!r}"
+                )
+            pseed = int(given)
         cfg = self.config.with_allocated(sc.allocated_s)
         if self._tmp is None:
             self._tmp = Path(tempfile.mkdtemp(prefix="prezence-gym-"))
+            # removed with the env: at close(), when it is garbage-collected, or at exit
+            self._remove_tmp = weakref.finalize(
+                self, shutil.rmtree, str(self._tmp), ignore_errors=True
+            )
         source = SyntheticSource(sc, cfg, seed=pseed, files=False)
         talk = Talk(
             source,
@@ -411,6 +605,8 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             ),
         )
         talk.start()
+        # the folder's metadata says who chose the cues: the agent (the processor is silent)
+        talk.session.write_meta({**talk.session.read_meta(), "policy": "agent"})
         have = {m.metric for m in sc.metrics}
         can_cue = np.array([m is None or m in have for _, m in self.actions], dtype=np.int8)
         self._episode = {
@@ -424,6 +620,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             "in_range": 1.0,
             "cues": 0,
             "can_cue": can_cue,
+            "terminated": False,
         }
         source.poll(0.0)
         return self._obs(), self._info([], None, False)
@@ -443,7 +640,10 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         """Give the agent's cue through the coach; None when the robot is busy."""
         ep = self._episode
         params = self._params(command, t)
-        kind = Kind.TIME if metric is None else Kind.WEIGHTED
+        if metric is not None:
+            kind = Kind.WEIGHTED
+        else:
+            kind = Kind.TIME if command in self._time_commands else Kind.PRAISE
         cue = Cue(t, command, metric, kind, "the agent's choice", params)
         if not self.talk.perform(cue):
             return None
@@ -455,6 +655,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
             "t": t,
             "command": command,
             "metric": metric,
+            "kind": {Kind.TIME: "time", Kind.PRAISE: "praise"}.get(kind, "corrective"),
             "params": params,
             "phrase": perf.phrase if perf is not None else "",
             "planned_s": planned,
@@ -465,15 +666,19 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
     ) -> tuple[npt.NDArray[np.float32], float, bool, bool, dict[str, Any]]:
         if not self._episode:
             raise RuntimeError("call reset() before step()")
-        if not self.action_space.contains(np.int64(action)):
-            raise ValueError(f"action {action!r} is not in {self.action_space}")
+        if self._episode["terminated"]:
+            raise RuntimeError(
+                f"the episode ended at {self.now:g} s (terminated: the talk is over); call "
+                "reset() to start another"
+            )
+        index = self._action(action)
         ep = self._episode
         t0 = float(ep["t"])
         reward = 0.0
         cue: dict[str, Any] | None = None
         ignored = invalid = False
-        command, metric = self.actions[int(action)]
-        if command is not None and not ep["can_cue"][int(action)]:
+        command, metric = self.actions[index]
+        if command is not None and not ep["can_cue"][index]:
             invalid = True  # a metric this persona does not have: refused, costs nothing
         elif command is not None:
             cue = self._perform(command, metric, t0)
@@ -497,7 +702,30 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         reward += (t1 - t0) / duration * share
         terminated = t1 >= duration - 1e-9
         info = self._info(samples, cue, ignored, invalid)
-        return self._obs(), float(reward), terminated, False, info
+        obs = self._obs()
+        ep["terminated"] = terminated  # the talk is over: a further step is refused
+        return obs, float(reward), terminated, False, info
+
+    def _action(self, action: Any) -> int:
+        """``action`` as an index into :attr:`actions`: an int, a numpy integer or a 0-d integer
+        array in the action space; a clear error naming it and the space otherwise."""
+        integral = isinstance(action, numbers.Integral) or (
+            isinstance(action, np.ndarray)
+            and action.shape == ()
+            and np.issubdtype(action.dtype, np.integer)
+        )
+        if not integral:
+            raise TypeError(
+                f"action {action!r} is not in {self.action_space}: an integer from 0 to "
+                f"{len(self.actions) - 1} is expected, got {type(action).__name__}"
+            )
+        n = len(self.actions)
+        index = int(action)
+        if not 0 <= index < n:
+            raise ValueError(
+                f"action {action!r} is not in {self.action_space}: it must be from 0 to {n - 1}"
+            )
+        return index
 
     def render(self) -> Any:
         if self.render_mode is None or not self._episode:
@@ -526,9 +754,10 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
 
     def close(self) -> None:
         self._end_episode()
-        if self._tmp is not None:
-            shutil.rmtree(self._tmp, ignore_errors=True)
-            self._tmp = None
+        if self._remove_tmp is not None:
+            self._remove_tmp()  # removes the folder (once) and forgets it
+            self._remove_tmp = None
+        self._tmp = None
 
 
 register()

@@ -3,7 +3,8 @@
 Every policy has ``reset(env, seed)`` (start of an episode) and ``act(obs, info) -> int``:
 
 - :class:`RuleBaseline`: the seed's Central Processor itself (any conflict policy), fed the
-  samples the environment reports, so the environment reproduces a headless talk's decisions;
+  samples the environment reports, so the environment reproduces a headless talk's decisions
+  (``prezence run --policy P --seed <info["presenter_seed"]>``), its praise included;
 - :class:`RandomCuePolicy`: a random cue now and then (a floor);
 - :class:`ThresholdPolicy`: cue the metric with the largest weight once it passes a threshold,
   from the observation alone; :func:`grid_search` tunes its threshold and gap.
@@ -39,7 +40,12 @@ class RuleBaseline:
     Args:
         policy: conflict resolution policy name (``weighted`` is the seed's).
 
-    Commands the environment has no action for (the praise command) become "no cue".
+    Every command the processor gives has an action (the praise command too, when the
+    configuration has one), so the robot gives what a headless talk's would, when it would:
+    with the default configuration the episode's cues are those of ``prezence run SCENARIO
+    --policy P --seed <info["presenter_seed"]>``. The policy's chance (``random``) is seeded
+    with the episode's presenter seed, as a headless talk's is. A command with no action (a
+    policy of one's own may name any) raises :class:`~prezence.errors.UnknownName`.
     """
 
     def __init__(self, policy: str = "weighted") -> None:
@@ -49,7 +55,8 @@ class RuleBaseline:
 
     def reset(self, env: CoachEnv, seed: int) -> None:
         self._env = env
-        self._proc = Processor(env.episode_config, policy=make_policy(self.policy, seed=seed))
+        policy = make_policy(self.policy, seed=env.presenter_seed)
+        self._proc = Processor(env.episode_config, policy=policy)
 
     def act(self, obs: Obs, info: Mapping[str, Any]) -> int:
         if self._env is None or self._proc is None:
@@ -57,10 +64,7 @@ class RuleBaseline:
         d = self._proc.step(info["t"], info["samples"], free_since=info["robot_free_since"])
         if d.cue is None:
             return 0
-        try:
-            return self._env.action_index(d.cue.command, d.cue.metric)
-        except LookupError:
-            return 0
+        return self._env.action_index(d.cue.command, d.cue.metric)
 
 
 class RandomCuePolicy:
@@ -133,7 +137,8 @@ def run_episode(env: CoachEnv, policy: EnvPolicy, seed: int) -> dict[str, Any]:
 
     Returns:
         ``return``; ``time_in_range`` (the return's time-in-range part, before the cue costs);
-        ``cues`` given and, of them, ``time_cues`` (no metric: they earn nothing in v0);
+        ``cues`` given and, of them, ``time_cues`` and ``praise`` (no metric: they earn
+        nothing in v0);
         ``ignored`` actions (the robot busy); ``invalid`` actions (a metric the persona does
         not have); ``scenario``.
     """
@@ -141,7 +146,7 @@ def run_episode(env: CoachEnv, policy: EnvPolicy, seed: int) -> dict[str, Any]:
     policy.reset(env, seed)
     talk_s = float(env.scenario.duration_s)
     total, in_range, t = 0.0, 0.0, 0.0
-    cues = time_cues = ignored = invalid = 0
+    cues = time_cues = praise = ignored = invalid = 0
     done = False
     while not done:
         obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
@@ -150,7 +155,8 @@ def run_episode(env: CoachEnv, policy: EnvPolicy, seed: int) -> dict[str, Any]:
         t = info["t"]
         cue = info["cue"]
         cues += cue is not None
-        time_cues += cue is not None and cue["metric"] is None
+        time_cues += cue is not None and cue["kind"] == "time"
+        praise += cue is not None and cue["kind"] == "praise"
         ignored += bool(info["ignored"])
         invalid += bool(info["invalid_action"])
         done = terminated or truncated
@@ -159,6 +165,7 @@ def run_episode(env: CoachEnv, policy: EnvPolicy, seed: int) -> dict[str, Any]:
         "time_in_range": in_range,
         "cues": cues,
         "time_cues": time_cues,
+        "praise": praise,
         "ignored": ignored,
         "invalid": invalid,
         "scenario": info["scenario"],

@@ -349,3 +349,305 @@ def test_a_speed_at_which_a_gesture_takes_too_long_is_refused_by_the_constructor
     with pytest.raises(ValueError, match=r"the lowest speed at which every built-in gesture") as e:
         CoachEnv("short_talk", speed_fraction=0.05)
     assert str(e.value).startswith("--speed 0.05: 10 built-in gestures would take longer than")
+
+
+# -- session 22, an RL researcher's walkthrough ------------------------------------------------
+
+
+def _config_file(path: Path, **processor: object) -> Path:
+    """The built-in configuration with ``processor`` settings changed, written as TOML."""
+    import dataclasses
+
+    from prezence.config.load import load_config
+    from prezence.config.tomlconf import dumps_config
+
+    base = load_config(None)
+    path.write_text(
+        dumps_config(
+            dataclasses.replace(base, processor=dataclasses.replace(base.processor, **processor))
+        )
+    )
+    return path
+
+
+def _baseline_cues(
+    env: CoachEnv, policy: str, scenario: str
+) -> tuple[list[tuple[float, str]], float]:
+    """RuleBaseline(policy)'s cues (t, command) in one episode, and its time in range."""
+    obs, info = env.reset(seed=0, options={"scenario": scenario})
+    baseline = RuleBaseline(policy)
+    baseline.reset(env, 0)
+    cues: list[tuple[float, str]] = []
+    in_range, done = 0.0, False
+    while not done:
+        obs, _, term, trunc, info = env.step(baseline.act(obs, info))
+        in_range += info["in_range"] * env.step_s / env.scenario.duration_s
+        if info["cue"] is not None:
+            cues.append((info["cue"]["t"], info["cue"]["command"]))
+        done = term or trunc
+    return cues, in_range
+
+
+@pytest.mark.parametrize("policy", ["presentation_trainer", "weighted"])
+@pytest.mark.parametrize("scenario", ["stiff_presenter", "quiet_speaker"])
+def test_the_rule_baseline_is_prezence_run_cue_for_cue_praise_included(
+    policy: str, scenario: str, tmp_path: Path
+) -> None:
+    """With the default configuration (praise on) the env's presentation_trainer gave 2 cues
+    on stiff_presenter where ``prezence run`` gives 14 (time in range 0.828 against 0.988):
+    its praise became "no cue", while its processor believed it given. Praise has an action
+    now, and the env's baseline is ``prezence run --policy P --seed <presenter seed>``."""
+    import json
+
+    from prezence.cli import main
+
+    env = CoachEnv()
+    assert ("encourage", None) in env.actions
+    got, in_range = _baseline_cues(env, policy, scenario)
+    seed = env.presenter_seed
+    out = tmp_path / "run"
+    argv = ["-q", "run", scenario, "--seed", str(seed), "--policy", policy]
+    # 3: the scenario's expectations not met (quiet_speaker's under presentation_trainer)
+    assert main([*argv, "--out", str(out), "--no-report"]) in (0, 3)
+    summary = json.loads((out / "summary.json").read_text())
+    talk_s = env.scenario.duration_s
+    # a cue at the talk's very last decision point is not the env's (the loop's own matter)
+    run = [(c["t"], c["command"]) for c in summary["cues"] if c["t"] < talk_s]
+    assert got == run
+    if policy == "presentation_trainer":  # a praise after every mistake on show
+        assert sum(c == "encourage" for _, c in got) >= 3
+    truth = [m["truth_time_in_range"] for m in summary["metrics"].values()]
+    assert in_range == pytest.approx(sum(truth) / len(truth), abs=0.001)
+
+
+def test_a_praise_cue_is_given_and_costs_the_cue_cost_only() -> None:
+    env = CoachEnv("ideal", cue_cost=0.01, in_range_penalty=0.02)
+    env.reset(seed=0)
+    _, quiet, *_ = env.step(0)
+    _, praised, _, _, info = env.step(env.action_index("encourage", None))
+    assert info["cue"]["command"] == "encourage" and info["cue"]["kind"] == "praise"
+    assert praised == pytest.approx(quiet - 0.01)
+
+
+def test_a_config_without_praise_has_no_praise_action(tmp_path: Path) -> None:
+    cfg = _config_file(tmp_path / "nopraise.toml", praise_command=None)
+    env = CoachEnv("demo", config=str(cfg))
+    assert env.config.processor.praise_command is None
+    assert env.action_space == gym.spaces.Discrete(10)
+    assert all(c != "encourage" for c, _ in env.actions)
+
+
+def test_config_may_be_a_path_as_every_commands_config_file(tmp_path: Path) -> None:
+    """``config='file.toml'`` raised AttributeError: 'str' object has no attribute 'processor'."""
+    cfg = _config_file(tmp_path / "slow.toml", decision_period_s=1.0)
+    for given in (str(cfg), cfg):
+        env = gym.make(ENV_ID, scenarios="ideal", config=given).unwrapped
+        assert env.step_s == 1.0
+    with pytest.raises(TypeError, match=r"config must be a Config, a path to a config file"):
+        CoachEnv("ideal", config=42)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        (
+            {"senario": "demo"},
+            r"unknown reset option 'senario'; did you mean 'scenario'\? "
+            r"\(the options are: presenter_seed, scenario\)",
+        ),
+        ({"seed": 3}, r"unknown reset option 'seed'.*presenter_seed, scenario"),
+        ("demo", r"options must be a dict \(keys: presenter_seed, scenario\) or None, got str"),
+        ({"scenario": None}, r"options\['scenario'\] must be a scenario name or path, got None"),
+        ({"presenter_seed": -1}, r"options\['presenter_seed'\] must be an integer >= 0"),
+        ({"presenter_seed": 1.5}, r"options\['presenter_seed'\] must be an integer >= 0"),
+    ],
+)
+def test_reset_refuses_unknown_or_ill_typed_options(options: object, said: str) -> None:
+    """A misspelt key ran the whole experiment on random scenarios without a word."""
+    env = CoachEnv()
+    with pytest.raises(ValueError, match=said):
+        env.reset(seed=0, options=options)  # type: ignore[arg-type]
+
+
+def test_reset_options_may_give_the_presenter_seed() -> None:
+    """``prezence evaluate --first-seed K`` talks can be met in the env directly."""
+    env = CoachEnv()
+    _, info = env.reset(seed=3, options={"scenario": "demo", "presenter_seed": 1826701614})
+    assert info["presenter_seed"] == env.presenter_seed == 1826701614
+    after_given = env.reset()[1]["presenter_seed"]
+    env.reset(seed=3, options={"scenario": "demo"})
+    assert env.reset()[1]["presenter_seed"] == after_given  # the generator did not move
+    quiet = CoachEnv()
+    quiet.reset(seed=99, options={"scenario": "demo", "presenter_seed": 1826701614})
+    a = [env.reset(options={"scenario": "demo", "presenter_seed": 1826701614})[0].tobytes()]
+    b = [quiet.reset(options={"scenario": "demo", "presenter_seed": 1826701614})[0].tobytes()]
+    for _ in range(200):
+        a.append(env.step(0)[0].tobytes())
+        b.append(quiet.step(0)[0].tobytes())
+    assert a == b
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "said"),
+    [
+        ({"cue_cost": float("nan")}, r"cue_cost must be a finite number, got nan"),
+        ({"cue_cost": -1}, r"cue_cost must be >= 0 \(a cost, subtracted from the reward\), got -1"),
+        ({"in_range_penalty": float("inf")}, r"in_range_penalty must be a finite number, got inf"),
+        ({"in_range_penalty": -0.01}, r"in_range_penalty must be >= 0"),
+        ({"step_s": float("inf")}, r"step_s must be a finite number, got inf"),
+        ({"render_size": (0, 0)}, r"render_size must be two positive integers \(width, height\)"),
+        ({"render_size": (96.5, 96)}, r"render_size must be two positive integers"),
+        ({"render_size": 96}, r"render_size must be two positive integers"),
+        ({"scenarios": []}, r"scenarios is empty"),
+    ],
+)
+def test_the_constructor_refuses_bad_reward_and_render_settings(
+    kwargs: dict[str, object], said: str
+) -> None:
+    """cue_cost=-1 made every cue earn +1, nan made every reward nan; render_size=(0, 0)
+    failed only at render() with ZeroDivisionError."""
+    with pytest.raises(ValueError, match=said):
+        CoachEnv(**{"scenarios": "ideal", **kwargs})  # type: ignore[arg-type]
+
+
+def test_copying_or_pickling_the_env_is_refused_cleanly() -> None:
+    """deepcopy shared the working folder (closing the copy broke the original) and printed
+    'Exception ignored in FolderLock.__del__' at exit; pickle failed on a local function."""
+    code = (
+        "import copy, pickle\n"
+        "from sim.gym_env import CoachEnv\n"
+        "e = CoachEnv('short_talk'); e.reset(seed=0)\n"
+        "for f in (copy.copy, copy.deepcopy, pickle.dumps):\n"
+        "    try:\n"
+        "        f(e)\n"
+        "    except TypeError as x:\n"
+        "        print(type(x).__name__, x)\n"
+        "done = False\n"
+        "while not done:\n"
+        "    done = e.step(0)[2]\n"
+        "e.close(); print('closed')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    lines = out.stdout.splitlines()
+    assert len(lines) == 4 and lines[-1] == "closed"
+    assert all(x.startswith("TypeError a CoachEnv cannot be copied or pickled") for x in lines[:3])
+    assert out.stderr == ""
+
+
+@pytest.mark.parametrize("ending", ["del env; gc.collect()", "pass"])
+def test_an_env_not_closed_leaves_no_folder_behind(ending: str) -> None:
+    """/tmp held 1526 prezence-gym-* folders: an env dropped (or alive at exit) without close()
+    kept its folder."""
+    code = (
+        "import gc, gymnasium, sim\n"
+        "env = gymnasium.make('prezence/Coach-v0', scenarios='ideal'); env.reset(seed=0)\n"
+        "env.step(0); folder = env.unwrapped.talk.session.root.parent\n"
+        "print(folder, flush=True)\n"
+        f"{ending}\n"
+        "print(folder.exists())\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    folder, exists = out.stdout.split()
+    assert Path(folder).name.startswith("prezence-gym-")
+    assert exists == ("False" if "del" in ending else "True")
+    assert not Path(folder).exists()  # gone at exit in both cases
+    assert out.stderr == ""
+
+
+def test_the_working_folder_says_the_agent_chose_the_cues() -> None:
+    """session.json said "policy": "none" though the agent cued."""
+    env = CoachEnv("ideal")
+    env.reset(seed=0)
+    assert env.talk.session.read_meta()["policy"] == "agent"
+    env.close()
+
+
+def test_a_step_after_the_end_of_the_talk_is_refused() -> None:
+    """It went on, and still cued (charged) after the talk ended: a loop on info['t'] never
+    ended."""
+    env = CoachEnv("short_talk")
+    env.reset(seed=0)
+    done = False
+    while not done:
+        _, _, done, _, info = env.step(0)
+    for action in (0, 1):
+        with pytest.raises(RuntimeError, match=r"the episode ended at 40 s .*call reset\(\)"):
+            env.step(action)
+    assert env.render() is None and env.now == 40.0  # the episode can still be looked at
+    env.reset(seed=1)
+    env.step(0)  # a new one runs
+
+
+@pytest.mark.parametrize(
+    ("action", "error"),
+    [
+        (2.7, TypeError),
+        (3.0, TypeError),
+        ("3", TypeError),
+        (None, TypeError),
+        (np.float32("nan"), TypeError),
+        (np.array([2]), TypeError),
+        (2**70, ValueError),
+        (11, ValueError),
+        (-1, ValueError),
+        (np.uint8(255), ValueError),
+    ],
+)
+def test_an_action_that_is_not_in_the_space_is_one_clear_error(
+    action: object, error: type[Exception]
+) -> None:
+    """2.7 was taken as 2 and '3' as 3; None and 2**70 raised int()'s own errors; nan printed a
+    numpy RuntimeWarning before its ValueError."""
+    import warnings
+
+    env = CoachEnv("demo")
+    env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(error, match=r"^action .* is not in Discrete\(11\)"):
+            env.step(action)  # type: ignore[arg-type]
+
+
+def test_integer_actions_of_every_kind_are_taken() -> None:
+    env = CoachEnv("demo")
+    env.reset(seed=0)
+    for action in (0, np.int64(0), np.uint8(0), np.array(0), np.array(0, dtype=np.int32)):
+        env.step(action)  # type: ignore[arg-type]
+
+
+def test_a_step_limit_that_cuts_the_talks_short_is_warned_about() -> None:
+    """step_s=0.1 ended every talk at 240 s (2400 steps), truncated, without a word."""
+    with pytest.warns(
+        UserWarning,
+        match=r"max_episode_steps=2400 \(steps, not seconds\).*240 s.*"
+        r"pass max_episode_steps=6900",
+    ):
+        env = gym.make(ENV_ID, step_s=0.1)
+        env.reset(seed=0)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gym.make(ENV_ID).reset(seed=0)  # the default step covers every built-in talk
+        CoachEnv(step_s=0.1).reset(seed=0)  # made directly: no step limit
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (["--test", "0"], "argument --test: at least 1 seed is needed, got 0"),
+        (["--train", "0"], "argument --train: at least 1 seed is needed, got 0"),
+        (
+            ["--scenarios", "fast_taker"],
+            "unknown scenario 'fast_taker'; did you mean 'fast_talker'?",
+        ),
+    ],
+)
+def test_the_example_refuses_bad_arguments_in_one_line(args: list[str], said: str) -> None:
+    """--test 0: ZeroDivisionError; --train 0: nan and a 'tuned' policy; an unknown scenario:
+    a traceback."""
+    example = Path(__file__).parents[2] / "examples" / "coach_env.py"
+    out = subprocess.run([sys.executable, str(example), *args], capture_output=True, text=True)
+    assert out.returncode == 2
+    assert out.stderr.splitlines()[-1] == f"coach_env.py: error: {said}"
+    assert "Traceback" not in out.stderr and out.stdout == ""
