@@ -13,7 +13,8 @@ Run::
 
 A return is the talk's mean time in range (1.0 = every metric in range all the time) minus
 0.005 per cue and 0.01 per cue about a metric that was in range; "in range" is that first
-part alone, "time cues" the cues/talk that were time warnings (they earn nothing in v0).
+part alone, "time cues" and "praise" the cues/talk that were time warnings and praise (they
+earn nothing in v0).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from typing import Any
 import gymnasium as gym
 
 import sim.gym_env  # noqa: F401  (registers prezence/Coach-v0)
+from prezence.errors import PrezenceError
 from sim.gym_env import ENV_ID, CoachEnv
 from sim.policies import EnvPolicy, RandomCuePolicy, RuleBaseline, grid_search, run_episode
 
@@ -40,14 +42,30 @@ class NoCue:
         return 0
 
 
+def seeds(text: str) -> int:
+    """A count of seeds: a whole number, at least 1 (a mean over none is no figure)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number of seeds, got {text!r}"
+        ) from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"at least 1 seed is needed, got {n}")
+    return n
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--train", type=int, default=4, help="training seeds for the grid search")
-    p.add_argument("--test", type=int, default=6, help="held-out seeds for the comparison")
-    p.add_argument("--scenarios", nargs="+", help="scenario names (default: all)")
+    p.add_argument("--train", type=seeds, default=4, help="training seeds for the grid search")
+    p.add_argument("--test", type=seeds, default=6, help="held-out seeds for the comparison")
+    p.add_argument("--scenarios", nargs="+", help="scenario names or paths (default: all)")
     args = p.parse_args(argv)
 
-    env: CoachEnv = gym.make(ENV_ID, scenarios=args.scenarios).unwrapped  # type: ignore[assignment]
+    try:
+        env: CoachEnv = gym.make(ENV_ID, scenarios=args.scenarios).unwrapped  # type: ignore[assignment]
+    except PrezenceError as e:  # an unknown scenario, a damaged scenario file
+        p.error(str(e))
     train = list(range(args.train))
     test = list(range(1000, 1000 + args.test))
 
@@ -65,14 +83,15 @@ def main(argv: list[str] | None = None) -> int:
     }
     names = ", ".join(s.name for s in env.scenarios)
     print(f"\nmean return over {len(test)} held-out seeds ({names})")
-    print(f"{'policy':<24} {'return':>8} {'in range':>9} {'cues/talk':>10} {'time cues':>10}")
+    head = f"{'policy':<24} {'return':>8} {'in range':>9} {'cues/talk':>10} {'time cues':>10}"
+    print(f"{head} {'praise':>7}")
     for name, policy in policies.items():
         eps = [run_episode(env, policy, s) for s in test]
-        ret, tir, cues, tcues = (
+        ret, tir, cues, tcues, praise = (
             sum(e[k] for e in eps) / len(eps)
-            for k in ("return", "time_in_range", "cues", "time_cues")
+            for k in ("return", "time_in_range", "cues", "time_cues", "praise")
         )
-        print(f"{name:<24} {ret:>8.4f} {tir:>9.4f} {cues:>10.1f} {tcues:>10.1f}")
+        print(f"{name:<24} {ret:>8.4f} {tir:>9.4f} {cues:>10.1f} {tcues:>10.1f} {praise:>7.1f}")
     env.close()
     return 0
 
