@@ -1,4 +1,4 @@
-"""Evaluate cueing policies in the Gymnasium environment ``prezence/Coach-v0``.
+"""Evaluate cueing policies in the Gymnasium environment ``prezence/Coach-v1``.
 
 Compares, by mean episode return on held-out seeds:
 
@@ -26,7 +26,7 @@ from typing import Any
 
 import gymnasium as gym
 
-import sim.gym_env  # noqa: F401  (registers prezence/Coach-v0)
+import sim.gym_env  # noqa: F401  (registers prezence/Coach-v1)
 from prezence.errors import PrezenceError
 from sim.gym_env import ENV_ID, CoachEnv
 from sim.policies import EnvPolicy, RandomCuePolicy, RuleBaseline, grid_search, run_episode

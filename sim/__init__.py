@@ -1,7 +1,7 @@
 """The sandbox: what needs PyBullet, NAOqi serving or Gymnasium (the NAO model, the sim backend,
 the virtual NAO, rendering, the Gymnasium environment).
 
-Importing it registers the Gymnasium environment ``prezence/Coach-v0`` (by its entry-point
+Importing it registers the Gymnasium environment ``prezence/Coach-v1`` (by its entry-point
 string: the environment's module loads only when one is made) when Gymnasium is installed, as
 environment packages do on import. When Gymnasium is not imported yet, the registration waits
 for its import: ``prezence demo --backend sim`` imports this package for the sim backend and
@@ -18,7 +18,7 @@ import sys
 from collections.abc import Sequence
 from types import ModuleType
 
-ENV_ID = "prezence/Coach-v0"
+ENV_ID = "prezence/Coach-v1"
 #: The registration's step limit: a 20-minute talk at the default 0.5 s step. An episode cut
 #: short by it ends ``truncated``.
 MAX_EPISODE_STEPS = 2400

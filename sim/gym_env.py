@@ -1,9 +1,9 @@
-"""A Gymnasium environment for learning when to cue: ``prezence/Coach-v0``.
+"""A Gymnasium environment for learning when to cue: ``prezence/Coach-v1``.
 
 ``import sim`` registers the id (as environment packages do on import), with
 ``max_episode_steps`` (:data:`MAX_EPISODE_STEPS`): an episode cut short by that limit ends
 ``truncated``, one that reaches the end of the talk ``terminated``. ``gymnasium.make(
-"sim.gym_env:prezence/Coach-v0")`` also works with no import (Gymnasium imports the module named
+"sim.gym_env:prezence/Coach-v1")`` also works with no import (Gymnasium imports the module named
 before the colon).
 
 An episode is a talk run by the one loop (:class:`prezence.talk.Talk`): the agent's actions are
@@ -233,7 +233,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
 
     ## Arguments
 
-    ``gymnasium.make("prezence/Coach-v0", scenarios=None, config=None, step_s=None,
+    ``gymnasium.make("prezence/Coach-v1", scenarios=None, config=None, step_s=None,
     cue_cost=0.005, in_range_penalty=0.01, speed_fraction=0.6, render_mode=None,
     render_size=(240, 240))``
 

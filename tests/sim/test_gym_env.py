@@ -55,7 +55,7 @@ def test_make_by_id_after_import() -> None:
 
 def test_make_with_module_prefix_needs_no_import() -> None:
     code = (
-        "import gymnasium; e = gymnasium.make('sim.gym_env:prezence/Coach-v0', scenarios='ideal');"
+        "import gymnasium; e = gymnasium.make('sim.gym_env:prezence/Coach-v1', scenarios='ideal');"
         "print(e.unwrapped.action_space)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -126,7 +126,7 @@ def test_rule_baseline_and_tuned_policy_beat_silence_on_the_demo_talk() -> None:
 )
 def test_import_sim_registers_the_env_with_a_step_limit(imports: str) -> None:
     code = (
-        f"{imports}; s = gymnasium.spec('prezence/Coach-v0');"
+        f"{imports}; s = gymnasium.spec('prezence/Coach-v1');"
         "print(s.entry_point, s.max_episode_steps)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -539,7 +539,7 @@ def test_an_env_not_closed_leaves_no_folder_behind(ending: str) -> None:
     kept its folder."""
     code = (
         "import gc, gymnasium, sim\n"
-        "env = gymnasium.make('prezence/Coach-v0', scenarios='ideal'); env.reset(seed=0)\n"
+        "env = gymnasium.make('prezence/Coach-v1', scenarios='ideal'); env.reset(seed=0)\n"
         "env.step(0); folder = env.unwrapped.talk.session.root.parent\n"
         "print(folder, flush=True)\n"
         f"{ending}\n"
@@ -650,3 +650,15 @@ def test_the_example_refuses_bad_arguments_in_one_line(args: list[str], said: st
     assert out.returncode == 2
     assert out.stderr.splitlines()[-1] == f"coach_env.py: error: {said}"
     assert "Traceback" not in out.stderr and out.stdout == ""
+
+
+def test_the_old_id_points_to_the_new_version() -> None:
+    """v1 (session 22) changed the action space (a praise action) and the talk's last instant:
+    an agent trained on v0 is told, not silently given other actions."""
+    import sim  # noqa: F401  (registers the environment)
+
+    with (
+        pytest.warns(DeprecationWarning, match="upgrading to version `v1`"),
+        pytest.raises(gym.error.DeprecatedEnv, match="prezence/Coach-v1"),
+    ):
+        gym.make("prezence/Coach-v0")
