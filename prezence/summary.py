@@ -731,6 +731,14 @@ def build_summary(
             if spans:
                 who = writers.get(rule.metric)
                 m["stale_spans"] = [{**sp, "module": who} if who else sp for sp in spans]
+                # a module that writes less often than its record declares goes stale between
+                # its values: said with its stale spans (session 22: every 10 s against 1 s)
+                pace = float(np.median(np.diff(ts))) if len(ts) >= 3 else 0.0
+                if rec is not None and pace > 2.0 * rec.cadence_s + 0.5:
+                    m["slow_cadence"] = {
+                        "median_gap_s": round(pace, 3),
+                        "declared_s": rec.cadence_s,
+                    }
         if ss and m["in_range_s"] + m["out_of_range_s"] < MIN_JUDGED_S:
             m["too_brief"] = True
         if ss and less_reliable and rule.metric in less_reliable:

@@ -607,9 +607,18 @@ def stale_sentences(
             continue
         who = f"module {module} wrote no new value" if module else "no new value came"
         hold = float(spans[0].get("stale_after_s") or 0.0)
+        slow = m.get("slow_cadence")
+        why = ""
+        if isinstance(slow, Mapping) and slow.get("median_gap_s") and slow.get("declared_s"):
+            why = (
+                f" ({'its module' if module else 'it'} wrote a value every "
+                f"{float(slow['median_gap_s']):g} s (median), where its record declares one every "
+                f"{float(slow['declared_s']):g} s)"
+            )
         out.append(
             f"{name} went stale ({who} for over {hold:g} s) after {_and(after)}: not measured "
             + " and ".join(parts)
+            + why
         )
     return out
 

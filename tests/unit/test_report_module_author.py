@@ -306,3 +306,27 @@ def test_times_that_went_back_are_counted_and_shown_with_the_first(tmp_path: Pat
             "example": "line 11: t=9 goes back from 10",
         }
     ]
+
+
+# -- finding 14: a module that writes less often than its record declares -------------------
+
+
+def test_a_module_slower_than_its_declared_cadence_is_said_with_its_stale_spans(
+    tmp_path: Path,
+) -> None:
+    # session 22, finding 14: a module wrote a value every 10 s where its record declares one
+    # every 2 s: five stale episodes, "longest out 6 s", and nothing said why
+    from prezence.cli import format_timeline
+
+    pace = [(float(t), 200.0) for t in range(0, 60, 10)]
+    volume = [(float(t), 66.0) for t in range(0, 60)]
+    session = folder(tmp_path / "s", {"speech_speed": pace, "speech_volume": volume}, talk_s=60.0)
+    summary = summarize_session(session, CONFIG, talk_s=60.0)
+    m = summary["metrics"]["speech_speed"]
+    assert m["stale_episodes"] == 6  # after each value, the last one included
+    assert m["slow_cadence"] == {"median_gap_s": 10.0, "declared_s": 2.0}
+    assert "slow_cadence" not in summary["metrics"]["speech_volume"]
+    said = "wrote a value every 10 s (median), where its record declares one every 2 s"
+    assert said in format_timeline(summary)
+    write_report(session.root, plots=False)
+    assert said in (session.report / "summary.txt").read_text()
