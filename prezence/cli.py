@@ -275,8 +275,8 @@ def _trouble_notes(summary: dict[str, Any]) -> list[str]:
     talk_s = float(summary.get("talk_s") or 0.0)
     # a talk whose every input ended by itself ended with the recordings (`up` of files)
     end_s = float(summary.get("recording_s") or talk_s)
-    out = module_sentences(notes, talk_s) + _ended_sentences(summary.get("modules"), end_s)
-    out += stale_sentences(metrics, notes, talk_s)
+    out = module_sentences(notes, end_s) + _ended_sentences(summary.get("modules"), end_s)
+    out += stale_sentences(metrics, notes, end_s)
     problems = [str(p) for p in summary.get("stream_problems") or []]
     for name, m in metrics.items():
         n = int((m.get("stream") or {}).get("malformed") or 0)

@@ -183,10 +183,18 @@ def measurement_notes(
     """
     unmeasured: dict[str, str] = {}
     failures = (recorded or {}).get("module_failures") or {}
+    modules = (recorded or {}).get("modules")
+    # a module that ran and then crashed or hung (rehearse records a hang in both) is said by
+    # its crash record (module_notes), not as one that 'could not run'
+    ran = {
+        str(name)
+        for name, rec in (modules.items() if isinstance(modules, Mapping) else ())
+        if isinstance(rec, Mapping) and rec.get("crashes")
+    }
     if isinstance(failures, Mapping):
         for name, rec in METRICS.items():
             msg = failures.get(rec.module)
-            if isinstance(msg, str):
+            if isinstance(msg, str) and rec.module not in ran:
                 unmeasured[name] = f"the {rec.module} module could not run: {_failure_text(msg)}"
     off = _module_status(root, VISION_STATUS).get("off")
     if isinstance(off, Mapping):
@@ -769,6 +777,10 @@ def build_summary(
                 rule.stale_after_s if rule.stale_after_s is not None else stale_default,
                 [sp["from"] for sp in lost.get(rule.metric, ())],
             )
+            # after the recordings' end nothing was measured, though the coach's clock ran on
+            # while the modules stopped: a cue then is not judged (session 22's review: one
+            # at 1:01.5 of a 1:01 recording was 'STALE: back in range 0 s before')
+            + ([(end_s, talk_s)] if end_s < talk_s else [])
             for rule in config.rules
             if rule.metric in cued
         }

@@ -521,7 +521,10 @@ def module_sentences(
             what.append(f"failed after its last value at {mmss(n.get('last_value_t'))}")
         elif crashes:
             what.append(f"crashed {_times(crashes)} (first at {mmss(n.get('first_crash_t'))})")
-        if hangs == 1:
+        if hangs == 1 and n.get("first_kill_t") == n.get("first_hang_t"):
+            # rehearse: the recording's clock stood where it fell silent (killed in wall time)
+            what.append(f"hung at {mmss(n.get('first_hang_t'))}")
+        elif hangs == 1:
             what.append(
                 f"hung at {mmss(n.get('first_hang_t'))} (killed at {mmss(n.get('first_kill_t'))})"
             )

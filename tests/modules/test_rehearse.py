@@ -771,7 +771,7 @@ def test_a_hung_module_is_killed_and_the_rehearsal_goes_on_saying_so(
     assert fillers["samples"] == 5
     talk = f"0:{summary['talk_s']:02.0f}"
     note = (
-        "module fillers hung at 0:05 (killed at 0:05) and was not restarted (showed no sign of "
+        "module fillers hung at 0:05 and was not restarted (showed no sign of "
         f"life for 2 s (hung); killed); speech_fillers were not measured from 0:05 to the end "
         f"({talk})"
     )
@@ -822,3 +822,39 @@ def test_a_rehearsal_keeps_each_modules_stdout_in_its_log(tmp_path: Path) -> Non
     ]
     assert "DEBUG giving up" in (tmp_path / "s" / "broken.log").read_text()
     assert result.summary["module_failures"] == {"broken": "talk.wav: not a recording I can read"}
+
+
+_SILENT_MODULE = """
+import argparse, time
+from prezence.modules.common import StreamSet, add_common_arguments
+ap = argparse.ArgumentParser()
+ap.add_argument("--audio", required=True)
+add_common_arguments(ap)
+args = ap.parse_args()
+with StreamSet(args.out, ["speech_fillers"], fresh=True) as streams:
+    time.sleep(600)
+"""
+
+
+def test_a_module_hung_before_its_first_value_ran_and_is_said_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Session 22's review: a module killed as hung before it wrote a value was said twice,
+    once as one that "could not run" (it ran), and "killed at 0:00" (the recording's clock
+    stood there; it was killed 2 s later on the wall clock)."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "fillers_stub.py").write_text(_SILENT_MODULE)
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(pkg), *sys.path]))
+    _add_the_fillers_records(monkeypatch, hang_after_s=2.0)
+    rules = tmp_path / "rules.txt"
+    rules.write_text("speech_fillers max 6 above=slowDown\n")
+    out = tmp_path / "s"
+    argv = ["rehearse", str(FAST), "--out", str(out), "--config", str(rules), "--allocated", "20"]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    text = (out / "report" / "summary.txt").read_text()
+    for said in (printed, text):
+        assert "could not run" not in said, said
+        assert "module fillers hung at 0:00 and was not restarted" in said, said
+        assert "killed at 0:00" not in said

@@ -207,3 +207,29 @@ def test_the_measured_stretches_equal_a_reading_sample_by_sample(
     assert measured_intervals(rule, samples, talk_s, stale / 2, cuts) == _stretches_by_scan(
         rule, samples, talk_s, stale / 2, cuts
     )
+
+
+def test_a_cue_after_the_recordings_end_is_not_judged() -> None:
+    """Session 22's review: in `up` of files the coach's clock runs on while the modules stop,
+    and the last value still holds, so a cue can come after the recordings' end; with the
+    metrics stopped there, it read 'STALE: back in range 0 s before' of a pace out of range
+    the whole recording."""
+    from prezence.config.load import load_config
+
+    cfg = load_config(None).with_allocated(60)
+    rule = next(r for r in cfg.rules if r.metric == "speech_speed")
+    pace = {"speech_speed": [Sample("speech_speed", float(t), 220.0) for t in range(1, 61)]}
+    cue = {
+        "t": 61.5,
+        "command": rule.above,
+        "metric": "speech_speed",
+        "kind": "weighted",
+        "onset": 50.0,
+        "deviation": 1.0,
+    }
+    live = build_summary(cfg, pace, [cue], talk_s=63.0)
+    assert live["cues"][0]["cue_class"] == "relevant"  # the clock's own end: measured
+    files = build_summary(cfg, pace, [cue], talk_s=63.0, extra={"recording_s": 60.0})
+    row = files["cues"][0]
+    assert (row["cue_class"], row["not_measured_since"]) == ("unmeasured", 60.0), row
+    assert files["counts"]["cues_unmeasured"] == 1
