@@ -175,7 +175,7 @@ def test_up_and_rehearse_pass_the_speaker_to_the_talk() -> None:
 
     for argv in (["up", "--audio", "x.wav"], ["rehearse", "x.mp4"]):
         args = build_parser().parse_args([*argv, "--speaker", "ana"])
-        assert _options(args).speaker == "ana"
+        assert _options(args, None).speaker == "ana"
 
 
 def test_rehearsals_of_different_recordings_without_a_speaker_say_so(tmp_path: Path) -> None:
