@@ -59,7 +59,7 @@ from pathlib import Path
 from typing import Any
 
 from prezence.argtypes import non_negative_int, positive_int
-from prezence.errors import PrezenceError
+from prezence.errors import ConfigError, PrezenceError
 
 log = logging.getLogger(__name__)
 
@@ -457,19 +457,28 @@ def evaluate(
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")
     from prezence.processor import make_policy
-    from prezence.processor.resolve import worker_imports
+    from prezence.processor.resolve import canonical_spec, worker_imports
     from prezence.synthetic.presenters import parse_presenter_model
     from prezence.synthetic.scenario import load_scenario
 
     scenarios = list(scenarios)
     for s in scenarios:
         load_scenario(s)  # here, not in a worker: the error is the same for any --jobs
-    policies = list(policies)
-    for p in policies:
+    _refuse_repeats("scenario", scenarios, _scenario_file)
+    given = list(policies)
+    for p in given:
         make_policy(p)  # an unknown name fails here, before any talk runs
+    # one spelling per policy (pt is presentation_trainer, a default value named is no
+    # parameter): the rows are named by it, and the conclusions know an anchor by it
+    policies = _refuse_repeats("policy", given, canonical_spec)
     imports = worker_imports(policies) if jobs > 1 and ray is None else []
     for m in presenters:
         parse_presenter_model(m)
+    _refuse_repeats(
+        "presenter model",
+        presenters,
+        lambda m: (parse_presenter_model(m).cost, parse_presenter_model(m).measured_noise),
+    )
     tasks = _grid(scenarios, policies, seeds, backend, keep_sessions, presenters)
     if keep_sessions is not None:
         keep_sessions.mkdir(parents=True, exist_ok=True)
@@ -502,6 +511,40 @@ def evaluate(
     return sorted(
         rows, key=lambda r: (r.get("presenter", ""), r["scenario"], r["policy"], r["seed"])
     )
+
+
+def _scenario_file(name_or_path: str) -> Path:
+    """The file a scenario name or path reads (``demo`` and ``scenarios/demo.toml`` are one)."""
+    from prezence.synthetic.scenario import scenarios_dir
+
+    text = str(name_or_path)
+    if text.endswith(".toml") or "/" in text or "\\" in text:
+        return Path(text).resolve()
+    return (scenarios_dir() / f"{text}.toml").resolve()
+
+
+def _refuse_repeats(kind: str, given: Sequence[str], key: Callable[[str], Any]) -> list[str]:
+    """``given`` as the grid runs it (a policy in its canonical spelling, anything else as
+    given), or a :class:`ConfigError` naming the first one given twice, however spelt: each of
+    its talks would run twice and its summed counts (false alarms, stale cues) double."""
+    seen: dict[Any, str] = {}
+    out: list[str] = []
+    for g in given:
+        k = key(g)
+        if k in seen:
+            first = seen[k]
+            if first == g:
+                same = f"{kind} {g} is given twice"
+            else:
+                one = f", {k}" if isinstance(k, str) else ""
+                same = f"{kind} {first} and {g} are one {kind}{one}"
+            raise ConfigError(
+                f"{same}: each of its talks would run twice and its summed counts (false "
+                "alarms, stale cues) double; give it once"
+            )
+        seen[k] = g
+        out.append(k if isinstance(k, str) else g)
+    return out
 
 
 # -- tables ------------------------------------------------------------------------------------
@@ -607,7 +650,9 @@ def conclusions(
     for model in dict.fromkeys(a["presenter"] for a in agg):
         rows = {a["policy"]: a for a in agg if a["presenter"] == model}
         d = rows.get(default)
-        present = [rows[a] for a in anchors if a in rows]
+        # an anchor run with parameters (rhema:window_s=30) is still that anchor
+        counted = [p for p in rows if _anchor_of(p) in anchors]
+        present = [rows[p] for p in counted]
 
         def best(key: str, rows_: Mapping[str, Mapping[str, Any]], low: bool = False) -> str:
             vals = {p: r[key] for p, r in rows_.items() if r[key] is not None and p != "none"}
@@ -623,6 +668,7 @@ def conclusions(
             "fewest_false_alarms": best("false_alarms", rows, low=True),
         }
         if d is not None and present:
+            rec["anchors"] = counted
             g = d["gain_per_corrective"]
             rec["default_beats_anchors_per_cue"] = g is not None and all(
                 a["gain_per_corrective"] is None or g > a["gain_per_corrective"] for a in present
@@ -633,6 +679,15 @@ def conclusions(
             )
         out.append(rec)
     return out
+
+
+def _anchor_of(policy: str) -> str:
+    """The registered policy a row's spec names, aliases resolved (``pt:…`` →
+    ``presentation_trainer``); a policy of one's own (``MODULE:CLASS``) is itself."""
+    from prezence.processor.resolve import ALIASES, split_spec
+
+    head, _ = split_spec(policy)
+    return ALIASES.get(head, head)
 
 
 def _summary_lines(agg: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -708,12 +763,15 @@ def conclusion_lines(concl: Sequence[Mapping[str, Any]]) -> list[str]:
     def yn(x: Any) -> str:
         return "–" if x is None else ("yes" if x else "no")
 
+    # which rows counted as anchors, said when not the three anchors as named by default
+    counted = list(dict.fromkeys(a for c in concl for a in c.get("anchors", ())))
+    which = f" ({', '.join(counted)})" if counted and set(counted) != set(ANCHORS) else ""
     lines = [
         "Conclusions under each presenter model (a row per model; `cost:0.5` / `cost:1.5` scale "
         "every assumed cost by 0.5 / 1.5):",
         "",
         f"| presenter model | most gain per cue | most time in range | fewest false alarms "
-        f"| {DEFAULT_POLICY} beats every anchor per cue | {DEFAULT_POLICY} stale "
+        f"| {DEFAULT_POLICY} beats every anchor{which} per cue | {DEFAULT_POLICY} stale "
         f"| {DEFAULT_POLICY} false alarms <= anchors' |",
         "|---|---|---|---|---|---:|---|",
     ]

@@ -515,6 +515,34 @@ def make_policy(name: str, *, seed: int = 0) -> ConflictPolicy:
     return make(**params)
 
 
+def canonical_spec(spec: str) -> str:
+    """The one spelling of a policy spec: its canonical name (an alias resolved, ``pt`` →
+    ``presentation_trainer``), then the parameters that differ from the policy's defaults,
+    sorted by key. Two specs with the same canonical spelling run the same policy.
+
+    Raises:
+        UnknownName, ConfigError: as :func:`make_policy`.
+
+    Example:
+        >>> canonical_spec("pt"), canonical_spec("rhema:window_s=20")
+        ('presentation_trainer', 'rhema')
+        >>> canonical_spec("weighted:threshold=800,escalate_after=3")
+        'weighted:escalate_after=3,threshold=800'
+    """
+    make_policy(spec)  # the same errors, and the class is known (imported) below
+    base, params = parse_spec(spec)
+    cls = load_policy_class(base, spec=spec) if ":" in base else POLICIES[base]
+    extra = {k: v for k, v in params.items() if cls.defaults.get(k) != v}
+
+    def num(x: float) -> str:
+        short = f"{x:g}"
+        return short if float(short) == x else repr(x)
+
+    return base + (
+        ":" + ",".join(f"{k}={num(v)}" for k, v in sorted(extra.items())) if extra else ""
+    )
+
+
 def worker_imports(specs: Iterable[str]) -> list[str]:
     """The modules a worker process must import to know the registered policies among
     ``specs`` (those registered by a module of one's own, not by Prezence).
@@ -567,6 +595,7 @@ __all__ = [
     "PROCESSOR_KEYS",
     "Bound",
     "ConflictPolicy",
+    "canonical_spec",
     "make_policy",
     "parse_spec",
     "policy_names",

@@ -1,0 +1,91 @@
+"""Session 22, a researcher's walkthrough of ``prezence evaluate``: what the tables say must
+be what ran (each policy once, by its one name; anchors known however spelt), and a presenter
+model must be one a presenter can have."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from prezence.cli import main
+from prezence.evaluate import aggregate, conclusion_lines, conclusions, evaluate
+from tests.unit.test_evaluate import paired_rows
+
+
+def _evaluate(tmp_path: Path, capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str]:
+    out = tmp_path / "ev"
+    argv = ["evaluate", "--seeds", "1", "--out", str(out), "-q", *args]
+    code = main(argv)
+    err = capsys.readouterr().err
+    if code != 0:
+        assert not out.exists()  # refused before any talk: no folder left either
+    return code, err
+
+
+@pytest.mark.parametrize(
+    ("option", "names", "said"),
+    [
+        ("--policies", ["none", "pz16", "pz16", "rhema"], "policy pz16 is given twice"),
+        (
+            "--policies",
+            ["none", "pt", "presentation_trainer"],
+            "policy pt and presentation_trainer are one policy, presentation_trainer",
+        ),
+        (
+            "--policies",
+            ["rhema", "rhema:window_s=20"],
+            "policy rhema and rhema:window_s=20 are one policy, rhema",
+        ),
+        ("--scenarios", ["demo", "demo"], "scenario demo is given twice"),
+        ("--presenters", ["cost", "cost:1"], "presenter model cost and cost:1 are one"),
+    ],
+    ids=["twice", "alias", "default-value", "scenario", "presenter"],
+)
+def test_a_name_given_twice_however_spelt_is_refused_before_any_talk(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    option: str,
+    names: list[str],
+    said: str,
+) -> None:
+    # Before: pz16 ran twice and its false alarms and stale cues, sums, doubled in its row;
+    # pt and presentation_trainer were two rows of one policy.
+    others = {"--policies": ["none"], "--scenarios": ["short_talk"], "--presenters": ["cost"]}
+    args = [option, *names]
+    for opt, default in others.items():
+        if opt != option:
+            args += [opt, *default]
+    code, err = _evaluate(tmp_path, capsys, *args)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and said in lines[0], err
+    assert "give it once" in lines[0]
+
+
+def test_rows_carry_the_canonical_name_and_an_alias_is_an_anchor() -> None:
+    rows = evaluate(["short_talk"], ["none", "weighted", "pt"], 1)
+    assert sorted({r["policy"] for r in rows}) == ["none", "presentation_trainer", "weighted"]
+    (concl,) = conclusions(aggregate(rows))
+    assert concl["anchors"] == ["presentation_trainer"]
+    assert concl["default_beats_anchors_per_cue"] is not None  # before: "–", no anchor found
+
+
+def test_a_parametrised_anchor_counts_as_that_anchor_and_the_label_says_so() -> None:
+    rows = [
+        dict(r, policy="rhema:hits=2,max_samples=4") if r["policy"] == "rhema" else r
+        for r in paired_rows()
+    ]
+    concl = {c["presenter"]: c for c in conclusions(aggregate(rows))}
+    assert concl["free"]["anchors"] == ["rhema:hits=2,max_samples=4"]
+    assert concl["free"]["default_beats_anchors_per_cue"] is True
+    assert concl["free"]["default_stale"] == 0
+    header = conclusion_lines(list(concl.values()))[2]
+    assert "weighted beats every anchor (rhema:hits=2,max_samples=4) per cue" in header
+    # the three anchors, as named by default: the label as before
+    three = paired_rows() + [
+        dict(r, policy=a) for r in paired_rows() if r["policy"] == "rhema"
+        for a in ("pz16", "presentation_trainer")
+    ]  # fmt: skip
+    plain = conclusion_lines(conclusions(aggregate(three)))[2]
+    assert "| weighted beats every anchor per cue |" in plain
