@@ -189,6 +189,14 @@ class InterruptionCost:
         return InterruptionCost(**new)
 
 
+#: The largest factor ``cost:K`` / ``cost:NAME=K`` takes. At 4 every probability and every loss
+#: per cue has reached its cap (pause speed drop at 2, fade at 2.5, slip chance at 3.3,
+#: habituation at 4), so a larger K only lengthens pauses and slips and turns the gaze further
+#: down: at 5 the presenter looks 85 deg down at the robot (-15 - 14 x 5) and pauses 10 s per cue;
+#: from 5.4 on the gaze would point past straight down (-90 deg), a head no presenter has.
+MAX_COST_FACTOR = 5.0
+
+
 @dataclass(frozen=True)
 class PresenterModel:
     """A synthetic presenter's model: what cues cost and how noisy the modules are."""
@@ -203,7 +211,8 @@ def parse_presenter_model(spec: str) -> PresenterModel:
     assumption × K), each optionally ``+measured``.
 
     Raises:
-        ValueError: an unknown model or a bad factor.
+        ValueError: an unknown model or a factor that is not a number from 0 to
+            :data:`MAX_COST_FACTOR` (0 turns the assumptions off).
 
     Example:
         >>> m = parse_presenter_model("cost:1.5+measured")
@@ -222,8 +231,12 @@ def parse_presenter_model(spec: str) -> PresenterModel:
             k = float(raw) if colon else 1.0
         except ValueError:
             raise ValueError(f"presenter model {spec!r}: {raw!r} is not a number") from None
-        if not k >= 0:
-            raise ValueError(f"presenter model {spec!r}: the factor must be >= 0")
+        if not (math.isfinite(k) and 0 <= k <= MAX_COST_FACTOR):
+            raise ValueError(
+                f"presenter model {spec!r}: the factor must be from 0 to {MAX_COST_FACTOR:g}, "
+                f"found {raw} (at {MAX_COST_FACTOR:g} the presenter already looks 85 deg down "
+                "at the robot and pauses 10 s per cue)"
+            )
         cost = InterruptionCost().scaled(k, only if eq else None)
     else:
         raise ValueError(

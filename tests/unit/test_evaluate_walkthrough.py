@@ -89,3 +89,28 @@ def test_a_parametrised_anchor_counts_as_that_anchor_and_the_label_says_so() -> 
     ]  # fmt: skip
     plain = conclusion_lines(conclusions(aggregate(three)))[2]
     assert "| weighted beats every anchor per cue |" in plain
+
+
+@pytest.mark.parametrize("spec", ["cost:inf", "cost:1e9", "cost:nan", "cost:pause_s=inf",
+                                  "cost:6+measured", "cost:fade=-1"])  # fmt: skip
+def test_a_presenter_factor_a_presenter_cannot_have_is_refused_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], spec: str
+) -> None:
+    # Before: cost:inf and cost:1e9 ran (infinite pauses, the gaze at -inf deg) and gave a table.
+    with pytest.raises(SystemExit) as stop:  # as every bad value of an option: argparse's
+        _evaluate(
+            tmp_path, capsys, "--scenarios", "short_talk", "--policies", "weighted",
+            "--presenters", spec,
+        )  # fmt: skip
+    assert stop.value.code == 2
+    assert not (tmp_path / "ev").exists()
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert f"presenter model {spec!r}: the factor must be from 0 to 5" in last, last
+
+
+def test_the_largest_factor_still_runs() -> None:
+    from prezence.synthetic.presenters import MAX_COST_FACTOR, parse_presenter_model
+
+    cost = parse_presenter_model(f"cost:{MAX_COST_FACTOR:g}").cost
+    assert cost is not None and cost.attend_gaze_deg >= -90.0
+    assert parse_presenter_model("cost:slip_probability=0").cost is not None  # 0: off
