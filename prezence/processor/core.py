@@ -458,6 +458,14 @@ class Processor:
 
     def _reason(self, c: Candidate, cands: list[Candidate]) -> str:
         thr = self.settings.threshold
+        # what the policy chose on, in its own words (None: the weighted policy's: the weight)
+        own = (
+            self.policy.explain(c, cands, self._order)
+            if c.metric is not None
+            and c.kind in (Kind.WEIGHTED, Kind.STRICT)
+            and not self.policy.whole
+            else None
+        )
         if c.kind == Kind.TIME:
             if "minutes" in c.params:
                 why = f"{c.params['minutes']} min left of {self.config.time.allocated_s:g} s"
@@ -484,6 +492,8 @@ class Processor:
                 why = (
                     f"strict: {c.metric} went {c.side} {bound:g}{unit}{r.band_words()}{since}{now_}"
                 )
+                if own is not None:
+                    why += f" ({own})"
             else:
                 if r.scale is not None and c.value is not None and bound is not None:
                     # a deviation in scales read "-28.98 is 140% below -15 degrees", "47.7 is
@@ -495,14 +505,17 @@ class Processor:
                 else:
                     off = f"{c.deviation:.0f}% {c.side} {bound:g}{unit}"
                 why = f"{c.metric} {c.value:.4g}{shift} is {off}"
-                if c.eligible and not self.policy.whole:
+                if own is not None:  # not the threshold: the policy did not choose on it
+                    why += f"{since} ({own})"
+                elif c.eligible and not self.policy.whole:
                     why += f"{since} (weight {c.weight:.0f} >= {thr:g})"
                 elif c.eligible:  # an anchor fires by its own rule, not by the threshold
                     why += since
         others = [o for o in cands if o is not c]
         if others:
             beat = ", ".join(
-                f"{o.command}" + (f" ({o.weight:.0f})" if math.isfinite(o.weight) else "")
+                f"{o.command}"
+                + (f" ({o.weight:.0f})" if math.isfinite(o.weight) and own is None else "")
                 for o in sorted(
                     others, key=lambda o: -o.weight if math.isfinite(o.weight) else -1e18
                 )[:3]

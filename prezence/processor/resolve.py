@@ -218,6 +218,20 @@ class ConflictPolicy(abc.ABC):
     def reset(self, seed: int | None = None) -> None:  # noqa: B027 - optional hook
         """Start a new talk (policies with chance reseed here)."""
 
+    def explain(
+        self, chosen: Candidate, candidates: Sequence[Candidate], order: Sequence[str]
+    ) -> str | None:
+        """What this policy chose ``chosen`` (a metric's candidate) on, for its cue's reason, in
+        brackets after the metric's deviation: ``(the first rule out of range, in the rules'
+        order)``. None (the default): the weighted policy's words, ``(weight 767 >= 600)``
+        when its weight reached the threshold, and the other candidates' weights."""
+        return None
+
+
+def _contenders(candidates: Sequence[Candidate]) -> list[Candidate]:
+    """The candidates an eager strategy chooses among: every metric out of range (no praise)."""
+    return [c for c in candidates if c.kind != Kind.PRAISE and (c.eligible or c.metric)]
+
 
 def _seed_key(c: Candidate) -> tuple[float, float, float]:
     # strict classes first; then the biggest priority; then the most recent data.
@@ -260,6 +274,11 @@ class FirstRulePolicy(ConflictPolicy):
         ok = [c for c in ok if c.kind != Kind.PRAISE]
         return min(ok, key=key) if ok else None
 
+    def explain(
+        self, chosen: Candidate, candidates: Sequence[Candidate], order: Sequence[str]
+    ) -> str | None:
+        return "the first rule out of range, in the rules' order"
+
 
 class RecentPolicy(ConflictPolicy):
     """Respond to the most recent out-of-range data only."""
@@ -270,6 +289,11 @@ class RecentPolicy(ConflictPolicy):
     def choose(self, candidates: Sequence[Candidate], order: Sequence[str]) -> Candidate | None:
         ok = [c for c in candidates if c.kind != Kind.PRAISE and (c.eligible or c.metric)]
         return max(ok, key=lambda c: (c.recency, -float(c.kind))) if ok else None
+
+    def explain(
+        self, chosen: Candidate, candidates: Sequence[Candidate], order: Sequence[str]
+    ) -> str | None:
+        return f"the most recent out-of-range sample, at {chosen.recency:.1f} s"
 
 
 class RandomPolicy(ConflictPolicy):
@@ -291,6 +315,12 @@ class RandomPolicy(ConflictPolicy):
             return None
         return ok[int(self._rng.integers(len(ok)))]
 
+    def explain(
+        self, chosen: Candidate, candidates: Sequence[Candidate], order: Sequence[str]
+    ) -> str | None:
+        n = len(_contenders(candidates))
+        return "the only metric out of range" if n == 1 else f"drawn at random of {n} out of range"
+
 
 class MostConditionsPolicy(ConflictPolicy):
     """Prefer the rule with the most conditions met: out of range now, out of range for at least
@@ -304,15 +334,24 @@ class MostConditionsPolicy(ConflictPolicy):
         if not ok:
             return None
 
-        def met(c: Candidate) -> int:
-            return (
-                int(c.deviation > 0)
-                + int(c.kind in (Kind.STRICT, Kind.TIME))
-                + int(c.eligible)
-                + int(c.onset is not None)
-            )
+        return max(ok, key=lambda c: (len(self._met(c)), c.recency))
 
-        return max(ok, key=lambda c: (met(c), c.recency))
+    @staticmethod
+    def _met(c: Candidate) -> list[str]:
+        """The conditions ``c`` meets, in words."""
+        conditions = (
+            (c.deviation > 0, "out of range now"),
+            (c.kind in (Kind.STRICT, Kind.TIME), "strict"),
+            (c.eligible, "weight over the threshold"),
+            (c.onset is not None, "an onset"),
+        )
+        return [words for holds, words in conditions if holds]
+
+    def explain(
+        self, chosen: Candidate, candidates: Sequence[Candidate], order: Sequence[str]
+    ) -> str | None:
+        met = self._met(chosen)
+        return f"the most conditions met, {len(met)} of 4: {', '.join(met) or 'none'}"
 
 
 class SilentPolicy(ConflictPolicy):
