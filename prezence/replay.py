@@ -52,6 +52,7 @@ __all__ = [
     "read_streams",
     "replay",
     "same_bands",
+    "unused_inputs",
 ]
 
 
@@ -76,6 +77,81 @@ def find_streams(src: Path, config: Config) -> dict[str, Path]:
     if not found:
         raise no_streams_error(src, config)
     return found
+
+
+#: The rules file a folder of stream files may carry (the peers' workload, mkload.py, writes one).
+RULES_FILE = "rules.conf"
+
+
+def _looks_like_stream(path: Path) -> bool:
+    """Whether ``path``'s first data line is in the stream format (``t value``, or a bare
+    value): a notes file beside the streams is not one."""
+    try:
+        with path.open(encoding="utf-8", errors="replace") as f:
+            for _, line in zip(range(20), f, strict=False):
+                fields = line.split()
+                if not fields or fields[0].startswith("#"):
+                    continue
+                try:
+                    [float(x) for x in fields]
+                except ValueError:
+                    return False
+                return len(fields) <= 3
+    except OSError:
+        return False
+    return False
+
+
+def unused_inputs(src: Path, config: Config, *, recorded: bool = False) -> list[str]:
+    """What ``src`` holds that a replay under ``config`` would silently leave aside: one line
+    for its stream files no rule reads (named; those of Prezence's own metrics are the
+    context the report reads, not left aside), one for a ``rules.conf`` that is not the rules
+    used. None for a Prezence session folder.
+
+    Args:
+        src: the folder replayed.
+        config: the rules it is replayed under.
+        recorded: the rules are the folder's own ``config.toml``.
+    """
+    read = {r.stream for r in config.rules}
+    unread: list[str] = []
+    for folder in (src / "streams", src):
+        if folder.is_dir():
+            unread += [
+                p.name
+                for p in sorted(folder.glob("*.txt"))
+                if p.name not in read
+                and p.stem not in METRICS
+                and p.name not in unread
+                and _looks_like_stream(p)
+            ]
+    notes = []
+    if unread:
+        notes.append(
+            f"{src}: {', '.join(unread)}: stream file(s) no rule reads, not judged (the rules "
+            f"read {', '.join(sorted(read))})"
+        )
+    rules = src / RULES_FILE
+    used = Path(config.source).resolve() if config.source else None
+    if rules.is_file() and used != rules.resolve():
+        room = src / "room.toml"
+        from prezence.config.load import default_path
+
+        if recorded:
+            mine = "the recording's config.toml"
+        elif used is None or used == Path(default_path()).resolve():
+            mine = "Prezence's default rules"
+        else:
+            mine = str(config.source)
+        notes.append(
+            f"{rules}: not used (the rules are {mine}); to judge by it, pass --config {rules}"
+            + (
+                f" --room {room}"
+                if room.is_file()
+                else " (and --room FILE if its rules name room values)"
+            )
+        )
+    return notes
 
 
 def same_bands(a: Config, b: Config) -> bool:
@@ -160,6 +236,8 @@ def replay(
         config = keep_recorded_time(config, recorded, rec.config)
     meta = src_session.read_meta()
     paths = find_streams(src, config)
+    for note in unused_inputs(src, config, recorded=recorded is not None):
+        log.warning("%s", note)
     rec_meta = rec.read_meta()
     limit = sample_time_limit(rec, rec_meta)
     if options.gestures is None and rec_meta.get("gestures"):
