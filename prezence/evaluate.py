@@ -867,8 +867,9 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="+",
         type=_presenter_spec,
         default=list(DEFAULT_PRESENTERS),
-        help="presenter models: free, cost, cost:K (assumptions x K), each optionally "
-        "+measured (module noise from the measured errors) (default: %(default)s)",
+        help="presenter models: free, cost, cost:K (assumptions x K, K from 0 to 5), each "
+        "optionally +measured (module noise from the measured errors) (default: "
+        f"{' '.join(DEFAULT_PRESENTERS)})",
     )
     p.add_argument("--seeds", type=positive_int, default=3, help="N seeds per pair (default 3)")
     p.add_argument(

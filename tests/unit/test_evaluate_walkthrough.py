@@ -114,3 +114,29 @@ def test_the_largest_factor_still_runs() -> None:
     cost = parse_presenter_model(f"cost:{MAX_COST_FACTOR:g}").cost
     assert cost is not None and cost.attend_gaze_deg >= -90.0
     assert parse_presenter_model("cost:slip_probability=0").cost is not None  # 0: off
+
+
+def test_the_help_gives_the_default_presenters_as_they_are_typed(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # Before: "(default: ['free+measured', 'cost+measured'])", a Python list.
+    from prezence.evaluate import build_parser
+
+    text = " ".join(build_parser().format_help().split())
+    assert "(default: free+measured cost+measured)" in text
+    assert "['" not in text
+
+
+def test_every_output_column_and_field_is_documented() -> None:
+    # Before: docs/evaluation.md named none of relevant, latencies, waited, backlog_s, talk_s …
+    from prezence.evaluate import COLUMNS, evaluation_json
+
+    docs = Path(__file__).parents[2] / "docs" / "evaluation.md"
+    section = docs.read_text(encoding="utf-8").split("### The output files", 1)[1]
+    section = section.split("\n## ", 1)[0]
+    for column in COLUMNS:
+        assert f"| `{column}` |" in section, column
+    doc = evaluation_json(paired_rows())
+    fields = set(doc) | set(doc["policies"]["weighted"]) | set(doc["conclusions"][0])
+    for key in sorted(fields):
+        assert f"`{key}`" in section, key
