@@ -113,7 +113,10 @@ def unused_inputs(src: Path, config: Config, *, recorded: bool = False) -> list[
         config: the rules it is replayed under.
         recorded: the rules are the folder's own ``config.toml``.
     """
+    from prezence.modules.vision import STREAMS as VISION_STREAMS
+
     read = {r.stream for r in config.rules}
+    own = {*METRICS, *VISION_STREAMS}  # every stream Prezence's modules write
     unread: list[str] = []
     for folder in (src / "streams", src):
         if folder.is_dir():
@@ -121,7 +124,7 @@ def unused_inputs(src: Path, config: Config, *, recorded: bool = False) -> list[
                 p.name
                 for p in sorted(folder.glob("*.txt"))
                 if p.name not in read
-                and p.stem not in METRICS
+                and p.stem not in own
                 and p.name not in unread
                 and _looks_like_stream(p)
             ]

@@ -70,4 +70,7 @@ def test_a_prezence_session_folders_replay_warns_of_nothing(
 ) -> None:
     rec = tmp_path / "demo"
     run_talk("demo", out=rec, seed=3, backend="fake")
+    # every stream a Prezence module writes, judged or not (the camera's gesture source too)
+    for name in ("cv_headYaw", "cv_gestures_source", "speech_snr", "speech_activity"):
+        (rec / "streams" / f"{name}.txt").write_text("1.0 0.5\n2.0 0.5\n")
     assert _replay_warnings(caplog, str(rec), "--out", str(tmp_path / "r")) == []
