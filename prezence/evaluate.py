@@ -452,7 +452,9 @@ def evaluate(
     Raises:
         ValueError: ``jobs`` < 1, no seeds or an unknown presenter model.
         UnknownName: an unknown scenario or policy (before any talk runs).
-        ConfigError: a scenario file or a policy spec that is not valid (likewise).
+        ConfigError: a scenario file or a policy spec that is not valid, or a scenario, policy
+            or presenter model given twice however spelt (``pt`` and ``presentation_trainer``),
+            which would run its talks twice and double its summed counts (likewise).
     """
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")
