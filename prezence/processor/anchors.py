@@ -36,7 +36,13 @@ they see the rules' bands (not their original thresholds) and they give the rule
 ``rhema`` — Rhema (Tanveer et al., IUI 2015), ``MainActivity.java checkInputData``: every
     ``window_s`` = 20 s, per metric, count the window's last ``max_samples`` = 20 samples below
     and above the band; a direction with more than ``hits`` = 11 of them is a cue
-    (``rangeHits = DATA_TO_DISPLAY/2 + 1``); Rhema shows two words at once, a robot gives one
+    (``rangeHits = DATA_TO_DISPLAY/2 + 1``). The original's samples are one-second chunks
+    (``TIME_FRAME_IN_MILIS = 1000``, ``DATA_TO_DISPLAY = 20``); the default counts raw samples,
+    as the peers' reference does (equal cue for cue on their 1 Hz workload), so a metric written
+    at 0.2 Hz (gestures: 4 a window) can never be cued and one at 5 Hz is judged on its last
+    4 s. ``per_second`` = 1 counts each second of the window instead (the side of the value
+    holding at its end), as the original does; on 1 Hz data the two agree.
+    Rhema shows two words at once, a robot gives one
     cue, so the metric with most out-of-range samples wins (ties: config order), the others are
     dropped, never queued; a decision not given before the next one is replaced by it. Its
     "good!" display when nothing is out is off (a robot saying "good" every 20 s is not what
@@ -267,13 +273,17 @@ class RhemaPolicy(_Anchor):
         "window_s": 20.0,
         "max_samples": 20.0,
         "hits": 11.0,
+        "per_second": 0.0,
     }
     #: window_s: 0 or less would never end a window (the talk hung); 0.1 s is far below any
     #: decision period that matters and keeps a 10-minute talk at 6000 windows.
+    #: per_second: 0 counts the window's raw samples (the peers' reference, whatever rate a
+    #: module writes at); 1 counts one-second chunks, as the original does.
     bounds: ClassVar[Mapping[str, Bound]] = {
         "window_s": Bound(0.1, _DAY_S, "s"),
         "max_samples": Bound(1.0, 1e6, whole=True),
         "hits": Bound(0.0, 1e6, whole=True),
+        "per_second": Bound(0.0, 1.0, whole=True),
     }
 
     @classmethod
@@ -292,9 +302,38 @@ class RhemaPolicy(_Anchor):
         }
         self.next_decision = self.p("window_s")
         self.pending: Candidate | None = None
+        #: per_second: each metric's last sample of the previous window (it holds on into the
+        #: next window's first seconds until a new sample comes)
+        self.held: dict[str, tuple[float, str | None, float]] = {}
 
     def feed(self, rule: Rule, t: float, value: float) -> None:
         self.samples[rule.metric].append((t, rule.side(value), value))
+
+    def _seconds(
+        self, m: str, window: list[tuple[float, str | None, float]], end: float
+    ) -> list[tuple[float, str | None, float]]:
+        """The window's one-second chunks (Rhema's ``TIME_FRAME_IN_MILIS = 1000``): for each
+        second, the side of the value holding at its end (the last sample before it). A
+        metric with no sample in the window gives no chunk (a dead module is not cued on its
+        last value); one written every 5 s gives 20 chunks, not 4."""
+        if not window:
+            self.held.pop(m, None)  # a gap of a whole window: nothing holds across it
+            return []
+        start = end - self.p("window_s")
+        held = self.held.get(m)
+        self.held[m] = window[-1]
+        chunks = []
+        j = 0
+        k = 0
+        while start + k < end:
+            chunk_end = min(start + k + 1.0, end)
+            while j < len(window) and window[j][0] < chunk_end:
+                held = window[j]
+                j += 1
+            if held is not None:
+                chunks.append((start + k, held[1], held[2]))
+            k += 1
+        return chunks
 
     def decide(self, now: float, robot_free: bool) -> Candidate | None:
         while now >= self.next_decision:
@@ -305,6 +344,8 @@ class RhemaPolicy(_Anchor):
                 window = []
                 while q and q[0][0] < end:
                     window.append(q.popleft())
+                if self.p("per_second"):
+                    window = self._seconds(m, window, end)
                 window = window[-int(self.p("max_samples")) :]
                 for side in ("below", "above"):
                     hit = [s for s in window if s[1] == side]

@@ -99,6 +99,36 @@ def test_rhema_decides_once_per_window_on_the_majority() -> None:
     assert [(c.t, c.command) for c in cs] == [(40.0, "slowDown")]
 
 
+def test_rhema_per_second_counts_seconds_not_samples_of_a_slow_metric() -> None:
+    # Gestures written every 5 s (0.2 Hz, as every scenario writes them) and far too few from
+    # 20 s on: 4 samples a window can never be more than 11 of them, so the default (the
+    # peers' reference, counting samples) is silent, while the original's 20 one-second
+    # chunks (per_second=1) see 20 of 20 out and cue at the end of each whole window.
+    samples = sorted(
+        [
+            Sample(m, float(t), f(float(t)))
+            for m, f in OK.items()
+            if m != "cv_gestures"
+            for t in range(100)
+        ]
+        + [Sample("cv_gestures", float(t), 6.0 if t < 20 else 0.5) for t in range(0, 100, 5)],
+        key=lambda s: s.t,
+    )
+    assert drive(builtin(), samples, "rhema") == []
+    cs = drive(builtin(), samples, "rhema:per_second=1")
+    assert [c.command for c in cs] and {c.command for c in cs} == {"gestureMore"}
+    assert [c.t for c in cs][:2] == [40.0, 60.0]
+
+
+def test_rhema_per_second_is_the_default_on_one_hertz_data() -> None:
+    sig = dict(OK, speech_speed=lambda t: 230.0 if 25 <= t < 48 else 160.0)
+    sig["cv_headGaze"] = lambda t: -30.0 if (t // 7) % 2 else 0.0
+    got = drive(builtin(), series(200, **sig), "rhema:per_second=1")
+    assert [(c.t, c.command) for c in got] == [
+        (c.t, c.command) for c in drive(builtin(), series(200, **sig), "rhema")
+    ]
+
+
 def test_the_anchors_ignore_the_processor_refractory() -> None:
     # 40 s refractory in the config; PT's own 3.5 s pace sets its rhythm instead.
     sig = dict(OK, speech_speed=lambda t: 230.0 if (t // 5) % 2 else 160.0)
