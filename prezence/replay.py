@@ -26,7 +26,7 @@ from prezence.config.model import Config
 from prezence.errors import ConfigError
 from prezence.feedback.gestures import library_for_talk
 from prezence.metrics import METRICS
-from prezence.samples import Sample
+from prezence.samples import GESTURES_SOURCE, Sample
 from prezence.session import (
     TRUTH_KEYS,
     SessionDir,
@@ -113,10 +113,10 @@ def unused_inputs(src: Path, config: Config, *, recorded: bool = False) -> list[
         config: the rules it is replayed under.
         recorded: the rules are the folder's own ``config.toml``.
     """
-    from prezence.modules.vision import STREAMS as VISION_STREAMS
-
     read = {r.stream for r in config.rules}
-    own = {*METRICS, *VISION_STREAMS}  # every stream Prezence's modules write
+    # every stream Prezence's modules write (not by importing the vision module: it needs
+    # OpenCV, which a replay does not, and cost 17 MB of the replay's peak memory)
+    own = {*METRICS, GESTURES_SOURCE}
     unread: list[str] = []
     for folder in (src / "streams", src):
         if folder.is_dir():

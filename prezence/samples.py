@@ -43,6 +43,9 @@ SPEECH_VOLUME = "speech_volume"  # dB SPL at the laptop
 SPEECH_ACCURACY = "speech_accuracy"  # recogniser confidence, 0..1
 HEAD_GAZE = "cv_headGaze"  # head pitch relative to the audience, degrees (down is negative)
 GESTURES = "cv_gestures"  # gestures per minute
+#: where each ``cv_gestures`` value came from (the body, the frame difference, not measured):
+#: a stream of the vision module's own, read by the report, not a metric the rules judge
+GESTURES_SOURCE = "cv_gestures_source"
 DEFAULT_METRICS = (SPEECH_SPEED, SPEECH_VOLUME, SPEECH_ACCURACY, HEAD_GAZE, GESTURES)
 #: Every metric the shipped modules write: the metric records (:data:`prezence.metrics.METRICS`).
 #: A rule on another metric is allowed (your own module) but gets a "did you mean" warning, as

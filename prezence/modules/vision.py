@@ -157,7 +157,7 @@ from prezence.modules.common import (
     resume_offset,
     setup_logging,
 )
-from prezence.samples import GESTURES, HEAD_GAZE
+from prezence.samples import GESTURES, GESTURES_SOURCE, HEAD_GAZE
 
 log = logging.getLogger(__name__)
 
@@ -165,7 +165,7 @@ HEAD_YAW = "cv_headYaw"
 FACING_AUDIENCE = "cv_facingAudience"
 METRICS = (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE, GESTURES)
 #: Every stream file this module writes: the metrics and where the gesture rate came from.
-STREAMS = (*METRICS, "cv_gestures_source")
+STREAMS = (*METRICS, GESTURES_SOURCE)
 
 #: Raw FaceMesh yaw x this gain = degrees: fitted (grid, worst hold error) over -30..+30 deg on
 #: two rendered faces (astronaut, hopper); three more are held out (bench/bench_vision.py).
@@ -807,7 +807,6 @@ SOURCE_BODY_PARTLY = 3.0
 #: See :data:`SOURCE_BODY_PARTLY` (session 20: on the rendered presenters a-d at most 8 % of a
 #: window's frames, a hand held at the chin; an overlay over one arm for 9 s, up to 28-70 %).
 PARTLY_COUNTED_SHARE = 0.1
-GESTURES_SOURCE = "cv_gestures_source"
 #: What an analysed frame gave the body's gesture rate: the presenter's body seen well, no
 #: body, another person's body, the presenter's with the image about the arms too dark (or
 #: bright, or flat), with neither hand seen by the pose model, or with one arm not seen

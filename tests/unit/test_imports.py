@@ -9,6 +9,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 
 def test_prezence_imports_no_simulator_or_robot_sdk() -> None:
@@ -50,3 +51,25 @@ def test_no_file_of_the_product_imports_the_sandbox() -> None:
                     found.append(f"{path.relative_to(root.parent)}:{node.lineno}: {name}")
     assert len(list(root.rglob("*.py"))) > 40  # the walk saw the product
     assert found == []
+
+
+def test_a_replay_of_a_folder_with_foreign_streams_imports_no_camera_code(tmp_path: Path) -> None:
+    """Session 22: replay's check for streams no rule reads imported the vision module to
+    know its streams: OpenCV (which a replay does not need, and the core install lacks) and
+    17 MB more peak memory on the peers' workload."""
+    folder = tmp_path / "load"
+    (folder / "streams").mkdir(parents=True)
+    (folder / "streams" / "speech_speed.txt").write_text("1 150\n2 150\n")
+    (folder / "streams" / "gesture_rate.txt").write_text("1 3\n2 3\n")
+    code = textwrap.dedent(
+        f"""
+        import sys
+        from prezence.cli import main
+        status = main(["replay", {str(folder)!r}, "--out", {str(tmp_path / "r")!r},
+                       "--no-report", "--allocated", "10"])
+        print(status, sorted({{"cv2", "prezence.modules.vision"}} & set(sys.modules)))
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "0 []", out.stdout + out.stderr
+    assert "gesture_rate.txt" in out.stdout + out.stderr  # the check ran
