@@ -38,7 +38,8 @@ or ``prezence sim serve``.
 
 Modules, one per concern (their public names are re-exported here): :mod:`.robot` (body names, the
 model, :class:`VirtualNao` and its task scheduler), :mod:`.planning` (``angleInterpolation``
-keyframes), :mod:`.services` (ALMotion, ALTextToSpeech, ALLeds, ALRobotPosture, ALMemory) and
+keyframes), :mod:`.services` (ALMotion, ALTextToSpeech, ALLeds, ALRobotPosture, ALMemory,
+ALAutonomousLife) and
 :mod:`.server` (:func:`serve`, :func:`spawn`, :func:`stop_spawned`, the command line).
 """
 
@@ -65,6 +66,7 @@ from sim.virtual_nao.services import (
     LED_COLORS,
     POSTURES,
     SPEECH_LOGGER,
+    ALAutonomousLife,
     ALLeds,
     ALMemory,
     ALMotion,
@@ -93,6 +95,7 @@ __all__ = [
     "ALLeds",
     "ALRobotPosture",
     "ALMemory",
+    "ALAutonomousLife",
     "VirtualNaoServer",
     "serve",
     "spawn",

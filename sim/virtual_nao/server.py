@@ -23,6 +23,7 @@ import qi
 from sim.virtual_nao.robot import VirtualNao
 from sim.virtual_nao.services import (
     SPEECH_LOGGER,
+    ALAutonomousLife,
     ALLeds,
     ALMemory,
     ALMotion,
@@ -111,6 +112,7 @@ def serve(
         session.registerService("ALLeds", ALLeds(robot))
         session.registerService("ALRobotPosture", ALRobotPosture(robot, motion))
         session.registerService("ALMemory", ALMemory(robot))
+        session.registerService("ALAutonomousLife", ALAutonomousLife(robot))
     except RuntimeError:
         session.close()
         robot.stop()

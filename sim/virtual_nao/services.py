@@ -1,5 +1,5 @@
-"""The NAOqi services of the virtual NAO: ALMotion, ALTextToSpeech, ALLeds, ALRobotPosture and
-ALMemory, each a thin layer over :class:`sim.virtual_nao.robot.VirtualNao`.
+"""The NAOqi services of the virtual NAO: ALMotion, ALTextToSpeech, ALLeds, ALRobotPosture,
+ALMemory and ALAutonomousLife, each a thin layer over :class:`sim.virtual_nao.robot.VirtualNao`.
 """
 
 from __future__ import annotations
@@ -619,3 +619,58 @@ class ALMemory:
 
     def raiseEvent(self, name: str, value: Any) -> None:
         self._r.memory[str(name)] = value
+
+    def removeData(self, key: str) -> None:
+        self._r.memory.pop(str(key), None)
+
+
+#: NAO's autonomous abilities and their defaults (all on, as on a NAO out of the box).
+AUTONOMOUS_ABILITIES: dict[str, bool] = {
+    "AutonomousBlinking": True,
+    "BackgroundMovement": True,
+    "BasicAwareness": True,
+    "ListeningMovement": True,
+    "SpeakingMovement": True,
+}
+#: ALAutonomousLife's states; a NAO boots into "solitary".
+LIFE_STATES = ("solitary", "interactive", "safeguard", "disabled")
+
+
+class ALAutonomousLife:
+    """ALAutonomousLife with NAOqi's method names; remembers states, moves nothing.
+
+    The abilities' effects (head tracking, breathing-like movements) are not simulated: this
+    only lets a client read and set them as on a real NAO.
+    """
+
+    def __init__(self, robot: VirtualNao) -> None:
+        self._r = robot
+        self._abilities = dict(AUTONOMOUS_ABILITIES)
+        self._state = "solitary"
+
+    def _ability(self, name: object, method: str) -> str:
+        if name not in self._abilities:
+            raise ValueError(
+                f"ALAutonomousLife.{method}: unknown ability {name!r}"
+                f"{did_you_mean(str(name), list(self._abilities))}"
+            )
+        return str(name)
+
+    def getAutonomousAbilityEnabled(self, autonomousAbility: str) -> bool:
+        return self._abilities[self._ability(autonomousAbility, "getAutonomousAbilityEnabled")]
+
+    def setAutonomousAbilityEnabled(self, autonomousAbility: str, enabled: bool) -> None:
+        name = self._ability(autonomousAbility, "setAutonomousAbilityEnabled")
+        self._abilities[name] = bool(enabled)
+        log.info("autonomous ability %s %s", name, "on" if enabled else "off")
+
+    def getAutonomousAbilitiesStatus(self) -> list[list[Any]]:
+        return [[n, on] for n, on in self._abilities.items()]
+
+    def getState(self) -> str:
+        return self._state
+
+    def setState(self, state: str) -> None:
+        if state not in LIFE_STATES:
+            raise ValueError(f"ALAutonomousLife.setState: unknown state {state!r}")
+        self._state = str(state)
