@@ -176,7 +176,9 @@ class _Link:
     velocity: dict[str, float]
     lost: threading.Event
     reason: list[str]
-    restore: list[tuple[Any, str, tuple[Any, ...]]] = field(default_factory=list)
+    #: what this link's set-up turned off: (service name, method, args) that turn it back on
+    restore: list[tuple[str, str, tuple[Any, ...]]] = field(default_factory=list)
+    proxies: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -271,6 +273,7 @@ class NaoqiBackend(Backend):
         self._ping: tuple[Any, float, list[float]] | None = None
         self._next_ping = 0.0
         self._eyes_on = False
+        self._restore: list[tuple[str, str, tuple[Any, ...]]] = []
         self._rtt_ms: collections.deque[float] = collections.deque(maxlen=2000)
         self._counts = {
             "connects": 0,
@@ -306,6 +309,11 @@ class NaoqiBackend(Backend):
 
     def _install(self, link: _Link) -> None:
         self._link = link
+        # the robot's own state is what the FIRST link read: a reconnect reads back the values
+        # this backend set (off), so its list adds only what a rebooted robot turned on again
+        for entry in link.restore:
+            if entry not in self._restore:
+                self._restore.append(entry)
         self._counts["connects"] += 1
         self._backoff = self.reconnect_initial_s
         self._next_ping = time.monotonic() + self.heartbeat_s
@@ -383,28 +391,49 @@ class NaoqiBackend(Backend):
         motion: Any = self._service(session, "ALMotion", required=True)
         tts: Any = self._service(session, "ALTextToSpeech", required=True)
         leds = self._service(session, "ALLeds", required=False) if self.leds else None
-        restore: list[tuple[Any, str, tuple[Any, ...]]] = []
+        # what to put back at close, by service name (proxies die with their link); only what
+        # was read as on, and only what could be read: what cannot be put back is left alone
+        restore: list[tuple[str, str, tuple[Any, ...]]] = []
+        proxies: dict[str, Any] = {"ALMotion": motion}
         life = self._service(session, "ALAutonomousLife", required=False)
         if life is not None and hasattr(life, "setAutonomousAbilityEnabled"):
+            proxies["ALAutonomousLife"] = life
             for ability in AUTONOMOUS_ABILITIES:
-                _, was = self._optional(life, "isAutonomousAbilityEnabled", ability)
+                read, was = self._optional(life, "getAutonomousAbilityEnabled", ability)
+                if not read:
+                    log.warning(
+                        "could not read the autonomous ability %s: left as it is (it may move "
+                        "joints during gestures)",
+                        ability,
+                    )
+                    continue
+                if not was:
+                    continue
                 done, _ = self._optional(life, "setAutonomousAbilityEnabled", ability, False)
-                if done and was:
-                    restore.append((life, "setAutonomousAbilityEnabled", (ability, True)))
+                if done:
+                    restore.append(
+                        ("ALAutonomousLife", "setAutonomousAbilityEnabled", (ability, True))
+                    )
         else:
             awareness = self._service(session, "ALBasicAwareness", required=False)
             done, _ = self._optional(awareness, "pauseAwareness")
             if done:
-                restore.append((awareness, "resumeAwareness", ()))
+                proxies["ALBasicAwareness"] = awareness
+                restore.append(("ALBasicAwareness", "resumeAwareness", ()))
         self._wait(motion.wakeUp(_async=True), "ALMotion.wakeUp", self.wake_timeout_s)
         for setter, getter in (
             ("setBreathEnabled", "getBreathEnabled"),
             ("setIdlePostureEnabled", "getIdlePostureEnabled"),
         ):
-            _, was = self._optional(motion, getter, "Body")
+            read, was = self._optional(motion, getter, "Body")
+            if not read:
+                log.warning("could not read %s: left as it is", getter)
+                continue
+            if not was:
+                continue
             done, _ = self._optional(motion, setter, "Body", False)
-            if done and was:
-                restore.append((motion, setter, ("Body", True)))
+            if done:
+                restore.append(("ALMotion", setter, ("Body", True)))
         names = self._wait(
             motion.getBodyNames("Body", _async=True), "ALMotion.getBodyNames", self.call_timeout_s
         )
@@ -415,7 +444,7 @@ class NaoqiBackend(Backend):
         self._check_body(joints)
         velocity = {n: float(lim[2]) for n, lim in zip(joints, limits, strict=False)}
         self._go_neutral(motion)
-        return _Link(session, motion, tts, leds, joints, velocity, lost, reason, restore)
+        return _Link(session, motion, tts, leds, joints, velocity, lost, reason, restore, proxies)
 
     def _go_neutral(self, motion: Any) -> None:
         """Move head and arms to the library's neutral pose, slowly, and wait until there."""
@@ -691,12 +720,20 @@ class NaoqiBackend(Backend):
             self._executor.shutdown(wait=False, cancel_futures=True)
         link, self._link = self._link, None
         if link is None or link.lost.is_set():
+            if self._restore:
+                log.warning(
+                    "closing without the robot at %s: could not turn back on %s",
+                    self.url,
+                    ", ".join(
+                        str(args[0]) if args else method for _, method, args in self._restore
+                    ),
+                )
             return
         try:
             if link.leds is not None:
                 self._optional(link.leds, "fadeRGB", "FaceLeds", IDLE_RGB, 0.1)
-            for proxy, method, args in link.restore:
-                self._optional(proxy, method, *args)
+            for service, method, args in self._restore:
+                self._optional(link.proxies.get(service), method, *args)
             if self.rest_on_close:
                 self._wait(link.motion.rest(_async=True), "ALMotion.rest", self.wake_timeout_s)
         except BackendUnavailable as e:
