@@ -265,6 +265,11 @@ class NaoqiBackend(Backend):
         self._link: _Link | None = None
         self._calls: list[_Call] = []
         self._aside: list[Any] = []  # fire-and-forget futures, kept alive until they finish
+        # after a gesture killed at its deadline: the kill's future, then the move back to the
+        # neutral pose (the next gesture is planned from there); busy until both have ended
+        self._homing: list[Any] = []
+        self._homing_kind = ""  # "kill" or "home"
+        self._homing_until = 0.0
         self._lost_reason = ""
         self._backoff = self.reconnect_initial_s
         self._next_attempt = 0.0
@@ -567,6 +572,7 @@ class NaoqiBackend(Backend):
             # a call that failed with a lost link fails every other call with it (``_lose``)
             if call in self._calls:
                 self._poll_call(call, now, mono)
+        self._home(mono)
         self._heartbeat(mono, now)
         if self._link is None and not self._closed:
             self._reconnect(mono)
@@ -600,9 +606,49 @@ class NaoqiBackend(Backend):
             if link is not None:  # stop the robot's task too (cancel may not reach it)
                 if m.kind is MotionKind.GESTURE:
                     kill = link.motion.killTasksUsingResources(list(call.joints), _async=True)
+                    # the kill leaves the joints mid-gesture: back to neutral once it is done
+                    self._homing.append(kill)
+                    self._homing_kind = "kill"
+                    self._homing_until = mono + self.call_timeout_s
                 else:
                     kill = link.tts.stopAll(_async=True)
-                self._aside.append(kill)
+                    self._aside.append(kill)
+
+    def _home(self, mono: float) -> None:
+        """After a killed gesture: once the kill has ended, move head and arms back to the
+        neutral pose (slowly, ``neutral_speed_fraction``); ``busy`` until they are there."""
+        if not self._homing or not all(f.isFinished() for f in self._homing):
+            return
+        was_kill = self._homing_kind == "kill"
+        self._homing = []
+        self._homing_kind = ""
+        link = self._link
+        if not was_kill or link is None:
+            return
+        names, angles = neutral_targets()
+        try:
+            fut = link.motion.angleInterpolationWithSpeed(
+                names, angles, self.neutral_speed_fraction, _async=True
+            )
+        except RuntimeError as e:
+            log.warning("could not move back to the neutral pose: %s", _first_line(str(e)))
+            return
+        log.info("gesture killed: moving head and arms back to the neutral pose")
+        self._homing = [fut]
+        self._homing_kind = "home"
+        self._homing_until = mono + self.wake_timeout_s
+
+    @property
+    def busy(self) -> bool:
+        """True while a gesture or phrase runs, or head and arms return to neutral after a
+        killed gesture (the next gesture is planned from the neutral pose)."""
+        if self._homing and time.monotonic() > self._homing_until:
+            log.warning("no end of the return to the neutral pose within %g s", self.wake_timeout_s)
+            for f in self._homing:
+                f.cancel()
+            self._homing = []
+            self._homing_kind = ""
+        return super().busy or bool(self._homing)
 
     def _fail(self, m: Motion, at: float, error: str) -> None:
         self._counts["failed"] += 1
@@ -651,6 +697,7 @@ class NaoqiBackend(Backend):
             call.future.cancel()
             self._fail(call.motion, now, f"robot lost: {self._lost_reason}")
         self._calls.clear()
+        self._homing, self._homing_kind = [], ""  # a reconnect moves to neutral (``_set_up``)
         self._aside.append(link.session.close(_async=True))
         self._backoff = self.reconnect_initial_s
         self._next_attempt = time.monotonic() + self._backoff
@@ -685,11 +732,19 @@ class NaoqiBackend(Backend):
         calls :meth:`advance` with ``clock()``.
         """
         end = time.monotonic() + timeout_s
-        for call in list(self._calls):
-            left = end - time.monotonic()
-            if left > 0:
-                call.future.wait(max(1, int(min(left, call.deadline - time.monotonic()) * 1000)))
-        self.advance(clock())
+        while True:
+            for call in list(self._calls):
+                left = min(end, call.deadline) - time.monotonic()
+                if left > 0:
+                    call.future.wait(max(1, int(left * 1000)))
+            for fut in list(self._homing):  # a killed gesture's return to neutral
+                left = min(end, self._homing_until) - time.monotonic()
+                if left > 0:
+                    fut.wait(max(1, int(left * 1000)))
+            self.advance(clock())
+            if not self.busy or time.monotonic() >= end:
+                break
+            time.sleep(0.005)  # a call at its deadline, not yet past it
         return not self.busy
 
     def wait_connected(self, timeout_s: float, clock: Callable[[], float]) -> bool:
@@ -710,10 +765,12 @@ class NaoqiBackend(Backend):
 
     # -- closing -------------------------------------------------------------------------------
     def _close(self) -> None:
+        cut = sorted({j for call in self._calls for j in call.joints})
         for call in self._calls:
             call.future.cancel()
             self._fail(call.motion, call.motion.started_at, "backend closed")
         self._calls.clear()
+        self._homing, self._homing_kind = [], ""
         if self._attempt is not None:
             self._attempt.cancel()
         if self._executor is not None:
@@ -730,6 +787,15 @@ class NaoqiBackend(Backend):
                 )
             return
         try:
+            # never leave the robot mid-gesture (arms forward, hands open, stiff): stop what a
+            # cancelled gesture still runs on the robot (cancel may not reach it), then move head
+            # and arms back to the neutral pose, slowly; on every close, an interrupted one too
+            if cut:
+                self._optional(link.motion, "killTasksUsingResources", cut)
+            try:
+                self._go_neutral(link.motion)
+            except BackendUnavailable as e:
+                log.warning("closing: could not return to the neutral pose: %s", e)
             if link.leds is not None:
                 self._optional(link.leds, "fadeRGB", "FaceLeds", IDLE_RGB, 0.1)
             for service, method, args in self._restore:

@@ -17,8 +17,11 @@ import pytest
 pytest.importorskip("pybullet")
 qi = pytest.importorskip("qi")
 
-from prezence.backends.naoqi import AUTONOMOUS_ABILITIES, NaoqiBackend  # noqa: E402
+from prezence.backends.naoqi import AUTONOMOUS_ABILITIES, NaoqiBackend, neutral_targets  # noqa: E402
 from prezence.clock import MonotonicClock  # noqa: E402
+from prezence.feedback.gestures import build_trajectory  # noqa: E402
+from prezence.feedback.limits import load_limits  # noqa: E402
+from prezence.feedback.trajectory import Trajectory  # noqa: E402
 from sim.virtual_nao import spawn, stop_spawned  # noqa: E402
 
 TOL = 0.03  # rad
@@ -109,3 +112,60 @@ def test_the_robots_state_is_restored_at_close_after_a_reconnection(
         assert backend.wait_connected(20.0, clock.now)
         assert backend.stats()["connects"] == 2
     assert robot_state(url) == before
+
+
+def read_angles(url: str, names: list[str]) -> list[float]:
+    session = qi.Session()
+    session.connect(url)
+    try:
+        return list(session.service("ALMotion").getAngles(names, True))
+    finally:
+        session.close()
+
+
+def settle(backend: NaoqiBackend, clock: MonotonicClock, timeout_s: float = 20.0) -> None:
+    """Advance until the backend is not busy (what the coach does between cues)."""
+    end = time.monotonic() + timeout_s
+    backend.advance(clock.now())
+    while backend.busy and time.monotonic() < end:
+        time.sleep(0.02)
+        backend.advance(clock.now())
+    assert not backend.busy
+
+
+def test_a_gesture_killed_at_its_deadline_ends_at_the_neutral_pose(
+    server: tuple[subprocess.Popen[str], str],
+) -> None:
+    _, url = server
+    names, neutral = neutral_targets()
+    yaw0 = neutral[names.index("HeadYaw")]
+    # far too fast for HeadYaw: the robot slows it down, so it misses its deadline and is killed
+    fast = Trajectory("fast", ("HeadYaw",), (0.1,), ((yaw0 + 1.5,),), (yaw0,))
+    clock = MonotonicClock()
+    with NaoqiBackend(url=url, motion_margin_s=0.05) as backend:
+        gesture = backend.play(fast, now=clock.now())
+        settle(backend, clock)
+        assert not gesture.ok and "no end within" in gesture.info["error"]
+        assert backend.stats()["timeouts"] == 1
+        assert read_angles(url, names) == pytest.approx(neutral, abs=TOL)  # not mid-gesture
+        again = backend.play(fast, now=clock.now())  # planned from neutral, and it is there
+        assert backend.wait_idle(20.0, clock.now)  # wait_idle waits for the return too
+        assert read_angles(url, names) == pytest.approx(neutral, abs=TOL)
+        assert not again.ok
+
+
+def test_closing_mid_gesture_leaves_head_and_arms_at_the_neutral_pose(
+    server: tuple[subprocess.Popen[str], str],
+) -> None:
+    """A second Ctrl-C during the summary's gesture closes the backend mid-gesture."""
+    _, url = server
+    names, neutral = neutral_targets()
+    traj = build_trajectory("encourage", speed_fraction=0.5, limits=load_limits())
+    clock = MonotonicClock()
+    backend = NaoqiBackend(url=url)
+    with backend:
+        gesture = backend.play(traj, now=clock.now())
+        time.sleep(traj.duration / 2)
+        assert read_angles(url, names) != pytest.approx(neutral, abs=TOL)
+    assert gesture.done and not gesture.ok
+    assert read_angles(url, names) == pytest.approx(neutral, abs=TOL)
