@@ -36,8 +36,10 @@ DEMO_SCENARIO = "demo"
 #: ``prezence run``: the talk ran but missed what its scenario expects of the coach.
 EXIT_EXPECTATIONS = 3
 #: A talk ran (and, for ``run``, met its expectations) but the robot did not give every cue
-#: the coach chose, or its post-talk summary: cut short (a robot lost mid-cue, a motion that
-#: never ended) or dropped (the robot was gone). A scenario missed is 3 all the same.
+#: the coach chose, or its post-talk summary: cut short (a motion that never ended), dropped
+#: (the robot was gone) or of unknown outcome (the link was lost while the cue ran: the robot
+#: may have given it in full, but nothing says it did, so it counts). A scenario missed is 3
+#: all the same.
 EXIT_ROBOT = 4
 #: Stopped by Ctrl-C (128 + SIGINT) or by SIGTERM (128 + SIGTERM), as a shell reports a process
 #: the signal killed; the talk's folder is written up to where it stopped.
@@ -91,10 +93,13 @@ def format_timeline(summary: dict[str, Any]) -> str:
             f"{_mmss(c['t']):>7}  {c['command']:<12} {c.get('metric') or '-':<16} "
             f"{(f'{lat:.1f}s' if lat is not None else '-'):>6} {ok:>3}  {c.get('reason', '')}"
         )
+        given = c.get("measured_s")
+        # when the failure was noticed (a heartbeat, a deadline), not when the motion stopped
+        of = f" (noticed after {given:.1f} s)" if isinstance(given, int | float) else ""
         if c.get("cut_short"):  # "ok" says whether the cue was right; this, whether it was given
-            given = c.get("measured_s")
-            of = f" after {given:.1f} s" if isinstance(given, int | float) else ""
             lines.append(f"{'':>7}  ^ cut short{of}: {c['cut_short']}")
+        elif c.get("outcome_unknown"):  # the robot may well have finished it
+            lines.append(f"{'':>7}  ^ outcome unknown{of}: {c['outcome_unknown']}")
     if not summary["cues"]:
         lines.append("   (no cues)")
     lines.append("")
@@ -138,6 +143,8 @@ def format_timeline(summary: dict[str, Any]) -> str:
         )
     c = summary["counts"]
     cut = f", cut short {c['cues_cut_short']}" if c.get("cues_cut_short") else ""
+    if c.get("cues_outcome_unknown"):
+        cut += f", outcome unknown {c['cues_outcome_unknown']}"
     stale = f", stale {c['stale']}" if c.get("stale") else ""  # as evaluate counts them
     if c.get("cues_unmeasured"):  # given while its metric was not measured: not judged
         stale += f", not judged {c['cues_unmeasured']}"
@@ -167,8 +174,14 @@ def format_timeline(summary: dict[str, Any]) -> str:
 
 def post_talk_line(post: dict[str, Any]) -> str:
     """What the robot said after the talk, or that it did not say it (robot lost…)."""
+    if post.get("ok") is False and post.get("speech_ok") is True:  # said; its gesture failed
+        why = post.get("gesture_error") or "cut short"
+        return f'robot: "{post["phrase"]}" (its gesture was cut short: {why})'
+    if post.get("ok") is False and post.get("speech_outcome") == "unknown":
+        why = post.get("speech_error") or "robot lost"
+        return f'robot lost while saying its summary, outcome unknown ({why}): "{post["phrase"]}"'
     if post.get("ok") is False:
-        why = post.get("drop_reason") or "cut short"
+        why = post.get("drop_reason") or post.get("speech_error") or "cut short"
         return f'robot did NOT say its summary ({why}): "{post["phrase"]}"'
     return f'robot: "{post["phrase"]}"'
 
@@ -189,21 +202,30 @@ def robot_shortfall(summary: dict[str, Any]) -> str | None:
     """
     counts = summary.get("counts") or {}
     cut = int(counts.get("cues_cut_short") or 0)
+    unknown = int(counts.get("cues_outcome_unknown") or 0)
     dropped = int(counts.get("cues_dropped") or 0)
     post = summary.get("post_talk") or {}
-    unsaid = post.get("ok") is False
     parts = [f"{cut} cue{'s' if cut != 1 else ''} cut short"] if cut else []
+    if unknown:
+        cue = "" if cut else (" cue" if unknown == 1 else " cues")
+        parts.append(f"{unknown}{cue} of unknown outcome (robot lost during the cue)")
     if dropped:
-        cue = "" if cut else (" cue" if dropped == 1 else " cues")
+        cue = "" if cut or unknown else (" cue" if dropped == 1 else " cues")
         parts.append(f"{dropped}{cue} dropped")
-    if unsaid:
-        parts.append("the post-talk summary not said")
+    if post.get("ok") is False:
+        if post.get("speech_ok") is True:
+            parts.append("the post-talk summary's gesture cut short")
+        elif post.get("speech_outcome") == "unknown":
+            parts.append("the post-talk summary of unknown outcome (robot lost)")
+        else:
+            parts.append("the post-talk summary not said")
     if not parts:
         return None
     rows = summary.get("cues") or ()
     reasons = [c.get("cut_short") for c in rows]
+    reasons += [c.get("outcome_unknown") for c in rows]
     reasons += [c.get("drop_reason") for c in rows if c.get("dropped")]
-    reasons.append(post.get("drop_reason"))
+    reasons += [post.get("drop_reason"), post.get("speech_error"), post.get("gesture_error")]
     why = next((str(r) for r in reasons if r), "")
     return ", ".join(parts) + (f" ({why})" if why else "")
 

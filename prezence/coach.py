@@ -166,6 +166,7 @@ class Performance:
         for m in self.motions:
             prefix = m.kind.value
             rec[f"{prefix}_planned_s"] = round(m.planned_s, 6)
+            rec[f"{prefix}_ok"] = m.ok  # the phrase and the gesture apart (one may fail alone)
             if m.finished_at is not None:
                 rec[f"{prefix}_measured_s"] = round(m.finished_at - m.started_at, 6)
             for k, v in m.info.items():
@@ -370,6 +371,14 @@ class Coach:
             t = self._step(t + step_s, pace)
         rec["ok"] = all(m.done and m.ok for m in motions)
         rec["measured_s"] = round(t - rec["t"], 6)
+        for (
+            m
+        ) in motions:  # the phrase and the gesture apart: a gesture's timeout is no unsaid phrase
+            prefix = m.kind.value
+            rec[f"{prefix}_ok"] = m.done and m.ok
+            for k in ("error", "outcome"):
+                if m.info.get(k):
+                    rec[f"{prefix}_{k}"] = m.info[k]
         return rec
 
     def _step(self, t: float, pace: Callable[[float], None] | None) -> float:

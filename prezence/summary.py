@@ -606,12 +606,36 @@ def cut_short(cue: Mapping[str, Any]) -> str | None:
     """
     if cue.get("dropped") or (cue.get("ok") is not False and not cue.get("unfinished")):
         return None
-    for key in ("gesture_error", "speech_error"):
-        if cue.get(key):
-            return str(cue[key])
+    if outcome_unknown(cue) is not None:
+        return None
+    failed = [
+        p
+        for p in ("gesture", "speech")
+        if cue.get(f"{p}_error") and cue.get(f"{p}_outcome") != "unknown"
+    ]
+    for p in failed:
+        said = " (the phrase was said)" if p == "gesture" and cue.get("speech_ok") is True else ""
+        return str(cue[f"{p}_error"]) + said
     if cue.get("unfinished"):
         return "the talk ended before it finished"
     return "the robot did not finish it"
+
+
+def outcome_unknown(cue: Mapping[str, Any]) -> str | None:
+    """Why whether the robot gave a cue is not known: the link to it was lost while the cue ran
+    (the robot may well have finished it); None when the outcome is known.
+
+    Example:
+        >>> outcome_unknown({"ok": False, "dropped": False, "speech_ok": False,
+        ...                  "speech_outcome": "unknown", "speech_error": "robot lost: gone"})
+        'robot lost during the cue (robot lost: gone)'
+    """
+    if cue.get("dropped") or cue.get("ok") is not False:
+        return None
+    parts = [p for p in ("gesture", "speech") if cue.get(f"{p}_ok") is False]
+    if not parts or any(cue.get(f"{p}_outcome") != "unknown" for p in parts):
+        return None
+    return f"robot lost during the cue ({cue.get(f'{parts[0]}_error')})"
 
 
 def build_summary(
@@ -854,6 +878,9 @@ def build_summary(
         cut = cut_short(c)
         if cut is not None:
             row["cut_short"] = cut
+        unknown = outcome_unknown(c)
+        if unknown is not None:
+            row["outcome_unknown"] = unknown
         cue_rows.append(row)
 
     allocated = config.time.allocated_s
@@ -873,6 +900,7 @@ def build_summary(
     malformed = sum(int(s.get("malformed", 0)) for s in (stream_stats or {}).values())
     backwards = sum(int(s.get("out_of_order", 0)) for s in (stream_stats or {}).values())
     n_cut = sum(1 for r in cue_rows if "cut_short" in r)
+    n_unknown = sum(1 for r in cue_rows if "outcome_unknown" in r)
     n_unmeasured = sum(1 for r in cue_rows if r.get("cue_class") == "unmeasured")
     out: dict[str, Any] = {
         "talk_s": round(talk_s, 3),
@@ -901,6 +929,7 @@ def build_summary(
                 else int(jlv)
             ),
             **({"cues_cut_short": n_cut} if n_cut else {}),
+            **({"cues_outcome_unknown": n_unknown} if n_unknown else {}),
             **({"skipped_records": len(skipped_records)} if skipped_records else {}),
         },
         "backend_stats": dict(backend_stats or {}),

@@ -592,8 +592,9 @@ class NaoqiBackend(Backend):
                 self._fail(m, end, "cancelled")
             elif fut.hasError():
                 error = _first_line(fut.error())
-                self._fail(m, end, error)
-                if _looks_lost(error):
+                lost = _looks_lost(error)
+                self._fail(m, end, error, unknown=lost)
+                if lost:
                     self._lose(error, now)
             else:
                 m.finish(end, ok=True, measured_s=measured, lag_s=measured - m.planned_s)
@@ -650,10 +651,13 @@ class NaoqiBackend(Backend):
             self._homing_kind = ""
         return super().busy or bool(self._homing)
 
-    def _fail(self, m: Motion, at: float, error: str) -> None:
+    def _fail(self, m: Motion, at: float, error: str, *, unknown: bool = False) -> None:
+        """``m`` ends with ``ok=False``; ``unknown``: the link was lost while it ran, so the
+        robot may well have finished it (``info["outcome"] = "unknown"``)."""
         self._counts["failed"] += 1
         log.warning("%s %r failed: %s", m.kind.value, m.name, error)
-        m.finish(max(at, m.started_at), ok=False, error=error)
+        extra = {"outcome": "unknown"} if unknown else {}
+        m.finish(max(at, m.started_at), ok=False, error=error, **extra)
 
     def _heartbeat(self, mono: float, now: float) -> None:
         link = self._link
@@ -695,7 +699,7 @@ class NaoqiBackend(Backend):
         log.warning("lost the robot at %s: %s", self.url, self._lost_reason)
         for call in self._calls:
             call.future.cancel()
-            self._fail(call.motion, now, f"robot lost: {self._lost_reason}")
+            self._fail(call.motion, now, f"robot lost: {self._lost_reason}", unknown=True)
         self._calls.clear()
         self._homing, self._homing_kind = [], ""  # a reconnect moves to neutral (``_set_up``)
         self._aside.append(link.session.close(_async=True))

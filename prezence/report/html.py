@@ -267,7 +267,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             )
         out.append("</ul>")
     post = report.get("post_talk") or {}
-    if post.get("ok") is False:  # the robot was lost: these words were never heard
+    said = post.get("speech_ok") is True or post.get("speech_outcome") == "unknown"
+    if post.get("ok") is False and not said:  # the robot was lost: these words were never heard
         out.append(
             f'<p>What the robot was to say, <b class="fa">not said</b> '
             f"({_e(post.get('drop_reason') or 'cut short')}): "
@@ -366,6 +367,11 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
                 eff_html = f'<span class="fa">{_e(shown)}</span>'
             cut = c.get("cut_short")
             cut_html = f'<br><span class="fa">cut short: {_e(cut)}</span>' if cut else ""
+            if c.get("outcome_unknown"):
+                cut_html = (
+                    f'<br><span class="fa">outcome unknown: {_e(c["outcome_unknown"])}</span>'
+                )
+
             if c.get("dropped"):  # the robot never said the phrase
                 why = c.get("drop_reason") or "dropped"
                 cut_html = f'<br><span class="fa">not given: {_e(why)}</span>'

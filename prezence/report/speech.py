@@ -740,8 +740,26 @@ def cut_sentences(report: Mapping[str, Any]) -> list[str]:
     if cut:
         which = "; ".join(f"{mmss(c['t'])} {c['command']}: {c['cut_short']}" for c in cut)
         out.append(f"{len(cut)} cue{'s' if len(cut) != 1 else ''} cut short ({which})")
+    unknown = [c for c in report.get("cues") or () if c.get("outcome_unknown")]
+    if unknown:
+        which = "; ".join(f"{mmss(c['t'])} {c['command']}: {c['outcome_unknown']}" for c in unknown)
+        n = len(unknown)
+        out.append(
+            f"{n} cue{'s' if n != 1 else ''} of unknown outcome: the robot may have given "
+            f"{'them' if n != 1 else 'it'} in full ({which})"
+        )
     post = report.get("post_talk") or {}
-    if post.get("ok") is False:
+    if post.get("ok") is False and post.get("speech_ok") is True:
+        out.append(
+            "the robot said its summary after the talk, but its gesture was cut short "
+            f"({post.get('gesture_error') or 'cut short'})"
+        )
+    elif post.get("ok") is False and post.get("speech_outcome") == "unknown":
+        out.append(
+            "the robot was lost while saying its summary after the talk: whether it said it "
+            f"is unknown ({post.get('speech_error') or 'robot lost'})"
+        )
+    elif post.get("ok") is False:
         out.append(
             "the robot did not say its summary after the talk "
             f"({post.get('drop_reason') or 'cut short'})"
@@ -1076,6 +1094,8 @@ def format_text(report: Mapping[str, Any]) -> str:
         mark = cue_mark(c)
         if c.get("cut_short"):
             mark = f"CUT SHORT: {c['cut_short']}" + (f"; {mark}" if mark else "")
+        elif c.get("outcome_unknown"):
+            mark = f"OUTCOME UNKNOWN: {c['outcome_unknown']}" + (f"; {mark}" if mark else "")
         # a time warning has no problem whose onset it follows (its "latency" is 0 by design)
         lat = c.get("latency_s") if c.get("metric") else None
         lat_s = f" {int(lat + 0.5)} s after onset" if lat is not None else ""  # halves up

@@ -72,7 +72,7 @@ def test_a_cue_cut_short_by_a_lost_robot_fails_a_run_that_met_its_expectations(
 ) -> None:
     status = main(["run", "short_talk", "--out", str(tmp_path / "s"), "--no-report"])
     out = capsys.readouterr().out
-    assert "^ cut short after 0.5 s: robot lost: disconnected" in out
+    assert "^ cut short (noticed after 0.5 s): robot lost: disconnected" in out
     assert "scenario expectations met\n" not in out
     assert (
         "scenario expectations met by the cues chosen, but the robot did not give them all: "

@@ -169,3 +169,26 @@ def test_closing_mid_gesture_leaves_head_and_arms_at_the_neutral_pose(
         assert read_angles(url, names) != pytest.approx(neutral, abs=TOL)
     assert gesture.done and not gesture.ok
     assert read_angles(url, names) == pytest.approx(neutral, abs=TOL)
+
+
+def test_a_cue_running_when_the_robot_freezes_is_of_unknown_outcome_not_failed(
+    server: tuple[subprocess.Popen[str], str],
+) -> None:
+    """A frozen robot (Wi-Fi blip) may well finish the cue: the backend cannot know."""
+    proc, url = server
+    clock = MonotonicClock()
+    backend = NaoqiBackend(
+        url=url, heartbeat_s=0.2, call_timeout_s=0.5, reconnect_initial_s=0.1, reconnect_max_s=0.5
+    )
+    with backend:
+        traj = build_trajectory("slow_down", speed_fraction=0.5, limits=load_limits())
+        gesture = backend.play(traj, now=clock.now())
+        phrase = backend.say("Slow down a little.", now=clock.now())
+        proc.send_signal(signal.SIGSTOP)
+        try:
+            settle(backend, clock)
+        finally:
+            proc.send_signal(signal.SIGCONT)
+        for m in (gesture, phrase):
+            assert not m.ok and m.info["outcome"] == "unknown", m.info
+            assert "robot lost" in m.info["error"]
