@@ -51,9 +51,13 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures
+import json
 import logging
+import os
+import socket
 import threading
 import time
+import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -81,6 +85,13 @@ TOO_FAST_TOLERANCE = 0.01
 NEUTRAL_SPEED_FRACTION = 0.2
 #: The chains moved to the library's neutral pose at open (the legs are left standing).
 NEUTRAL_CHAINS = ("Head", "LArm", "RArm")
+#: The ALMemory key where a talk claims the robot: JSON with pid, host, start and refresh times
+#: (the host's wall clock, seconds since the epoch), removed at close.
+CLAIM_KEY = "Prezence/Talk"
+#: How often a talk refreshes its claim, and after how long without a refresh a claim is stale
+#: (its talk died without removing it); both in seconds of the hosts' wall clocks.
+CLAIM_REFRESH_S = 2.0
+CLAIM_STALE_S = 15.0
 #: Error texts with which libqi reports a dead connection.
 _LOST_MARKERS = (
     "Session closed",
@@ -279,6 +290,13 @@ class NaoqiBackend(Backend):
         self._next_ping = 0.0
         self._eyes_on = False
         self._restore: list[tuple[str, str, tuple[Any, ...]]] = []
+        self._claim = {
+            "id": uuid.uuid4().hex,
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "started": time.time(),
+        }
+        self._next_claim = 0.0
         self._rtt_ms: collections.deque[float] = collections.deque(maxlen=2000)
         self._counts = {
             "connects": 0,
@@ -392,14 +410,61 @@ class NaoqiBackend(Backend):
             log.info("%s%r: %s; skipped", method, args, e)
             return False, None
 
+    def _claim_text(self) -> str:
+        return json.dumps({**self._claim, "refreshed": time.time()})
+
+    def _take_claim(self, memory: Any | None) -> None:
+        """Claim the robot in ALMemory (``CLAIM_KEY``); refuse it when another talk holds a
+        live claim (refreshed within ``CLAIM_STALE_S``). Skipped when the robot has no ALMemory."""
+        if memory is None:
+            return
+        try:
+            held = self._wait(
+                memory.getData(CLAIM_KEY, _async=True), "ALMemory.getData", self.call_timeout_s
+            )
+        except BackendUnavailable:
+            held = None  # no claim (getData raises for a key it does not have)
+        other: dict[str, Any] = {}
+        if isinstance(held, str) and held:
+            try:
+                loaded = json.loads(held)
+            except ValueError:
+                loaded = {}
+            other = loaded if isinstance(loaded, dict) else {}
+        if other and other.get("id") != self._claim["id"]:
+            age = time.time() - float(other.get("refreshed") or 0.0)
+            if abs(age) <= CLAIM_STALE_S:  # (a claim from the future: a host's clock is off)
+                started = time.strftime(
+                    "%H:%M:%S", time.localtime(float(other.get("started") or 0.0))
+                )
+                raise BackendUnavailable(
+                    f"the robot at {self.url} is in use by another Prezence talk (pid "
+                    f"{other.get('pid')} on {other.get('host')}, started {started}, last seen "
+                    f"{max(0.0, age):.0f} s ago): two talks on one robot disturb each other; "
+                    f"wait until it ends (a talk that died without closing frees the robot "
+                    f"{CLAIM_STALE_S:g} s after its last sign of life)"
+                )
+            log.warning(
+                "taking over a stale claim on the robot (pid %s on %s, not refreshed for %.0f s)",
+                other.get("pid"),
+                other.get("host"),
+                age,
+            )
+        self._optional(memory, "insertData", CLAIM_KEY, self._claim_text())
+
     def _set_up(self, session: Any, lost: threading.Event, reason: list[str]) -> _Link:
         motion: Any = self._service(session, "ALMotion", required=True)
         tts: Any = self._service(session, "ALTextToSpeech", required=True)
+        memory = self._service(session, "ALMemory", required=False)
+        if self._counts["connects"] == 0:  # a reconnect finds its own claim, or none
+            self._take_claim(memory)
+        else:
+            self._optional(memory, "insertData", CLAIM_KEY, self._claim_text())
         leds = self._service(session, "ALLeds", required=False) if self.leds else None
         # what to put back at close, by service name (proxies die with their link); only what
         # was read as on, and only what could be read: what cannot be put back is left alone
         restore: list[tuple[str, str, tuple[Any, ...]]] = []
-        proxies: dict[str, Any] = {"ALMotion": motion}
+        proxies: dict[str, Any] = {"ALMotion": motion, "ALMemory": memory}
         life = self._service(session, "ALAutonomousLife", required=False)
         if life is not None and hasattr(life, "setAutonomousAbilityEnabled"):
             proxies["ALAutonomousLife"] = life
@@ -573,6 +638,7 @@ class NaoqiBackend(Backend):
             if call in self._calls:
                 self._poll_call(call, now, mono)
         self._home(mono)
+        self._refresh_claim(mono)
         self._heartbeat(mono, now)
         if self._link is None and not self._closed:
             self._reconnect(mono)
@@ -614,6 +680,17 @@ class NaoqiBackend(Backend):
                 else:
                     kill = link.tts.stopAll(_async=True)
                     self._aside.append(kill)
+
+    def _refresh_claim(self, mono: float) -> None:
+        link = self._link
+        memory = link.proxies.get("ALMemory") if link is not None else None
+        if memory is None or mono < self._next_claim:
+            return
+        self._next_claim = mono + CLAIM_REFRESH_S
+        try:
+            self._aside.append(memory.insertData(CLAIM_KEY, self._claim_text(), _async=True))
+        except RuntimeError as e:
+            log.info("could not refresh the claim on the robot: %s", _first_line(str(e)))
 
     def _home(self, mono: float) -> None:
         """After a killed gesture: once the kill has ended, move head and arms back to the
@@ -804,6 +881,10 @@ class NaoqiBackend(Backend):
                 self._optional(link.leds, "fadeRGB", "FaceLeds", IDLE_RGB, 0.1)
             for service, method, args in self._restore:
                 self._optional(link.proxies.get(service), method, *args)
+            memory = link.proxies.get("ALMemory")
+            _, held = self._optional(memory, "getData", CLAIM_KEY)
+            if isinstance(held, str) and str(self._claim["id"]) in held:  # ours, not a newer talk's
+                self._optional(memory, "removeData", CLAIM_KEY)
             if self.rest_on_close:
                 self._wait(link.motion.rest(_async=True), "ALMotion.rest", self.wake_timeout_s)
         except BackendUnavailable as e:

@@ -6,10 +6,14 @@ back after it, also after a reconnection; the arms and head must end at the neut
 
 from __future__ import annotations
 
+import json
+import os
 import signal
+import socket
 import subprocess
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -17,8 +21,16 @@ import pytest
 pytest.importorskip("pybullet")
 qi = pytest.importorskip("qi")
 
-from prezence.backends.naoqi import AUTONOMOUS_ABILITIES, NaoqiBackend, neutral_targets  # noqa: E402
+from prezence.backends.naoqi import (  # noqa: E402
+    AUTONOMOUS_ABILITIES,
+    CLAIM_KEY,
+    CLAIM_STALE_S,
+    NaoqiBackend,
+    neutral_targets,
+)
+from prezence.cli import main  # noqa: E402
 from prezence.clock import MonotonicClock  # noqa: E402
+from prezence.errors import BackendUnavailable  # noqa: E402
 from prezence.feedback.gestures import build_trajectory  # noqa: E402
 from prezence.feedback.limits import load_limits  # noqa: E402
 from prezence.feedback.trajectory import Trajectory  # noqa: E402
@@ -192,3 +204,47 @@ def test_a_cue_running_when_the_robot_freezes_is_of_unknown_outcome_not_failed(
         for m in (gesture, phrase):
             assert not m.ok and m.info["outcome"] == "unknown", m.info
             assert "robot lost" in m.info["error"]
+
+
+def test_a_second_talk_on_the_same_robot_is_refused_naming_the_first(
+    server: tuple[subprocess.Popen[str], str],
+) -> None:
+    _, url = server
+    first = NaoqiBackend(url=url)
+    with first:
+        second = NaoqiBackend(url=url)
+        with pytest.raises(
+            BackendUnavailable, match=r"in use by another Prezence talk \(pid "
+        ) as e:
+            second.open()
+        assert f"pid {os.getpid()} on {socket.gethostname()}" in str(e.value)
+        assert first.connected
+    with NaoqiBackend(url=url) as third:  # the first removed its claim at close
+        assert third.connected
+
+
+def test_a_stale_claim_does_not_lock_the_robot(server: tuple[subprocess.Popen[str], str]) -> None:
+    """A talk killed with SIGKILL leaves its claim; it stops being refreshed."""
+    _, url = server
+    session = qi.Session()
+    session.connect(url)
+    old = time.time() - 10 * CLAIM_STALE_S
+    claim = {"id": "dead", "pid": 1, "host": "elsewhere", "started": old, "refreshed": old}
+    session.service("ALMemory").insertData(CLAIM_KEY, json.dumps(claim))
+    session.close()
+    with NaoqiBackend(url=url) as backend:
+        assert backend.connected
+
+
+def test_a_cli_talk_on_a_robot_in_use_exits_2_naming_the_other_talk(
+    server: tuple[subprocess.Popen[str], str],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    _, url = server
+    with NaoqiBackend(url=url):
+        argv = ["run", "short_talk", "--backend", "naoqi", "--robot", url]
+        status = main([*argv, "--out", str(tmp_path / "s"), "--no-report"])
+    assert status == 2
+    err = capsys.readouterr().err
+    assert "in use by another Prezence talk" in err and f"pid {os.getpid()}" in err
