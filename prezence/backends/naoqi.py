@@ -85,6 +85,10 @@ TOO_FAST_TOLERANCE = 0.01
 NEUTRAL_SPEED_FRACTION = 0.2
 #: The chains moved to the library's neutral pose at open (the legs are left standing).
 NEUTRAL_CHAINS = ("Head", "LArm", "RArm")
+#: The highest gesture speed fraction advised on a real NAO: the URDF's velocity limits the
+#: planner uses are no-load values that a loaded real joint does not reach; the reference
+#: (nao_facts.md §4, velocities) advises derating them to about 0.7 or less.
+REAL_NAO_SPEED_MAX = 0.7
 #: The ALMemory key where a talk claims the robot: JSON with pid, host, start and refresh times
 #: (the host's wall clock, seconds since the epoch), removed at close.
 CLAIM_KEY = "Prezence/Talk"

@@ -248,3 +248,26 @@ def test_a_cli_talk_on_a_robot_in_use_exits_2_naming_the_other_talk(
     assert status == 2
     err = capsys.readouterr().err
     assert "in use by another Prezence talk" in err and f"pid {os.getpid()}" in err
+
+
+@pytest.mark.parametrize(("speed", "warned"), [("0.9", True), ("0.7", False)])
+def test_a_speed_over_what_a_real_nao_keeps_up_with_is_warned_about(
+    server: tuple[subprocess.Popen[str], str],
+    tmp_path: Path,
+    caplog: pytest.LogCaptureFixture,
+    speed: str,
+    warned: bool,
+) -> None:
+    _, url = server
+    short = (Path(__file__).parents[2] / "scenarios" / "short_talk.toml").read_text()
+    scenario = tmp_path / "quick.toml"  # short_talk cut to 3 s, its expectations left out
+    scenario.write_text(
+        short.split("[expect]")[0].replace('duration_s = "0:40"', 'duration_s = "0:03"')
+    )
+    argv = ["run", str(scenario), "--backend", "naoqi", "--robot", url, "--speed", speed]
+    with caplog.at_level("WARNING"):
+        main([*argv, "--out", str(tmp_path / "s"), "--no-report"])
+    said = [r.getMessage() for r in caplog.records if "no-load" in r.getMessage()]
+    assert len(said) == (1 if warned else 0), said
+    if warned:
+        assert "use --speed 0.7 or less on a real robot" in said[0]
