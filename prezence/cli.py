@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from prezence import __version__
 from prezence.argtypes import non_negative_float, non_negative_int, speed_fraction
-from prezence.errors import PrezenceError
+from prezence.errors import PrezenceError, unknown_message
 from prezence.sessiondir import drop_if_left_empty
 from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION, Terminated
 
@@ -332,11 +332,64 @@ def _backend_kwargs(args: argparse.Namespace) -> dict[str, Any]:
         )
     if args.backend == "sim":
         kw["gui"] = bool(getattr(args, "gui", False))
+    options = getattr(args, "robot_option", None) or []
+    if options and args.backend != "naoqi":
+        raise PrezenceError("--robot-option is only used with --backend naoqi")
     if args.backend == "naoqi":
         if not args.robot:
             raise PrezenceError("--backend naoqi needs --robot tcp://HOST:9559")
         kw["url"] = args.robot
+        for text in options:
+            kw.update(robot_options(text))
     return kw
+
+
+#: The NaoqiBackend settings ``--robot-option`` reaches, and their kinds.
+ROBOT_OPTIONS: dict[str, type] = {
+    "leds": bool,
+    "rest_on_close": bool,
+    "connect_timeout_s": float,
+    "call_timeout_s": float,
+    "wake_timeout_s": float,
+    "motion_margin_s": float,
+    "heartbeat_s": float,
+    "neutral_speed_fraction": float,
+}
+_TRUE, _FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
+
+
+def robot_options(text: str) -> dict[str, Any]:
+    """``--robot-option leds=on,rest_on_close=true`` as NaoqiBackend keyword arguments.
+
+    Example:
+        >>> robot_options("leds=on, wake_timeout_s=20")
+        {'leds': True, 'wake_timeout_s': 20.0}
+    """
+    out: dict[str, Any] = {}
+    for item in (i.strip() for i in text.split(",")):
+        if not item:
+            continue
+        key, sep, value = (s.strip() for s in item.partition("="))
+        if key not in ROBOT_OPTIONS:
+            raise PrezenceError(unknown_message("robot option", key, ROBOT_OPTIONS))
+        if not sep or not value:
+            raise PrezenceError(f"--robot-option {key}: want {key}=VALUE")
+        if ROBOT_OPTIONS[key] is bool:
+            if value.lower() not in _TRUE + _FALSE:
+                raise PrezenceError(f"--robot-option {key}={value}: want on or off (true/false)")
+            out[key] = value.lower() in _TRUE
+        else:
+            try:
+                number = float(value)
+            except ValueError:
+                number = float("nan")
+            low_ok = number >= 0 if key == "motion_margin_s" else number > 0
+            if not (low_ok and (key != "neutral_speed_fraction" or number <= 1)):
+                want = "in (0, 1]" if key == "neutral_speed_fraction" else "a number > 0"
+                want = "a number >= 0" if key == "motion_margin_s" else want
+                raise PrezenceError(f"--robot-option {key}={value}: want {want}")
+            out[key] = number
+    return out
 
 
 def parse_seconds(text: str) -> float:
@@ -853,6 +906,14 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
     """The options of every command that coaches: robot, rules, policy, output."""
     p.add_argument("--backend", default="fake", help="fake | sim | naoqi (default: fake)")
     p.add_argument("--robot", help="NAOqi URL for --backend naoqi, e.g. tcp://127.0.0.1:9559")
+    p.add_argument(
+        "--robot-option",
+        action="append",
+        metavar="KEY=VALUE[,…]",
+        help="--backend naoqi settings: leds=on (eyes orange during a cue), rest_on_close=on "
+        "(crouch and motors off at the end), connect_timeout_s, call_timeout_s, wake_timeout_s, "
+        "motion_margin_s, heartbeat_s, neutral_speed_fraction",
+    )
     p.add_argument("--gui", action="store_true", help="sim backend: open a PyBullet window")
     p.add_argument("--out", help=f"session folder (default: {out_help})")
     p.add_argument("--config", help="rules: a TOML config or a seed-format rules file")

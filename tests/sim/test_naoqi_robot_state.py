@@ -271,3 +271,34 @@ def test_a_speed_over_what_a_real_nao_keeps_up_with_is_warned_about(
     assert len(said) == (1 if warned else 0), said
     if warned:
         assert "use --speed 0.7 or less on a real robot" in said[0]
+
+
+def test_robot_options_on_the_command_line_reach_the_robot(
+    server: tuple[subprocess.Popen[str], str], tmp_path: Path
+) -> None:
+    """docs/naoqi.md advises rest_on_close for long rehearsals: a CLI user can now ask for it."""
+    _, url = server
+    short = (Path(__file__).parents[2] / "scenarios" / "short_talk.toml").read_text()
+    scenario = tmp_path / "quick.toml"
+    scenario.write_text(
+        short.split("[expect]")[0].replace('duration_s = "0:40"', 'duration_s = "0:03"')
+    )
+    argv = ["run", str(scenario), "--backend", "naoqi", "--robot", url]
+    argv += ["--robot-option", "leds=on,rest_on_close=on", "--out", str(tmp_path / "s")]
+    assert main([*argv, "--no-report"]) in (0, 3)
+    session = qi.Session()
+    session.connect(url)
+    try:
+        stiff = session.service("ALMotion").getStiffnesses("Body")
+    finally:
+        session.close()
+    assert max(stiff) == 0.0  # rested: motors off
+
+
+def test_a_bad_robot_option_exits_2_naming_the_known_ones(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["run", "short_talk", "--backend", "naoqi", "--robot", "tcp://127.0.0.1:9"]
+    status = main([*argv, "--robot-option", "rest_on_clos=on", "--out", str(tmp_path / "s")])
+    assert status == 2
+    assert "rest_on_close" in capsys.readouterr().err
