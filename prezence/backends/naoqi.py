@@ -23,16 +23,22 @@ dropped cue and goes on; nothing is queued). Meanwhile :meth:`advance` reconnect
 background (a worker thread, so ``advance`` never blocks), with exponential backoff from
 ``reconnect_initial_s`` to ``reconnect_max_s``, and fetches fresh proxies (old ones stay dead).
 
-What the backend changes on the robot at :meth:`open`: it turns off the autonomous abilities
-that move joints (``BackgroundMovement``, ``BasicAwareness``, ``ListeningMovement``,
-``SpeakingMovement`` through ``ALAutonomousLife``, or pauses ``ALBasicAwareness`` on older
-NAOqi), calls ``ALMotion.wakeUp()`` (stiffness on, standing), disables breathing and the
-idle posture, and then moves the head and arms to the gesture library's neutral pose (the pose
+What the backend changes on the robot at :meth:`open`: it claims the robot (ALMemory
+``CLAIM_KEY``, refreshed while the talk runs, removed at close; a live claim of another talk
+refuses the open), turns off the autonomous abilities that move joints and are on
+(``BackgroundMovement``, ``BasicAwareness``, ``ListeningMovement``, ``SpeakingMovement``, read
+with ``ALAutonomousLife.getAutonomousAbilityEnabled``; one it cannot read is left alone; or
+pauses ``ALBasicAwareness`` on older NAOqi), calls ``ALMotion.wakeUp()`` (stiffness on,
+standing), disables breathing and the idle posture (those on), and then moves the head and arms to the gesture library's neutral pose (the pose
 every gesture is planned from; ``angleInterpolationWithSpeed`` at ``neutral_speed_fraction``,
 waiting up to ``wake_timeout_s``), so the first gesture starts where its timing assumed. The
 legs stay as ``wakeUp`` stood them: no gesture moves them and balance is the robot's. Each of the
 optional steps is skipped, with a log line, where the robot lacks it (wakeUp and the move to
-neutral are required). At :meth:`close` the abilities it turned off are turned back on.
+neutral are required). At :meth:`close` (every close, an interrupted one too) head and arms go
+back to the neutral pose, then what it turned off is turned back on: the state the *first*
+connection found (a reconnect reads back its own "off"). A gesture killed at its deadline is
+followed by the same move back to neutral (``busy`` until there). A motion running when the link
+is lost ends with ``ok=False`` and ``info["outcome"] = "unknown"``: the robot may finish it.
 **Stiffness policy:** the backend never sets stiffness to 0 on a standing robot (it would fall);
 stiffness stays on at close unless ``rest_on_close=True``, which calls ``ALMotion.rest()``
 (crouch, then motors off).
@@ -44,7 +50,8 @@ is (NAOqi does not document what it does with it).
 
 Time: the ``now`` passed to :meth:`play`/:meth:`say`/:meth:`advance` stamps the motions; the
 deadlines and latencies use the host's monotonic clock, because the robot keeps real time
-whatever the caller's clock does. Drive this backend with a real-time clock.
+whatever the caller's clock does. A talk on this backend is paced to the wall clock
+(:attr:`realtime`), ``--realtime`` or not.
 """
 
 from __future__ import annotations
