@@ -29,7 +29,8 @@ refuses the open), turns off the autonomous abilities that move joints and are o
 (``BackgroundMovement``, ``BasicAwareness``, ``ListeningMovement``, ``SpeakingMovement``, read
 with ``ALAutonomousLife.getAutonomousAbilityEnabled``; one it cannot read is left alone; or
 pauses ``ALBasicAwareness`` on older NAOqi), calls ``ALMotion.wakeUp()`` (stiffness on,
-standing), disables breathing and the idle posture (those on), and then moves the head and arms to the gesture library's neutral pose (the pose
+standing), disables breathing and the idle posture (those on), and then moves the head and arms
+to the gesture library's neutral pose (the pose
 every gesture is planned from; ``angleInterpolationWithSpeed`` at ``neutral_speed_fraction``,
 waiting up to ``wake_timeout_s``), so the first gesture starts where its timing assumed. The
 legs stay as ``wakeUp`` stood them: no gesture moves them and balance is the robot's. Each of the
