@@ -230,6 +230,30 @@ def robot_shortfall(summary: dict[str, Any]) -> str | None:
     return ", ".join(parts) + (f" ({why})" if why else "")
 
 
+def outage_note(summary: dict[str, Any]) -> str | None:
+    """For a talk that missed its expectations while the robot was lost: the outage, not the
+    coach, is the likely cause (a cue the robot could not give stays due and is chosen again,
+    and may beat the one the scenario expects). None when no chosen cue was lost.
+
+    Example:
+        >>> outage_note({"counts": {"cues_dropped": 5}})[:47]
+        'the robot was lost during the talk (5 cues drop'
+    """
+    counts = summary.get("counts") or {}
+    dropped = int(counts.get("cues_dropped") or 0)
+    unknown = int(counts.get("cues_outcome_unknown") or 0)
+    if not dropped and not unknown:
+        return None
+    parts = [f"{dropped} cue{'s' if dropped != 1 else ''} dropped"] if dropped else []
+    if unknown:
+        parts.append(f"{unknown} of unknown outcome")
+    return (
+        f"the robot was lost during the talk ({', '.join(parts)}): the outage is the likely "
+        "cause of what was missed, not the coach (a cue the robot could not give stays due, is "
+        "chosen again and may beat the one expected)"
+    )
+
+
 def _violations(summary: dict[str, Any]) -> str:
     """The joint-limit violations, or that the backend did not measure them (only the sim does).
 
@@ -513,6 +537,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _interrupted_run(result.summary, result.session.root, args)
     problems = check_expectations(result.scenario, result.cues)
     shortfall = robot_shortfall(result.summary)
+    outage = outage_note(result.summary) if problems else None
     if args.json:
         print(json.dumps(result.summary, indent=2, sort_keys=True))
         # stdout is the JSON: the verdict goes to stderr, where a CI log shows why it failed
@@ -520,6 +545,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"scenario expectation NOT met: {p}", file=sys.stderr)
         if shortfall:
             print(f"the robot did not give every cue: {shortfall}", file=sys.stderr)
+        if outage:
+            print(outage, file=sys.stderr)
     else:
         print(format_timeline(result.summary))
         if problems:
@@ -528,6 +555,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                 print(f"  - {p}")
             if shortfall:
                 print(f"and the robot did not give them all: {shortfall}")
+            if outage:
+                print(outage)
         elif shortfall:
             # the coach chose as expected; the robot (lost, stuck) did not give it all
             print(

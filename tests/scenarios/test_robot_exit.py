@@ -133,3 +133,25 @@ def test_a_talk_whose_robot_gave_everything_still_exits_0(
     assert main(["run", "short_talk", "--out", str(tmp_path / "s")]) == 0
     out = capsys.readouterr().out
     assert "scenario expectations met\n" in out and "did not give" not in out
+
+
+def test_expectations_missed_during_a_robot_outage_name_the_outage_as_the_likely_cause(
+    robot: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Session 22: a robot gone for most of the talk gave exit 3 with nothing but 'expected
+    slowDown … got none', which README defines as the coach missing what it should do."""
+    robot.update(back=False, at_open=True)
+    status = main(["run", "short_talk", "--out", str(tmp_path / "s")])
+    out = capsys.readouterr().out
+    assert status == EXIT_EXPECTATIONS
+    assert "scenario expectations NOT met:" in out
+    assert "the robot was lost during the talk (" in out
+    assert "the outage is the likely cause of what was missed, not the coach" in out
+
+
+def test_expectations_missed_with_the_robot_there_say_nothing_of_an_outage(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    status = main(["run", "short_talk", "--policy", "none", "--out", str(tmp_path / "s")])
+    assert status == EXIT_EXPECTATIONS
+    assert "the robot was lost" not in capsys.readouterr().out
