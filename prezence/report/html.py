@@ -267,8 +267,15 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             )
         out.append("</ul>")
     post = report.get("post_talk") or {}
-    said = post.get("speech_ok") is True or post.get("speech_outcome") == "unknown"
-    if post.get("ok") is False and not said:  # the robot was lost: these words were never heard
+    unknown = post.get("ok") is False and post.get("speech_outcome") == "unknown"
+    said = post.get("speech_ok") is True
+    if unknown:  # the link was lost while the robot spoke: it may have said it all
+        out.append(
+            f'<p>What the robot was saying when it was lost, <b class="fa">outcome unknown</b> '
+            f"({_e(post.get('speech_error') or 'robot lost')}): "
+            f'<span class="said">“{_e(post.get("phrase") or summary_phrase(report))}”</span></p>'
+        )
+    elif post.get("ok") is False and not said:  # these words were never heard
         out.append(
             f'<p>What the robot was to say, <b class="fa">not said</b> '
             f"({_e(post.get('drop_reason') or 'cut short')}): "

@@ -698,6 +698,33 @@ def test_a_cue_cut_short_and_an_unsaid_summary_are_marked_in_the_report(tmp_path
     assert 'What the robot was to say, <b class="fa">not said</b> (robot is lost)' in page
 
 
+def test_a_cue_and_a_summary_running_when_the_robot_was_lost_are_of_unknown_outcome(
+    tmp_path: Path,
+) -> None:
+    # session 22 (NAOqi, robot frozen 5 s mid-cue; it finished the cue): 'CUT SHORT' and
+    # 'not said' stated what the robot did not do
+    session = make_session(tmp_path / "t")
+    lines = session.cues.read_text().splitlines()
+    cue = json.loads(lines[0])
+    lost = "robot lost: no heartbeat answer within 2 s"
+    for p in ("gesture", "speech"):
+        cue.update({f"{p}_ok": False, f"{p}_error": lost, f"{p}_outcome": "unknown"})
+    cue.update(ok=False, measured_s=3.0)
+    session.cues.write_text("\n".join([json.dumps(cue), *lines[1:]]) + "\n")
+    post = {"t": 110.0, "phrase": "You used…", "ok": False, "speech_ok": False}
+    post.update(speech_error=lost, speech_outcome="unknown")
+    session.summary.write_text(json.dumps({"ended_at_s": 110.0, "post_talk": post}))
+    page = write_report(session.root).read_text()
+    text = (session.report / "summary.txt").read_text()
+    assert "CUT SHORT" not in text and "did not say its summary" not in text
+    assert f"OUTCOME UNKNOWN: robot lost during the cue ({lost})" in text
+    assert "note: 1 cue of unknown outcome: the robot may have given it in full" in text
+    assert "whether it said it is unknown" in text
+    assert "cut short" not in page and "not said" not in page
+    assert "outcome unknown: robot lost during the cue" in page
+    assert 'What the robot was saying when it was lost, <b class="fa">outcome unknown</b>' in page
+
+
 def test_a_dropped_cue_is_marked_as_not_given_and_not_judged(tmp_path: Path) -> None:
     # session 15, analysis walkthrough: a cue the robot dropped (robot lost) was listed as
     # given, "back in range after 20 s; the presenter reacted", and counted as a correction
