@@ -7,10 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from test_evaluate import paired_rows  # tests/unit is on sys.path (pytest prepends it)
 
 from prezence.cli import main
 from prezence.evaluate import aggregate, conclusion_lines, conclusions, evaluate
-from tests.unit.test_evaluate import paired_rows
 
 
 def _evaluate(tmp_path: Path, capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str]:
