@@ -638,6 +638,18 @@ def outcome_unknown(cue: Mapping[str, Any]) -> str | None:
     return f"robot lost during the cue ({cue.get(f'{parts[0]}_error')})"
 
 
+def measured_end_s(talk_s: float, recording_s: Any) -> float:
+    """Where measuring stops: the talk's end, or the recordings' end when every input was a
+    file played to its end (``recording_s``, a positive number; anything else is ignored).
+
+    Example:
+        >>> measured_end_s(63.6, 61.4), measured_end_s(63.6, None), measured_end_s(63.6, "x")
+        (61.4, 63.6, 63.6)
+    """
+    number = isinstance(recording_s, (int, float)) and not isinstance(recording_s, bool)
+    return min(talk_s, float(recording_s)) if number and recording_s > 0 else talk_s
+
+
 def build_summary(
     config: Config,
     streams: Mapping[str, Sequence[Sample]],
@@ -703,8 +715,7 @@ def build_summary(
     # `up` of recordings played to their end: nothing was measured after the recordings'
     # end, though the coach's clock ran on while the modules stopped (session 22: a 61.4 s
     # file read 'pace 0:55 of 1:01' in up, 0:50 in rehearse)
-    rec_s = (extra or {}).get("recording_s")
-    end_s = min(talk_s, float(rec_s)) if isinstance(rec_s, (int, float)) and rec_s > 0 else talk_s
+    end_s = measured_end_s(talk_s, (extra or {}).get("recording_s"))
     lost = module_outages(modules, streams, end_s)
     writers = {  # metric -> the module that writes it, as the launcher records it
         str(metric): str(name)

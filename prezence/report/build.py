@@ -38,6 +38,7 @@ from prezence.summary import (
     build_summary,
     estimate_notes,
     hold_ends,
+    measured_end_s,
     measurement_notes,
     module_notes,
     with_failures,
@@ -1034,9 +1035,7 @@ def _rebuild(
     )
 
     # nothing was measured after the recordings' end (as build_summary judges)
-    end_s = talk_s
-    if isinstance(rec_s, (int, float)) and not isinstance(rec_s, bool) and rec_s > 0:
-        end_s = min(talk_s, float(rec_s))
+    end_s = measured_end_s(talk_s, rec_s)
     dev_s: dict[str, dict[str, float]] = {}
     metrics: dict[str, Any] = {}
     for rule in cfg.rules:
