@@ -54,7 +54,7 @@ def child(load: Path, out: Path) -> dict[str, float]:
     timed(talk_mod, "summarize_session", "summary")
     step = talk_mod.Talk.step
 
-    def talk_step(self: Any, now: float) -> Any:
+    def talk_step(self: Any, now: float, **kw: Any) -> Any:
         src = self.source
         ss, i = src._samples, src._i
         key = (
@@ -64,7 +64,7 @@ def child(load: Path, out: Path) -> dict[str, float]:
         )
         t = time.perf_counter()
         try:
-            return step(self, now)
+            return step(self, now, **kw)
         finally:
             acc[key] = acc.get(key, 0.0) + time.perf_counter() - t
 
