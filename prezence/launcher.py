@@ -542,6 +542,20 @@ class LiveSource(SourceBase):
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"two modules are called {', '.join(dup)}: give each its own name")
+        # Two writers of one stream file would interleave their lines (each goes back in time
+        # against the other's, so half are dropped as malformed) and the coach would judge one
+        # metric from two sources (session 22's module-author walkthrough).
+        writers: dict[str, list[str]] = {}
+        for m in modules:
+            for metric in m.metrics:
+                writers.setdefault(metric, []).append(m.name)
+        shared = {k: v for k, v in writers.items() if len(v) > 1}
+        if shared:
+            said = "; ".join(f"{k} by {' and '.join(v)}" for k, v in sorted(shared.items()))
+            raise ValueError(
+                f"two modules would write one stream ({said}): start one of them, or give the "
+                "module of your own another metric name"
+            )
         self.modules = list(modules)
         self.end_at = end_at
         self.grace_s = grace_s
@@ -746,7 +760,7 @@ def up(
         stop: polled every loop; True ends the talk (tests, embedding).
 
     Raises:
-        ValueError: two modules have the same name.
+        ValueError: two modules have the same name, or declare the same metric.
         PrezenceError: a module's command cannot be started (not on ``PATH``, no such file,
             not executable): said before the robot opens or the folder is written.
     """

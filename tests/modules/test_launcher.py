@@ -291,6 +291,21 @@ def test_two_modules_of_the_same_name_are_refused(tmp_path: Path) -> None:
         )
 
 
+def test_two_modules_writing_one_metric_are_refused_before_anything_starts(tmp_path: Path) -> None:
+    # Session 22's module-author walkthrough: the speech module (from --audio) and a --module
+    # of one's own both declared speech_speed; their lines interleaved in one stream file.
+    mine = ModuleSpec.parse("mypace:speech_speed,my_metric=python pace.py --out {session}")
+    with pytest.raises(ValueError, match=r"one stream \(speech_speed by pace and mypace\)"):
+        up(
+            CONFIG,
+            session_dir=tmp_path / "s",
+            modules=[pace(), mine],
+            backend=FakeBackend(),
+            options=RunOptions.default(),
+        )
+    assert not (tmp_path / "s").exists()
+
+
 @pytest.mark.slow
 def test_crashed_module_is_restarted_and_the_talk_completes(tmp_path: Path) -> None:
     marker = tmp_path / "crashed"
