@@ -224,14 +224,22 @@ class Coach:
         self.performed: list[dict[str, Any]] = []
         self.decisions = 0
 
-    def tick(self, now: float, samples: Iterable[Sample], *, over: bool = False) -> Decision:
+    def tick(
+        self,
+        now: float,
+        samples: Iterable[Sample],
+        *,
+        over: bool = False,
+        spent: float | None = None,
+    ) -> Decision:
         """One decision point at ``now`` with the samples that arrived since the last one
-        (``over``: the talk ends at ``now``, so no cue is given)."""
+        (``over``: the talk ends at ``now``, so no cue is given; ``spent``: the time used,
+        which the time warnings are judged on, None: ``now``)."""
         self.backend.advance(now)
         self._settle()
         free_since = self._free_since if not self.backend.busy else None
         decision = self.processor.step(
-            now, samples, free_since=free_since, with_views=False, over=over
+            now, samples, free_since=free_since, with_views=False, over=over, spent=spent
         )
         self.decisions += 1
         cue = decision.cue

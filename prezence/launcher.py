@@ -568,6 +568,10 @@ class LiveSource(SourceBase):
         self._streams: Path | None = None
         self._next_look = 0.0
         self._stopped = False
+        #: every input is a file played as if live (``session.json``'s ``recorded_inputs``)
+        self._recorded = bool(self.modules) and all(m.finite for m in self.modules)
+        #: the newest stamp :meth:`poll` gave (the recordings' clock when every input is one)
+        self._newest = 0.0
 
     @property
     def talk_s(self) -> float | None:
@@ -593,12 +597,28 @@ class LiveSource(SourceBase):
     def meta(self) -> dict[str, Any]:
         # Every input a file played as if live: the person in it could not hear the robot
         # (the report then judges no cue by what followed it, as for a rehearsal).
-        recorded = bool(self.modules) and all(m.finite for m in self.modules)
+        recorded = self._recorded
         return {"t0_epoch": self.t0_epoch, **({"recorded_inputs": True} if recorded else {})}
 
     def poll(self, now: float) -> Sequence[Sample]:
         assert self._tailer is not None
-        return self._tailer.poll(now)
+        samples = self._tailer.poll(now)
+        if samples:
+            self._newest = max(self._newest, max(s.t for s in samples))
+        return samples
+
+    def time_used(self, now: float) -> float | None:
+        """When every input is a file played as if live: the newest stamp given, the
+        recordings' own clock (None, the talk's clock, otherwise).
+
+        The talk's clock runs ahead of the recordings' while the modules start up and on
+        after their end (the module on a 60.00 s file finished at 1:02.5), and the time
+        used is the recordings' length (:meth:`recording_s`). Session 23: with --allocated 1m
+        the robot said "You are over time" at 1:00.5, then "You used 1 minute of 1 minute,
+        right on time". On the recordings' clock a time warning falls where the recording
+        reaches it, and a recording that ends within its time gets no overtime cue.
+        """
+        return self._newest if self._recorded else None
 
     def wait(self, timeout_s: float) -> bool:
         assert self._tailer is not None

@@ -144,6 +144,11 @@ class SampleSource(Protocol):
         """True when the talk is over by the source's own account (live: time is up)."""
         ...
 
+    def time_used(self, now: float) -> float | None:
+        """The time the presenter has used at talk time ``now``, when it is not ``now``
+        (an ``up`` of recordings: the recordings' own clock); None: ``now``."""
+        ...
+
     def events(self, now: float) -> list[str]:
         """Supervision events since the last call (a module restarted...)."""
         ...
@@ -197,6 +202,9 @@ class SourceBase:
 
     def ended(self, now: float) -> bool:
         return False
+
+    def time_used(self, now: float) -> float | None:
+        return None
 
     def events(self, now: float) -> list[str]:
         return []
@@ -491,7 +499,8 @@ class Talk:
         ends at ``now``: the samples count, but no cue is given after the talk)."""
         assert self.coach is not None, "start() first"
         self.last_samples = self.source.poll(now)
-        d = self.coach.tick(now, self.last_samples, over=over)
+        spent = self.source.time_used(now)
+        d = self.coach.tick(now, self.last_samples, over=over, spent=spent)
         if self.on_decision is not None:
             self.on_decision(d)
         return d

@@ -87,6 +87,8 @@ class Processor:
             m for m in config.time.warn_at_s_left if alloc is not None and m >= alloc
         }
         self._last_overtime = -math.inf
+        #: The time used at the last step (its ``spent``): the clock of the time warnings.
+        self._spent = 0.0
         self._last_cue_t = -math.inf
         self._last_cue: Cue | None = None
         self.unknown_samples = 0
@@ -158,6 +160,7 @@ class Processor:
         free_since: float | None,
         with_views: bool = True,
         over: bool = False,
+        spent: float | None = None,
     ) -> Decision:
         """Ingest ``samples``, integrate to ``now`` and decide.
 
@@ -170,12 +173,17 @@ class Processor:
                 :meth:`views` when one is needed).
             over: ``now`` is the talk's end (its last decision point): the samples are
                 taken in, but no cue is chosen, as the presenter can no longer act on one.
+            spent: the time the presenter has used at ``now``, which the time warnings are
+                judged on (None: ``now``). An ``up`` of recordings gives the recordings' own
+                clock: the talk's clock runs ahead of it while the modules start up and on
+                after the recordings' end, and the time used is the recordings' length.
 
         Returns:
             The decision; its ``cue`` is set when a cue must be given now.
         """
         if samples:
             self.ingest(samples, now=now)
+        self._spent = now if spent is None else spent
         views = self.views(now) if with_views else ()
         if over:
             return Decision(now, None, "the talk is over", free_since is None, (), views)
@@ -193,7 +201,7 @@ class Processor:
             return Decision(
                 now, None, f"min gap ({gap:g} s) since the robot became free", False, (), views
             )
-        cands = self._candidates(now)
+        cands = self._candidates(now, self._spent)
         if not cands:
             why = "all metrics in range or below threshold"
             if self._escalated:
@@ -247,9 +255,9 @@ class Processor:
             offset=offset,
         )
 
-    def _candidates(self, now: float) -> list[Candidate]:
+    def _candidates(self, now: float, spent: float) -> list[Candidate]:
         s = self.settings
-        out: list[Candidate] = self._time_candidates(now)
+        out: list[Candidate] = self._time_candidates(spent)
         all_out = self.policy.wants_all_out_of_range
         praise_after_s = s.praise_after_s
         refractory_s = s.refractory_s
@@ -338,6 +346,7 @@ class Processor:
         return out
 
     def _time_candidates(self, now: float) -> list[Candidate]:
+        """The time warning or overtime cue due when the presenter has used ``now`` seconds."""
         ts = self.config.time
         if ts.allocated_s is None:
             return []
@@ -430,7 +439,7 @@ class Processor:
         saved = (set(self._time_marks_given), self._last_overtime)
         if c.kind == Kind.TIME:
             if c.command == self.config.time.overtime_command and "mark_s" not in c.params:
-                self._last_overtime = now
+                self._last_overtime = self._spent  # repeated on the same clock
             else:
                 mark = float(c.params["mark_s"])
                 self._time_marks_given.update(

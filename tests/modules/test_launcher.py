@@ -594,3 +594,47 @@ def test_a_module_that_exits_0_while_the_others_go_on_ended_and_is_not_restarted
     )
     assert re.search(note, printed), printed
     assert "crashed" not in printed and "restarted" not in printed
+
+
+def _played_file(allocated_s: float, tmp_path: Path) -> dict:
+    """``up`` of one "file" (speech_speed 0.5 … 3.0 s, then 2 s of decoding before its
+    exit 0) with ``allocated_s``: the summary."""
+    script = tmp_path / "play.py"
+    script.write_text(_PLAYS_A_FILE)
+    spec = ModuleSpec(
+        "speech",
+        [sys.executable, str(script), "{session}", "6", "speech_speed", "2.0"],
+        metrics=("speech_speed",),
+        finite=True,
+    )
+    result = up(
+        CONFIG.with_allocated(allocated_s),
+        session_dir=tmp_path / "s",
+        modules=[spec],
+        backend=FakeBackend(time_scale=0.01),
+        grace_s=10.0,
+        options=RunOptions.default(report=True),
+    )
+    return result.summary
+
+
+@pytest.mark.slow
+def test_a_recording_that_ends_on_time_gets_no_overtime_cue(tmp_path: Path) -> None:
+    # Session 23, a student's own recordings: `up --audio de60.wav --allocated 1m` on a
+    # 60.00 s file: the robot said "You are over time" at 1:00.5 on the talk's clock (the
+    # file was then at about 0:58: the module had started late), then "You used 1 minute of
+    # 1 minute, right on time". The time cues follow the recording's own clock.
+    summary = _played_file(3.0, tmp_path)
+    assert summary["talk_s"] > 4.0  # the talk's clock ran well past 3 s
+    assert summary["time"]["used_s"] == 3.0
+    assert [c["command"] for c in summary["cues"]] == []
+    assert summary["post_talk"]["phrase"].startswith("You used 3 seconds of 3 seconds, right on")
+
+
+@pytest.mark.slow
+def test_a_recording_longer_than_its_time_is_still_told_it_is_over(tmp_path: Path) -> None:
+    # the recording's clock passes the allocated 2 s at its 2.5 s sample: one overtime cue
+    summary = _played_file(2.0, tmp_path)
+    assert [c["command"] for c in summary["cues"]] == ["overtime"]
+    assert summary["time"]["used_s"] == 3.0
+    assert summary["post_talk"]["phrase"].startswith("You used 3 seconds of 2 seconds, 50% over")
