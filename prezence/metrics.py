@@ -184,6 +184,7 @@ METRICS: Mapping[str, Metric] = {
             physical_range=(0.0, 130.0),
             band=("min", 60.0, None),
             scale=6.0,
+            first_after_s=10.0,  # the speech module's --window, as every speech stream
         ),
         # integrated loudness (ITU-R BS.1770), relative to full scale, uncalibrated
         Metric("speech_loudness", "LUFS", "loudness", "speech", _SPEECH),
