@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import re
 from collections.abc import Collection, Mapping, Sequence
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any
@@ -145,6 +146,43 @@ def _stream_values(folder: Any, metric: str) -> list[float]:
     return [x.value for x in samples]
 
 
+#: How the report's notes on a clipped recording begin (the spoken summary looks for it).
+CLIPPED_NOTE = "the recording is clipped"
+
+#: The speech module's log line on a clipped recording (prezence/modules/speech.py):
+#: "… (the recording is clipped: 6 % of the speech samples at or near full scale; record …".
+_CLIPPED_LOG = re.compile(r"the recording is clipped: ([^;()]*?)\s*[;)]")
+
+
+def clipped_detail(root: Any) -> str | None:
+    """How clipped the recording was, as the speech module's log in the session folder says it
+    ("6 % of the speech samples at or near full scale"); None when it does not say so.
+
+    The module writes no machine-readable record of clipping (its streams say only
+    ``speech_speed_source 0``, for noise and music as well), so this reads its log line: a
+    log worded otherwise, or a folder without ``speech.log``, gives None, and the report then
+    says only that neither count was trusted.
+
+    Example:
+        >>> import tempfile, pathlib
+        >>> d = pathlib.Path(tempfile.mkdtemp())
+        >>> _ = (d / "speech.log").write_text("speech: WARNING: t=12 s: speech speed cannot be "
+        ...     "measured (the recording is clipped: 6 % of the speech samples at or near full "
+        ...     "scale; record with less input gain)\\n")
+        >>> clipped_detail(d), clipped_detail(d / "nothing")
+        ('6 % of the speech samples at or near full scale', None)
+    """
+    from pathlib import Path
+
+    path = Path(root) / "speech.log"
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return None
+    found = _CLIPPED_LOG.search(text)
+    return found.group(1) if found else None
+
+
 def estimate_notes(root: Any) -> dict[str, str]:
     """Per metric, why its figures are an estimate, as far as the session folder records it
     (the speech module's ``speech.json``: the volume of an uncalibrated microphone; the gesture
@@ -209,7 +247,14 @@ def measurement_notes(
                     "the speech module heard no voice (silence, or noise, a hum, music or a "
                     "whisper without a voice: speech.log says which)",
                 )
+    # the speech module's log says the recording is clipped (session 23: only the log said
+    # "record with less input gain"; the report praised the clipped recording's volume)
+    clipped = clipped_detail(root)
+    gain = "record with less input gain or farther from the microphone"
     source = _stream_values(root, "speech_speed_source")
+    if source and not any(source) and clipped:
+        for metric in ("speech_speed", "speech_articulation"):
+            unmeasured.setdefault(metric, f"{CLIPPED_NOTE} ({clipped}, speech.log): {gain}")
     if source and not any(source):  # 0 in every window: no count trusted
         for metric in ("speech_speed", "speech_articulation"):
             unmeasured.setdefault(
@@ -218,6 +263,11 @@ def measurement_notes(
                 "in any window (noise, music, a clipped recording: speech.log says which)",
             )
     less: dict[str, str] = {}
+    if clipped:
+        less["speech_volume"] = (
+            f"{CLIPPED_NOTE} ({clipped}, speech.log), so its level is the recorder's limit, "
+            f"not your voice's: {gain}"
+        )
     if GESTURES_FROM_MOTION in _stream_values(root, "cv_gestures_source"):
         less["cv_gestures"] = (
             "counted from the frame difference, the fallback when the pose model cannot "

@@ -861,6 +861,8 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         'You used 10 minutes of 10 minutes, right on time. Work first on this: slow down. Then: look up at your audience.'
     """  # noqa: E501 - a doctest output line
     parts = [time_sentence(report, first_words=False)]
+    if clipped(report):  # what to do differently next time, before what could not be judged
+        parts.append("Your recording is clipped: record it with less input gain.")
     lost = lost_sentences(report)
     parts += lost
     droppable: list[str] = []  # least important last
@@ -928,6 +930,19 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         kept = kept[: ends[-1] + 1] if ends else kept
         text = " ".join(kept).rstrip(",.;:") + ("" if kept[-1].endswith(("!", "?")) else ".")
     return text
+
+
+def clipped(report: Mapping[str, Any]) -> bool:
+    """Whether a metric's note says the recording is clipped (the speech module's log said so:
+    :func:`prezence.summary.clipped_detail`)."""
+    from prezence.summary import CLIPPED_NOTE
+
+    return any(
+        str(m.get(key) or "").startswith(CLIPPED_NOTE)
+        for m in (report.get("metrics") or {}).values()
+        if isinstance(m, Mapping)
+        for key in ("not_measured_why", "less_reliable")
+    )
 
 
 def heard_none(report: Mapping[str, Any], metrics: Sequence[str]) -> bool:

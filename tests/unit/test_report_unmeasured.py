@@ -279,6 +279,52 @@ def test_a_recording_the_speech_module_could_not_time_is_said_not_praised(
     assert "not_measured_why" not in build_report(again.root)["metrics"]["speech_speed"]
 
 
+#: The speech module's log of a clipped recording (``sox lib2x.flac clipped.wav gain 18``), as
+#: it writes it: the only place it says why it measured no pace.
+CLIPPED_LOG = (
+    "speech: WARNING: volume is not calibrated: speech_volume = dBFS + 90 is a rough guess "
+    "(see --calibration-db)\n"
+    "speech: WARNING: t=12 s: speech speed cannot be measured (the recording is clipped: 6 % "
+    "of the speech samples at or near full scale; record with less input gain or farther from "
+    "the microphone): speech_speed and speech_articulation are not written until it can\n"
+)
+
+
+def test_a_clipped_recording_is_called_clipped_and_its_volume_not_praised(
+    tmp_path: Path,
+) -> None:
+    # Session 23, a student's own recordings: a recording made 18 dB too loud: the table and
+    # the report said only "pace: not measured: … (noise, music, a clipped recording:
+    # speech.log says which)", the volume read 82 dB "in the ideal range", and the robot
+    # "Your volume and clarity stayed in the ideal range; I could not judge your pace." The
+    # one thing to act on (lower the input gain) was in speech.log alone.
+    rows = range(10, 108)
+    streams = {
+        "speech_speed": [],
+        "speech_speed_source": [(float(t), 0.0) for t in rows],
+        "speech_volume": [(float(t), 82.0) for t in rows],
+    }
+    session = rehearsal(tmp_path / "s", streams, talk_s=108.0, recording="clipped.wav")
+    (session.root / "speech.log").write_text(CLIPPED_LOG)
+    report = build_report(session.root)
+    pace, volume = report["metrics"]["speech_speed"], report["metrics"]["speech_volume"]
+    assert pace["not_measured_why"].startswith("the recording is clipped (6 % of the speech")
+    assert "less input gain" in pace["not_measured_why"]
+    assert "clipped" in volume["less_reliable"]
+    said = summary_phrase(report)
+    assert "volume" not in said.split(";")[0] or "stayed" not in said, said
+    assert "Your recording is clipped: record it with less input gain." in said, said
+    write_report(session.root)
+    text = (session.report / "summary.txt").read_text()
+    assert "pace: not measured: the recording is clipped" in text
+    assert "volume: the recording is clipped" in text and "no advice on it" in text
+    # the same streams without the log line: no clipping is claimed
+    again = rehearsal(tmp_path / "t", streams, talk_s=108.0, recording="clipped.wav")
+    report = build_report(again.root)
+    assert "less_reliable" not in report["metrics"]["speech_volume"]
+    assert "clipped" not in summary_phrase(report)
+
+
 def test_a_recording_with_no_voice_is_said_so_not_praised(tmp_path: Path) -> None:
     # session 17: 60 s of pink noise read volume 65.8 and clarity 0.53 and got "Your volume and
     # clarity stayed in the ideal range". The speech module now writes speech_activity 0 and
