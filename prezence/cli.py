@@ -494,6 +494,7 @@ def _options(args: argparse.Namespace, config: Config | None) -> RunOptions:
         plots=getattr(args, "plots", True),
         gestures=gestures,
         speaker=_speaker(args),
+        allow_unchecked_collision=bool(getattr(args, "allow_unchecked_collision", False)),
     )
 
 
@@ -966,6 +967,12 @@ def _add_robot_args(p: argparse.ArgumentParser, *, out_help: str) -> None:
         metavar="FILE",
         help="a gesture library of your own (TOML): its gestures replace the built-in ones of "
         "the same name (check it first: prezence gestures check FILE)",
+    )
+    p.add_argument(
+        "--allow-unchecked-collision",
+        action="store_true",
+        help="--backend naoqi: play gestures whose self-collision was not checked (PyBullet not "
+        "installed) instead of refusing the talk; recorded in session.json",
     )
     p.add_argument("--json", action="store_true", help="print summary.json instead")
     p.add_argument("--no-report", action="store_true", help="skip the post-talk report")

@@ -38,7 +38,7 @@ from prezence.clock import ManualClock, MonotonicClock
 from prezence.coach import Coach, RoomNoise, default_planner
 from prezence.config.model import Config
 from prezence.config.tomlconf import dumps_config
-from prezence.feedback.gestures import library_for_talk
+from prezence.feedback.gestures import GestureLibrary, library_for_talk
 from prezence.metrics import SNR_METRIC, default_stale_after_s
 from prezence.processor import Cue, Decision, Processor, end_of_talk_notes, make_policy
 from prezence.samples import Sample
@@ -82,6 +82,9 @@ class RunOptions:
             of the same name; the session records it and keeps a copy); None: the built-in one.
         speaker: who is rehearsing (``--speaker NAME``), recorded in ``session.json``: progress
             across rehearsals compares the talks of one speaker; None: not recorded.
+        allow_unchecked_collision: on a backend that moves a physical body (naoqi), play
+            gestures whose self-collision was not checked (no PyBullet) instead of refusing the
+            talk; what was not checked is recorded in ``session.json``.
     """
 
     policy: str
@@ -93,6 +96,7 @@ class RunOptions:
     decision_log: str = "changes"
     gestures: str | None = None
     speaker: str | None = None
+    allow_unchecked_collision: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0 < self.speed_fraction <= 1.0:
@@ -422,6 +426,9 @@ class Talk:
             speed_fraction=options.speed_fraction,
             commands=config.talk_commands(),
         )
+        #: Why the self-collision of gestures this talk plays was not checked (empty: it was).
+        #: A robot that moves a physical body refuses them unless the options allow them.
+        self.unchecked_collision = _unchecked_collision(self.library, backend, options)
         self.coach: Coach | None = None
         #: The folder held for this talk from :meth:`start` until it is finished or abandoned.
         self.hold: FolderLock | None = None
@@ -462,6 +469,11 @@ class Talk:
                 "backend": self.backend.name,
                 "speed_fraction": self.options.speed_fraction,
                 **({"gestures": self.library.record()} if self.library else {}),
+                **(
+                    {"self_collision_unchecked": self.unchecked_collision}
+                    if self.unchecked_collision
+                    else {}
+                ),
                 **({"speaker": self.options.speaker} if self.options.speaker else {}),
             }
             self.session.write_meta(self._meta)
@@ -786,6 +798,35 @@ def run_talk(
 
 #: The loggers whose warnings name a bad line of the talk's files (a stream line, a cue line).
 _LINE_LOGGERS = ("prezence.streams.tail", "prezence.session")
+
+
+def _unchecked_collision(
+    library: GestureLibrary | None, backend: Backend, options: RunOptions
+) -> list[str]:
+    """Why the self-collision of the gestures a talk plays was not checked (empty: it was).
+
+    On a backend that moves a physical body (naoqi) such a talk is refused, before the robot
+    opens and before a session folder is written, unless ``options`` allow it (then each reason
+    is warned of); a simulated NAO has no self-collision and plays anything.
+
+    Raises:
+        GestureCheckFailed: naming the file and how to have it checked.
+    """
+    from prezence.feedback.collision import require_collision_checked, unchecked_collision
+    from prezence.feedback.limits import load_limits
+
+    limits = load_limits()
+    if not backend.physical:
+        return unchecked_collision(library, limits=limits)
+    reasons = require_collision_checked(
+        library,
+        limits=limits,
+        backend=backend.name,
+        allow=options.allow_unchecked_collision,
+    )
+    for r in reasons:
+        log.warning("%s: playing them unchecked on the robot, as asked", r)
+    return reasons
 
 
 class _Once(logging.Filter):

@@ -81,6 +81,11 @@ class Backend(abc.ABC):
     #: talk on simulated time must then be paced to the wall clock. Simulated and
     #: time-keeping backends, whose robot moves only when :meth:`advance` is called, say False.
     realtime: ClassVar[bool] = False
+    #: True when the gestures move a physical body (a real NAO, or what may be one: NAOqi),
+    #: which its own shell stops: a talk then plays only gestures whose self-collision was
+    #: checked (:func:`~prezence.feedback.collision.require_collision_checked`). A simulated
+    #: NAO has no self-collision and plays anything.
+    physical: ClassVar[bool] = False
 
     def __init__(self) -> None:
         self._running: list[Motion] = []

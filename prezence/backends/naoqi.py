@@ -238,6 +238,7 @@ class NaoqiBackend(Backend):
 
     name = "naoqi"
     realtime = True
+    physical = True
 
     def __init__(
         self,

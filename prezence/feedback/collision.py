@@ -29,7 +29,9 @@ Example:
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
+import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -38,9 +40,10 @@ from typing import Any
 
 import numpy as np
 
-from prezence.errors import BackendUnavailable, LimitViolation
+from prezence.errors import BackendUnavailable, GestureCheckFailed, LimitViolation
 from prezence.feedback.gestures import (
     DEFAULT_SPEED_FRACTION,
+    GESTURES_FILE,
     GestureLibrary,
     build_trajectory,
     load_library,
@@ -298,11 +301,111 @@ def check_own_clearance(library: GestureLibrary, *, limits: JointLimits) -> None
                     )
 
 
+# ---------------------------------------------------------------------------------------------
+# Gestures whose self-collision was not checked, and a robot whose shell would stop them
+#: The shipped record of the built-in gestures' self-collision check: the SHA-256 of the
+#: ``gestures.toml`` and of the URDF that ``tests/sim/test_self_collision.py`` checked (with
+#: PyBullet) and the least clearance it measured. The test fails when either file changes
+#: and the record does not, so a record that matches names what was checked.
+BUILTIN_RECORD = "gestures_self_collision.json"
+#: How to have the self-collision of a library of one's own checked.
+_HOW = 'pip install "prezence[sim]" (it brings PyBullet)'
+#: The option that plays unchecked gestures on a robot anyway.
+ALLOW_UNCHECKED = "--allow-unchecked-collision"
+
+
+def builtin_hashes(limits: JointLimits) -> dict[str, str]:
+    """The SHA-256 of the built-in ``gestures.toml`` and of ``limits``' URDF, as the shipped
+    record (:data:`BUILTIN_RECORD`) writes them."""
+    from importlib import resources
+    from pathlib import Path
+
+    data = resources.files("prezence.feedback").joinpath("data", GESTURES_FILE).read_bytes()
+    return {
+        "gestures_sha256": hashlib.sha256(data).hexdigest(),
+        "urdf_sha256": hashlib.sha256(Path(limits.source).read_bytes()).hexdigest(),
+    }
+
+
+def builtin_record() -> dict[str, Any]:
+    """The shipped record of the built-in gestures' self-collision check (see
+    :data:`BUILTIN_RECORD`)."""
+    from importlib import resources
+
+    text = resources.files("prezence.feedback").joinpath("data", BUILTIN_RECORD).read_text()
+    record: dict[str, Any] = json.loads(text)
+    return record
+
+
+def unchecked_collision(library: GestureLibrary | None, *, limits: JointLimits) -> list[str]:
+    """Why the self-collision of the gestures a talk with ``library`` plays (None: the built-in
+    ones) was not checked here; empty when it was.
+
+    The gestures of a library of one's own are checked when the talk loads them, if PyBullet
+    is installed. The built-in ones are checked by the test suite; they count as checked when
+    the built-in ``gestures.toml`` and the URDF are the files the shipped record names.
+    """
+    out: list[str] = []
+    record = {k: builtin_record().get(k) for k in ("gestures_sha256", "urdf_sha256")}
+    if record != builtin_hashes(limits):
+        out.append(
+            f"the built-in {GESTURES_FILE} (or the URDF) is not the one whose self-collision "
+            f"the test suite checked: its SHA-256 is not the one {BUILTIN_RECORD} records "
+            "(run tests/sim/test_self_collision.py, which says what to record)"
+        )
+    if library is not None and library.own and not pybullet_available():
+        out.append(
+            f"{library.source}: the self-collision of its gestures was not checked: PyBullet "
+            "is not installed here"
+        )
+    return out
+
+
+def require_collision_checked(
+    library: GestureLibrary | None, *, limits: JointLimits, backend: str, allow: bool = False
+) -> list[str]:
+    """Refuse to play gestures whose self-collision was not checked on a backend that moves a
+    physical body (:attr:`~prezence.backends.base.Backend.physical`): a real NAO's shell, or its
+    joints stalling against each other, would stop a self-colliding gesture (on the
+    ``prezence[naoqi]`` install, which has no PyBullet, nothing else would say so).
+
+    Args:
+        library: the talk's library (None: the built-in one).
+        limits: joint limits.
+        backend: the backend's name, for the message.
+        allow: play them anyway (:data:`ALLOW_UNCHECKED`): the reasons are returned, to be
+            warned of and recorded.
+
+    Returns:
+        :func:`unchecked_collision`'s reasons (empty: every gesture checked).
+
+    Raises:
+        GestureCheckFailed: a reason, and not ``allow``; naming the file and how to check it.
+    """
+    reasons = unchecked_collision(library, limits=limits)
+    if reasons and not allow:
+        raise GestureCheckFailed(
+            "\n".join(
+                f"{r}; --backend {backend} moves a real robot, which plays only gestures checked "
+                f"against its own body: {_HOW} where the talk runs, or give {ALLOW_UNCHECKED} "
+                "to play them unchecked (recorded in session.json)"
+                for r in reasons
+            )
+        )
+    return reasons
+
+
 __all__ = [
+    "ALLOW_UNCHECKED",
+    "BUILTIN_RECORD",
     "MIN_CLEARANCE_M",
     "SAMPLE_DT",
     "Clearance",
     "SelfCollisionChecker",
+    "builtin_hashes",
+    "builtin_record",
     "check_own_clearance",
     "pybullet_available",
+    "require_collision_checked",
+    "unchecked_collision",
 ]

@@ -9,7 +9,9 @@ from pathlib import Path
 
 import pytest
 
+from prezence.backends.fake import FakeBackend
 from prezence.cli import main
+from prezence.errors import GestureCheckFailed
 from prezence.feedback.gesture_check import check_gestures
 from prezence.feedback.gestures import build_trajectory, load_library_file
 from prezence.feedback.limits import load_limits
@@ -212,6 +214,88 @@ def test_without_pybullet_a_talk_says_the_collision_check_was_not_made(
         r.getMessage() for r in caplog.records if "self-collision not checked" in r.getMessage()
     ]
     assert len(said) == 1 and "prezence gestures check" in said[0], said
+
+
+class _Robot(FakeBackend):
+    """A fake backend that stands for a real NAO (what --backend naoqi may be)."""
+
+    name = "robot"
+    physical = True
+
+    def open(self) -> None:
+        self.opened = True
+        super().open()
+
+
+def test_without_pybullet_a_real_robot_is_refused_an_unchecked_library(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 23's walkthrough: on the `prezence[naoqi]` install (no PyBullet) the talk only
+    # warned, and the virtual NAO was sent the crossing forearms of clasp_slow.toml
+    from prezence.feedback import collision
+    from prezence.synthetic.runner import run_talk
+    from prezence.talk import RunOptions
+
+    monkeypatch.setattr(collision, "pybullet_available", lambda: False)
+    clasp = tmp_path / "clasp.toml"
+    clasp.write_text(CLASP)
+    robot = _Robot()
+    out = tmp_path / "s"
+    with pytest.raises(GestureCheckFailed) as e:
+        run_talk(
+            "short_talk", out=out, backend=robot, options=RunOptions.default(gestures=str(clasp))
+        )
+    assert str(e.value).startswith(f"{clasp}: the self-collision of its gestures was not checked")
+    assert 'pip install "prezence[sim]"' in str(e.value)
+    assert "--allow-unchecked-collision" in str(e.value)
+    assert not getattr(robot, "opened", False) and not out.exists()
+    # the command line: refused before the robot is reached (the port is closed)
+    argv = ["-q", "run", "short_talk", "--backend", "naoqi", "--robot", "tcp://127.0.0.1:1"]
+    assert main([*argv, "--gestures", str(clasp), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {clasp}: the self-collision of its gestures was not checked")
+    assert not out.exists()
+
+
+def test_an_unchecked_library_plays_on_a_robot_only_when_asked_and_is_recorded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    from prezence.feedback import collision
+    from prezence.synthetic.runner import run_talk
+    from prezence.talk import RunOptions
+
+    monkeypatch.setattr(collision, "pybullet_available", lambda: False)
+    clasp = tmp_path / "clasp.toml"
+    clasp.write_text(CLASP)
+    opts = RunOptions.default(gestures=str(clasp), allow_unchecked_collision=True)
+    with caplog.at_level("WARNING"):
+        run_talk("short_talk", out=tmp_path / "s", backend=_Robot(), options=opts)
+    meta = json.loads((tmp_path / "s" / "session.json").read_text())
+    assert meta["self_collision_unchecked"] == [
+        f"{clasp}: the self-collision of its gestures was not checked: PyBullet is not "
+        "installed here"
+    ]
+    assert any("playing them unchecked on the robot" in r.getMessage() for r in caplog.records)
+    # with PyBullet (or the built-in gestures only) nothing is recorded
+    run_talk("short_talk", out=tmp_path / "b", backend=_Robot(), options=RunOptions.default())
+    assert "self_collision_unchecked" not in json.loads((tmp_path / "b/session.json").read_text())
+
+
+def test_built_in_gestures_not_the_ones_the_tests_checked_are_refused_on_a_robot(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the built-in library is trusted on a robot without PyBullet because the shipped record
+    # names the gestures.toml (and URDF) tests/sim/test_self_collision.py checked: an edited
+    # gestures.toml is no longer that file
+    from prezence.feedback import collision
+    from prezence.synthetic.runner import run_talk
+    from prezence.talk import RunOptions
+
+    record = {**collision.builtin_record(), "gestures_sha256": "0" * 64}
+    monkeypatch.setattr(collision, "builtin_record", lambda: record)
+    with pytest.raises(GestureCheckFailed, match="the built-in gestures.toml"):
+        run_talk("short_talk", out=tmp_path / "s", backend=_Robot(), options=RunOptions.default())
+    assert not (tmp_path / "s").exists()
 
 
 #: slow_down of four 5 s holds (the walkthrough's toolong.toml): each keyframe within its limits,

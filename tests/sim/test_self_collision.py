@@ -18,8 +18,11 @@ import pytest
 pytest.importorskip("pybullet")
 
 from prezence.feedback.collision import (  # noqa: E402
+    BUILTIN_RECORD,
     MIN_CLEARANCE_M,
     SelfCollisionChecker,
+    builtin_hashes,
+    builtin_record,
 )
 from prezence.feedback.gesture_check import check_gestures  # noqa: E402
 from prezence.feedback.gestures import (  # noqa: E402
@@ -158,3 +161,25 @@ def test_gestures_check_reports_self_clearance() -> None:
     rows = report["gestures"]
     assert all(r["clearance_mm"] >= 1000 * MIN_CLEARANCE_M for r in rows)
     assert {tuple(r["clearance_links"]) for r in rows} >= {("l_gripper", "r_gripper")}
+
+
+def test_the_shipped_record_names_the_gestures_checked_here(checker: SelfCollisionChecker) -> None:
+    # a talk on a real NAO without PyBullet trusts the built-in gestures because this record
+    # names the files checked here (session 23): it must be of these files, and they must pass
+    least = min(
+        checker.trajectory_clearance(
+            build_trajectory(n, params=p, speed_fraction=DEFAULT_SPEED_FRACTION, limits=LIMITS),
+            dt=0.01,
+        ).distance_m
+        for n, p in CASES
+    )
+    assert least >= MIN_CLEARANCE_M
+    want = {
+        **builtin_hashes(LIMITS),
+        "least_clearance_mm": round(1000 * least, 1),
+        "checked_by": "tests/sim/test_self_collision.py",
+    }
+    assert builtin_record() == want, (
+        f"the built-in gestures pass; write to prezence/feedback/data/{BUILTIN_RECORD}:\n"
+        + json.dumps(want, indent=2)
+    )

@@ -616,7 +616,7 @@ def test_gestures_check_takes_a_library_file_of_your_own(
     assert main(["gestures", "check", str(path), "--no-collisions"]) == 0
     out = capsys.readouterr().out
     assert f"gestures of {path} at 60%" in out
-    rows = [ln.split()[0] for ln in out.splitlines()[3:-2]]
+    rows = [ln.split()[0] for ln in out.splitlines()[3:-3]]  # -3: the summary and two notes
     assert rows == ["slow_down"]  # its own gestures only: the built-in ones are checked alone
     assert "1/1 timings ok (1 gesture of" in out  # not "1 gestures"
     others = len(load_library().names) - 1  # the built-in ones but slow_down, whatever they are
@@ -679,6 +679,26 @@ def test_no_collisions_asked_for_is_not_blamed_on_a_missing_pybullet(
     assert "needs pybullet" not in text
     report = json.loads(check_gestures(0.6, as_json=True, collisions=False)[0])
     assert report["settings"]["self_collision"] == "not checked (--no-collisions)"
+
+
+def test_without_pybullet_gestures_check_prints_no_plain_ok(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    # session 23's walkthrough: each row said `ok` though its self-collision was not checked,
+    # and a talk on a real robot then played crossing forearms
+    import prezence.feedback.gesture_check as gc
+
+    monkeypatch.setattr(gc, "pybullet_available", lambda: False)
+    mine = tmp_path / "mine.toml"
+    mine.write_text(
+        'format = 1\n[gestures.articulate]\ndescription = ""\n'
+        "[[gestures.articulate.keyframes]]\npose = { LShoulderPitch = 20.0 }\n"
+    )
+    text, status = check_gestures(0.6, as_json=False, library=mine)
+    rows = [line for line in text.splitlines() if line.startswith("articulate")]
+    assert rows and all(r.endswith("ok but self-collision not checked") for r in rows), text
+    assert f"self-collision of the gestures of {mine} not checked: a talk on a real robot" in text
+    assert "--allow-unchecked-collision" in text
 
 
 def test_a_phrase_the_robots_voice_cannot_say_as_written_is_warned_of_with_its_line(
