@@ -827,11 +827,14 @@ def cmd_check_config(args: argparse.Namespace) -> int:
         except ConfigError as e:
             problems.append(str(e))
     if args.gestures:
-        from prezence.feedback.gestures import load_library_file
+        from prezence.feedback.gestures import library_for_talk
 
+        # the checks a talk makes at --speed, by the function a talk calls (a library every
+        # talk refuses, beyond a limit, self-colliding or too long, was said ok); the commands
+        # the rules give are checked against it below, per file
         try:
-            library = load_library_file(args.gestures)
-        except PrezenceError as e:  # not a library: checked as `gestures check FILE` does
+            library = library_for_talk(args.gestures, speed_fraction=args.speed)
+        except PrezenceError as e:
             problems.append(str(e))
     notes: list[str] = []
     good: list[Path] = []  # each file is checked, and said ok, on its own: a lint step's view
@@ -1198,8 +1201,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--gestures",
         metavar="FILE",
-        help="the gesture library of your own the talks will play: every command the rules "
-        "can give must have its gesture there or built in",
+        help="the gesture library of your own the talks will play: checked as a talk checks "
+        "it (limits, self-collision, duration at --speed), and every command the rules can "
+        "give must have its gesture there or built in",
+    )
+    p.add_argument(
+        "--speed",
+        type=speed_fraction,
+        default=DEFAULT_SPEED_FRACTION,
+        help=f"the talks' gesture speed fraction (0..1], default {DEFAULT_SPEED_FRACTION}",
     )
     p.set_defaults(func=cmd_check_config)
 

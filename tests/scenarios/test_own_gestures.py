@@ -383,3 +383,44 @@ def test_a_refused_talk_leaves_the_session_already_in_its_folder_as_it_was(
     rc = main(["-q", "run", "short_talk", "--gestures", str(long), "--out", str(recording)])
     assert rc == 2 and "takes 21.6 s > 10 s" in capsys.readouterr().err
     assert {p: p.read_bytes() for p in recording.rglob("*") if p.is_file()} == before
+
+
+BEYOND = """format = 1
+[gestures.gesture_more]
+description = "arms too wide"
+mirror = true
+[[gestures.gesture_more.keyframes]]
+pose = { LShoulderPitch = 35.0, LShoulderRoll = 95.0, LElbowRoll = -20.0, LHand = 1.0 }
+"""
+
+
+@pytest.mark.parametrize(
+    ("text", "says"),
+    [
+        (BEYOND, ":5: gesture 'gesture_more' keyframes[0]: LShoulderRoll = 95.0° is outside"),
+        (TOO_LONG, ":2: gesture 'slow_down' fails `prezence gestures check"),
+        (CLASP, ":2: gesture 'articulate': self-collision: "),
+    ],
+    ids=["beyond-limit", "too-long", "self-collision"],
+)
+def test_check_config_with_a_library_fails_what_every_talk_refuses(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, says: str
+) -> None:
+    # session 23's walkthrough: `check-config RULES --gestures FILE` said `RULES: ok` (exit 0)
+    # for libraries that every talk refused (exit 2)
+    if "self-collision" in says:
+        pytest.importorskip("pybullet", reason="the self-collision check needs the sim extra")
+    rules = tmp_path / "myrules.txt"
+    rules.write_text("speech_speed inRange 140 180 speedUp slowDown\n")
+    mine = tmp_path / "mine.toml"
+    mine.write_text(text)
+    assert main(["-q", "check-config", str(rules), "--gestures", str(mine)]) == 1
+    captured = capsys.readouterr()
+    assert f"{rules}: ok" not in captured.out
+    assert captured.err.startswith(f"{mine}{says}"), captured.err
+    # and what a talk refuses, it refuses with the same words
+    assert (
+        main(["-q", "run", "short_talk", "--gestures", str(mine), "--out", str(tmp_path / "s")])
+        == 2
+    )
+    assert f"{mine}{says}" in capsys.readouterr().err
