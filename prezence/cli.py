@@ -905,6 +905,25 @@ def cmd_gestures_render(args: argparse.Namespace) -> int:
     params = {"minutes": args.minutes} if args.minutes is not None else None
     render_gesture(args.name, out, video, params=params, library=library)
     print(f"wrote {out} and {video}")
+    # drawn as planned, but a gesture a talk refuses is said to be one (a position-limit
+    # error stops the render itself)
+    from prezence.feedback.gesture_check import gesture_failure
+    from prezence.feedback.gestures import load_library
+
+    lib = library if library is not None else load_library()
+    gesture = lib[args.name]
+    failure = gesture_failure(
+        args.name,
+        gesture.resolve_params(params) or None,
+        speed_fraction=DEFAULT_SPEED_FRACTION,
+        library=lib,
+    )
+    if failure:
+        print(
+            f"warning: {gesture.at()}gesture '{args.name}' fails `prezence gestures check"
+            f"{' ' + str(args.library) if args.library else ''}`: {failure}; a talk refuses it",
+            file=sys.stderr,
+        )
     return 0
 
 

@@ -208,6 +208,34 @@ def _row(
     return row
 
 
+def gesture_failure(
+    name: str,
+    params: dict[str, int] | None,
+    *,
+    speed_fraction: float,
+    library: GestureLibrary | None = None,
+    limits: JointLimits | None = None,
+) -> str | None:
+    """What fails ``gestures check`` in one gesture case that can be planned (its row's
+    error: self-collision where PyBullet is, too long, too slow…), or None when it passes or
+    cannot be planned at all (out of a position limit: planning it raises that error itself).
+
+    ``gestures render`` says it (session 23: it drew a self-colliding gesture without a word).
+    """
+    limits = limits if limits is not None else load_limits()
+    lib = library if library is not None else load_library(limits)
+    with ExitStack() as stack:
+        checker = (
+            stack.enter_context(SelfCollisionChecker(limits=limits, library=lib))
+            if pybullet_available()
+            else None
+        )
+        row = _row(name, name, params, speed_fraction, limits, lib, checker)
+    if row["ok"] or "duration_s" not in row:
+        return None
+    return str(row["error"])
+
+
 def check_gestures(
     speed_fraction: float,
     *,

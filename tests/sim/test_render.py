@@ -159,3 +159,50 @@ def test_a_parameter_out_of_range_is_rendered_and_titled_as_played(
     assert titles == [
         f"time_left {{'minutes': 5}}: {result['planned_s']:.2f} s planned at 60% speed"
     ]
+
+
+CLASP = """format = 1
+[gestures.articulate]
+description = "Hands clasped in front."
+[[gestures.articulate.keyframes]]
+pose = { LShoulderPitch = -5.0, LShoulderRoll = -10.0, LElbowYaw = -40.0, LElbowRoll = -82.0, \
+RShoulderPitch = -5.0, RShoulderRoll = 10.0, RElbowYaw = 40.0, RElbowRoll = 82.0 }
+hold = 0.3
+"""
+#: two 4 s holds and back: 12 s at the default speed, more than a talk allows
+LONG = (
+    'format = 1\n[gestures.summary]\ndescription = "long"\n'
+    "[[gestures.summary.keyframes]]\npose = { HeadPitch = 15.0 }\nhold = 5\n"
+    "[[gestures.summary.keyframes]]\npose = { HeadPitch = -5.0 }\nhold = 5\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("text", "name", "says"),
+    [
+        (CLASP, "articulate", "self-collision: "),
+        (LONG, "summary", "takes "),
+    ],
+    ids=["self-collision", "too-long"],
+)
+def test_render_says_when_the_gesture_it_draws_fails_the_check(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, name: str, says: str
+) -> None:
+    # session 23's walkthrough: the contact sheet showed forearms passing through each other
+    # (and a 13.8 s gesture) without a word, while a position-limit error was refused
+    from prezence.cli import main
+
+    mine = tmp_path / "mine.toml"
+    mine.write_text(text)
+    out = tmp_path / "g.png"
+    argv = ["gestures", "render", name, "--out", str(out), "--video", str(tmp_path / "g.gif")]
+    assert main([*argv, "--library", str(mine)]) == 0
+    assert out.stat().st_size > 0  # drawn as planned
+    err = capsys.readouterr().err
+    assert (
+        f"warning: {mine}:2: gesture '{name}' fails `prezence gestures check {mine}`: {says}"
+        in (err)
+    ), err
+    assert "a talk refuses it" in err
+    assert main(argv) == 0  # a built-in gesture passes: no word
+    assert "fails `prezence gestures check" not in capsys.readouterr().err
