@@ -811,7 +811,7 @@ def build_trajectory(
     targets = [(kf.pose, kf.hold, kf.where, kf.line) for kf in frames]
     targets.append((lib.neutral, 0.0, "return to neutral", None))
     for pose, hold, where, line in targets:
-        goal = limits.couple(dict(pose))
+        goal = limits.snap(limits.couple(dict(pose)), pose=current)
         current.update(goal)
         limits.check(current, where=f"{gesture.at(line)}gesture '{name}' {where}", pose=current)
         q = tuple(current[j] for j in joints)

@@ -87,6 +87,10 @@ HANDS = frozenset({"LHand", "RHand"})
 #: bends a knee or a hip can fall), and the sim backend holds them rigid.
 LEGS = frozenset(CHAINS["LLeg"] + CHAINS["RLeg"])
 HIP_YAW_PITCH = ("LHipYawPitch", "RHipYawPitch")
+#: How far past a URDF limit a keyframe may be written and still be taken as meaning the limit
+#: (:meth:`JointLimits.snap`): 0.001° in radians (a hand's opening: 1.7e-5). The URDF rounds the
+#: NAO's documented whole-degree limits by up to 2e-5°.
+DOCUMENTED_TOL = math.radians(0.001)
 
 #: Head anti-collision (|HeadYaw| rad → HeadPitch min, max rad), symmetric in yaw. Aldebaran
 #: "H25 – Joints" head table, as transcribed in nao_facts.md §7.2.
@@ -312,6 +316,29 @@ class JointLimits:
             context["HeadYaw"] = out.get("HeadYaw", context.get("HeadYaw", 0.0))
             lo, hi = self.range("HeadPitch", context)
             out["HeadPitch"] = min(max(float(out["HeadPitch"]), lo), hi)
+        return out
+
+    def snap(
+        self, targets: Mapping[str, float], *, pose: Mapping[str, float] | None = None
+    ) -> dict[str, float]:
+        """Targets within :data:`DOCUMENTED_TOL` past a limit, moved onto it.
+
+        The NAO's documentation gives its limits in whole degrees (LShoulderRoll -18° .. 76°);
+        the URDF's radians round them a hair inside (-17.99998°). A keyframe written with the
+        documented value is meant to reach the limit, not to break it: it is moved onto the
+        URDF's value (at most 0.001°, far below the joint encoders' resolution). A value further
+        out is left as written, for :meth:`check` to refuse.
+        """
+        out = dict(targets)
+        context = {**(pose or {}), **out}
+        for name, value in out.items():
+            if name not in self._joints:
+                continue
+            lo, hi = self.range(name, context)
+            if lo - DOCUMENTED_TOL <= value < lo:
+                out[name] = lo
+            elif hi < value <= hi + DOCUMENTED_TOL:
+                out[name] = hi
         return out
 
     def violations(

@@ -279,11 +279,31 @@ def test_a_gesture_too_long_to_plan_is_refused_not_allocated(keyframes: str, mes
         parse_library(_tiny_library(keyframes), limits=LIMITS)
 
 
-def test_a_value_just_past_a_limit_reads_past_it() -> None:
-    # The NAO documents LShoulderRoll's limit as -18 degrees; the URDF's is -17.99998.
-    # The message said "-18.0° is outside [-18.0°, 76.0°]".
+@pytest.mark.parametrize(
+    ("joint", "degrees"), [("LShoulderRoll", -18.0), ("LShoulderRoll", 76.0), ("LElbowRoll", -2.0)]
+)
+def test_the_naos_documented_limit_is_accepted_and_reached_not_passed(
+    joint: str, degrees: float
+) -> None:
+    # Session 23's gesture designer wrote LShoulderRoll = 76 from Aldebaran's joint table and
+    # was refused: "76.00000° is outside [-17.99998°, 75.99999°]" (the URDF rounds the limits).
     lib = parse_library(
-        _tiny_library("[[gestures.wave.keyframes]]\npose = { LShoulderRoll = -18.0 }\n"),
+        _tiny_library(f"[[gestures.wave.keyframes]]\npose = {{ {joint} = {degrees} }}\n"),
+        limits=LIMITS,
+    )
+    traj = build_trajectory("wave", speed_fraction=0.6, limits=LIMITS, library=lib)
+    col = [p[traj.joints.index(joint)] for p in traj.positions]
+    lo, hi = LIMITS.lower[joint], LIMITS.upper[joint]
+    at_lower = abs(math.radians(degrees) - lo) < abs(math.radians(degrees) - hi)
+    assert (min(col) == lo) if at_lower else (max(col) == hi)
+    assert all(LIMITS.lower[joint] <= v <= LIMITS.upper[joint] for v in col)
+
+
+def test_a_value_just_past_a_limit_reads_past_it() -> None:
+    # 0.01° past the documented -18° is refused, and the message shows the decimals that tell
+    # the two apart (it said "-18.0° is outside [-18.0°, 76.0°]").
+    lib = parse_library(
+        _tiny_library("[[gestures.wave.keyframes]]\npose = { LShoulderRoll = -18.01 }\n"),
         limits=LIMITS,
     )
     with pytest.raises(LimitViolation) as e:
