@@ -289,7 +289,9 @@ def _parse_pose(
     pose: dict[str, float] = {}
     for joint, value in table.items():
         if joint not in known:
-            raise doc.error(str(UnknownName("joint", joint, known)), f"{key}.{joint}")
+            # a gesture may not move a leg: hinting one (HeadRoll → RHipRoll) led to a refusal
+            hint = known if legs else known - LEGS
+            raise doc.error(str(UnknownName("joint", joint, hint)), f"{key}.{joint}")
         if joint in LEGS and not legs:
             raise doc.error(
                 f"{joint} is a leg joint: gestures move the head, arms and hands only "

@@ -32,7 +32,7 @@ from prezence.feedback.gestures import (
     time_optimal_minimum,
     unplayed,
 )
-from prezence.feedback.limits import JointLimits, load_limits
+from prezence.feedback.limits import LEGS, JointLimits, load_limits
 from prezence.feedback.trajectory import ACCEL_TIME_S, Trajectory
 
 LIMITS = load_limits()
@@ -297,6 +297,20 @@ def test_the_naos_documented_limit_is_accepted_and_reached_not_passed(
     at_lower = abs(math.radians(degrees) - lo) < abs(math.radians(degrees) - hi)
     assert (min(col) == lo) if at_lower else (max(col) == hi)
     assert all(LIMITS.lower[joint] <= v <= LIMITS.upper[joint] for v in col)
+
+
+@pytest.mark.parametrize("joint", ["HeadRoll", "LWristPitch"])
+def test_a_misspelt_joint_is_not_pointed_at_a_leg_joint_a_gesture_may_not_move(joint: str) -> None:
+    # Session 23's gesture designer: HeadRoll got "did you mean 'RHipRoll'?", LWristPitch
+    # "'LHipPitch'", and the known list held the 12 leg joints, each then refused.
+    with pytest.raises(ConfigError) as e:
+        parse_library(
+            _tiny_library(f"[[gestures.wave.keyframes]]\npose = {{ {joint} = 10 }}\n"),
+            limits=LIMITS,
+        )
+    said = str(e.value)
+    assert f"unknown joint '{joint}'" in said
+    assert not any(leg in said for leg in LEGS), said
 
 
 def test_a_value_just_past_a_limit_reads_past_it() -> None:
