@@ -274,6 +274,16 @@ class NaoqiBackend(Backend):
             )
         if not reconnect_max_s >= reconnect_initial_s:
             raise ValueError("reconnect_max_s must be >= reconnect_initial_s")
+        if neutral_speed_fraction > REAL_NAO_SPEED_MAX:
+            # as for a talk's --speed: the URDF's velocities are no-load values
+            log.warning(
+                "neutral_speed_fraction %.2g moves to the neutral pose at %.0f%% of the joints' "
+                "maximum speed, which a loaded real NAO joint does not reach; use %.1f or less "
+                "on a real robot (docs/naoqi.md)",
+                neutral_speed_fraction,
+                100 * neutral_speed_fraction,
+                REAL_NAO_SPEED_MAX,
+            )
         self.url = url
         self.connect_timeout_s = float(connect_timeout_s)
         self.call_timeout_s = float(call_timeout_s)

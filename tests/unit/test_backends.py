@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import pytest
 
 from prezence.backends.check import CHECK_TRAJECTORY, check_backend
@@ -108,3 +110,17 @@ def test_naoqi_link_lost_while_two_motions_run_fails_both_once() -> None:
     assert phrase.done and not phrase.ok and "robot lost" in phrase.info["error"]
     stats = backend.stats()
     assert stats["failed"] == 2 and stats["disconnects"] == 1
+
+
+def test_a_fast_move_to_neutral_on_a_real_robot_is_warned_of_as_a_fast_speed_is(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # Session 23's gesture designer: --robot-option neutral_speed_fraction=1.0 was taken without
+    # the over-0.7 warning --speed gets (the URDF's velocities are no-load values).
+    from prezence.backends.naoqi import NaoqiBackend
+
+    with caplog.at_level(logging.WARNING, logger="prezence.backends.naoqi"):
+        NaoqiBackend(url="tcp://127.0.0.1:9", neutral_speed_fraction=0.5)
+        assert not caplog.records
+        NaoqiBackend(url="tcp://127.0.0.1:9", neutral_speed_fraction=1.0)
+    assert "use 0.7 or less on a real robot" in caplog.records[0].getMessage()
