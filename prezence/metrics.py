@@ -231,6 +231,18 @@ METRICS: Mapping[str, Metric] = {
             band=("inRange", 2.0, 12.0),
             first_after_s=10.0,  # the vision module's GESTURE_MIN_WINDOW_S
         ),
+        # the frame-difference fallback's rate, when the pose model cannot run (or with
+        # --gesture-source motion): no built-in rule judges it, as it misses most gestures,
+        # counts other motion and reads 0 with no one in view; a rule of your own may
+        Metric(
+            "cv_gestures_motion",
+            "gestures/min",
+            "gestures from the frame difference",
+            "vision",
+            _VISION,
+            advice={"below": "use your hands more", "above": "calm your hands"},
+            first_after_s=10.0,
+        ),
     )
 }
 

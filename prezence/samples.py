@@ -46,6 +46,11 @@ GESTURES = "cv_gestures"  # gestures per minute
 #: where each ``cv_gestures`` value came from (the body, the frame difference, not measured):
 #: a stream of the vision module's own, read by the report, not a metric the rules judge
 GESTURES_SOURCE = "cv_gestures_source"
+#: the frame-difference fallback's gesture rate (gestures per minute): written under a metric of
+#: its own, which no default rule judges, rather than as ``cv_gestures`` (session 23: the
+#: processor judged it like the body's rate and cued "use your hands more" on a video with no
+#: one in it, while the report called it too unreliable to advise on)
+GESTURES_MOTION = "cv_gestures_motion"
 DEFAULT_METRICS = (SPEECH_SPEED, SPEECH_VOLUME, SPEECH_ACCURACY, HEAD_GAZE, GESTURES)
 #: Every metric the shipped modules write: the metric records (:data:`prezence.metrics.METRICS`).
 #: A rule on another metric is allowed (your own module) but gets a "did you mean" warning, as

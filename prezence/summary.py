@@ -268,6 +268,8 @@ def measurement_notes(
             f"{CLIPPED_NOTE} ({clipped}, speech.log), so its level is the recorder's limit, "
             f"not your voice's: {gain}"
         )
+    # a folder written before session 23, whose fallback rate went to cv_gestures (since then
+    # it goes to cv_gestures_motion, and vision.json lists cv_gestures as not measured)
     if GESTURES_FROM_MOTION in _stream_values(root, "cv_gestures_source"):
         less["cv_gestures"] = (
             "counted from the frame difference, the fallback when the pose model cannot "

@@ -7,7 +7,7 @@ Run it as its own process::
         [--calibrate-s 3] [--audience-yaw DEG --audience-pitch DEG] [--fps 8] [--realtime]
         [--gesture-source auto|body|motion]
 
-It writes four metrics and one source stream, ``SESSION/streams/<name>.txt``, one
+It writes five metrics and one source stream, ``SESSION/streams/<name>.txt``, one
 ``<t> <value>`` line per sample,
 ``t`` in seconds since the talk began (video time for a file; for a camera, wall time minus
 ``--t0``, or since the module started):
@@ -24,10 +24,14 @@ cv_facingAudience   fraction of the analysed frames in the last           1 Hz
                     |pitch| are within ``--facing-tolerance`` (20, 15 deg)
 cv_gestures         gestures per minute over the last                     1 Hz, once 10 s
                     ``--gesture-window`` s (30; over all the video seen   of video have
-                    so far, early in the talk)                            been seen
+                    so far, early in the talk), from the body             been seen
+cv_gestures_motion  the same rate from the frame difference (the          as cv_gestures
+                    fallback), instead of cv_gestures: no default rule
+                    judges it
 cv_gestures_source  where the rate came from: 1 the body's wrists, 2 the  1 Hz, with each
-                    frame difference (fallback), 0 not measured (the      cv_gestures, or
-                    presenter's body out of view, another person's, or   instead of one
+                    frame difference (fallback; the rate is in            rate, or
+                    cv_gestures_motion), 0 not measured (the              instead of one
+                    presenter's body out of view, another person's, or
                     its hands not seen well; no cv_gestures at that t),
                     3 the body's wrists, but in 10 % or more of the
                     window an arm was hidden (or the body out of view):
@@ -84,7 +88,12 @@ Two faces in view: FaceMesh finds up to 3; head pose follows the presenter's
     (:class:`PresenterFace`), and a second face is logged once.
 
 Gestures from the frame difference (the fallback: OpenCV only, when mediapipe is not here,
-or ``--gesture-source motion``; the log says so, and ``cv_gestures_source`` is 2):
+or ``--gesture-source motion``; the log says so, and ``cv_gestures_source`` is 2). Its rate is
+written as ``cv_gestures_motion``, not ``cv_gestures``, and ``vision.json`` lists
+``cv_gestures`` as not measured, with why: the fallback misses most gestures, counts other
+motion and cannot tell no one in view from a presenter who does not gesture (session 23: a
+screencast of slides got "use your hands more"), so no default rule advises from it; a rule
+of your own on ``cv_gestures_motion`` may.
     Motion energy = the fraction of pixels of the blurred grey frame (resized to 160 px wide)
     that changed by more than 15 grey levels since the last analysed frame, outside the face
     box (grown by half its size sideways and up, a quarter down) when head pose runs. A frame
@@ -157,13 +166,13 @@ from prezence.modules.common import (
     resume_offset,
     setup_logging,
 )
-from prezence.samples import GESTURES, GESTURES_SOURCE, HEAD_GAZE
+from prezence.samples import GESTURES, GESTURES_MOTION, GESTURES_SOURCE, HEAD_GAZE
 
 log = logging.getLogger(__name__)
 
 HEAD_YAW = "cv_headYaw"
 FACING_AUDIENCE = "cv_facingAudience"
-METRICS = (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE, GESTURES)
+METRICS = (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE, GESTURES, GESTURES_MOTION)
 #: Every stream file this module writes: the metrics and where the gesture rate came from.
 STREAMS = (*METRICS, GESTURES_SOURCE)
 
@@ -1785,10 +1794,28 @@ class RunSummary:
 STATUS_FILE = "vision.json"
 
 
+def motion_fallback_why(opts: VisionOptions) -> str:
+    """Why ``cv_gestures`` is not measured when the gesture rate comes from the frame
+    difference (its rate goes to ``cv_gestures_motion`` instead, which no default rule
+    judges), for ``vision.json`` and so the report."""
+    why = (
+        "--gesture-source motion was asked for"
+        if opts.gesture_source == "motion"
+        else "the pose model that counts gestures from the body cannot run here (it needs "
+        "mediapipe: python -m prezence.modules.vision_env install)"
+    )
+    return (
+        f"{why}; the frame-difference fallback's rate is in {GESTURES_MOTION}, too unreliable "
+        "to advise on (it misses most gestures, counts other motion, and cannot tell no one "
+        "in view from no gestures)"
+    )
+
+
 def write_status(out: Path, opts: VisionOptions, *, head_on: bool, gesture_source: str) -> None:
     """Write ``out/vision.json``: the metrics head pose would have given and why it did not
     (``off``), and where the gesture rate comes from, so the report can say so rather than
-    "the camera saw no face"."""
+    "the camera saw no face". With the frame-difference fallback ``cv_gestures`` is in ``off``
+    too (:func:`motion_fallback_why`)."""
     import json
 
     why = None
@@ -1796,9 +1823,12 @@ def write_status(out: Path, opts: VisionOptions, *, head_on: bool, gesture_sourc
         why = "head pose was turned off (--no-head)"
     elif not head_on:
         why = f"head pose was off: {install_hint()}"
+    off = {m: why for m in (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE)} if why else {}
+    if opts.gestures and gesture_source == "motion":
+        off[GESTURES] = motion_fallback_why(opts)
     status = {
         "format": 1,
-        "off": {m: why for m in (HEAD_GAZE, HEAD_YAW, FACING_AUDIENCE)} if why else {},
+        "off": off,
         "gesture_source": gesture_source if opts.gestures else "off",
     }
     Path(out).mkdir(parents=True, exist_ok=True)
@@ -1865,10 +1895,17 @@ def run(
         else:
             log.warning(
                 "gesture rate from the frame difference (fallback%s): head motion outside the "
-                "face box, a moving background or lighting may be counted as gestures",
+                "face box, a moving background or lighting may be counted as gestures, and no "
+                "one in view reads as no gestures; it is written as %s, which no default rule "
+                "judges, and %s is not measured",
                 ", the pose model cannot run here" if opts.gesture_source == "auto" else "",
+                GESTURES_MOTION,
+                GESTURES,
             )
     source_code = SOURCE_BODY if tracker is not None else SOURCE_MOTION
+    # the fallback's rate under a metric of its own, which no default rule judges: the
+    # processor stays one path, and nothing advises from a source too unreliable to
+    rate_metric = GESTURES if tracker is not None else GESTURES_MOTION
     presenter_face = PresenterFace()
     presenter_body = PresenterBody()
     last_nose: np.ndarray | None = None  #: the presenter's face keypoints (pose model), last
@@ -2019,7 +2056,7 @@ def run(
                                 )
                         else:
                             partly_since = None
-                        write(GESTURES, next_report, rate)
+                        write(rate_metric, next_report, rate)
                         write(GESTURES_SOURCE, next_report, code)
                         if not_measured_since is not None:
                             log.info(

@@ -192,7 +192,10 @@ def test_up_with_file_inputs_runs_a_short_live_talk(
     assert main([*argv, "--duration", "19", "--out", str(out)]) == 0
     streams = out / "streams"
     assert (streams / "speech_speed.txt").read_text().strip()  # the speech module ran live
-    assert (streams / "cv_gestures.txt").read_text().strip()  # and the vision module
+    # and the vision module: the body's gesture rate, or the fallback's under its own metric
+    assert any(
+        (streams / f).read_text().strip() for f in ("cv_gestures.txt", "cv_gestures_motion.txt")
+    )
     decisions = read_jsonl(out / "decisions.jsonl")
     assert decisions
     # every decision point up to --duration was taken (the video runs longer than the audio)
@@ -858,3 +861,53 @@ def test_a_module_hung_before_its_first_value_ran_and_is_said_once(
         assert "could not run" not in said, said
         assert "module fillers hung at 0:00 and was not restarted" in said, said
         assert "killed at 0:00" not in said
+
+
+def _slides_video(path: Path, seconds: int = 30) -> Path:
+    """A screencast-style video with no one in it: static coloured slides, 8 s each, no sound."""
+    import cv2
+    import numpy as np
+
+    fps, w, h = 10, 160, 120
+    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
+    colours = [(200, 80, 40), (40, 160, 220), (90, 200, 90), (220, 220, 220)]
+    for i in range(seconds * fps):
+        frame = np.zeros((h, w, 3), np.uint8)
+        frame[:] = colours[(i // (8 * fps)) % len(colours)]
+        vw.write(frame)
+    vw.release()
+    return path
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["rehearse", "up"])
+def test_the_frame_difference_fallback_gives_no_gesture_advice_on_a_video_with_no_one_in_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: str
+) -> None:
+    # Session 23, a tester's screencast (slides, no person, no vision env): the fallback's
+    # 0 gestures/min was judged like the body's and the robot said "Use your hands more" at
+    # 0:20.5, while the report called that source too unreliable to advise on.
+    from prezence.modules.vision import mediapipe_available
+
+    if mediapipe_available():
+        pytest.skip("mediapipe is importable here: gestures come from the body")
+    monkeypatch.setenv("PREZENCE_VISION_VENV", str(tmp_path / "no-vision-env"))
+    video = _slides_video(tmp_path / "slides.mp4")
+    out = tmp_path / "s"
+    if command == "rehearse":
+        argv = ["-q", "rehearse", str(video)]
+    else:
+        argv = ["-q", "up", "--video", str(video), "--backend", "fake"]
+    assert main([*argv, "--allocated", "1m", "--out", str(out)]) == 0
+    cues = read_jsonl(out / "cues.jsonl") if (out / "cues.jsonl").exists() else []
+    assert not [c for c in cues if "gesture" in str(c.get("metric"))], cues
+    # the fallback's rate is kept, under a metric of its own that no default rule judges
+    assert (out / "streams" / "cv_gestures_motion.txt").read_text().strip()
+    assert not (out / "streams" / "cv_gestures.txt").read_text().strip()
+    summary = json.loads((out / "summary.json").read_text())
+    gestures = summary["metrics"]["cv_gestures"]
+    assert gestures["samples"] == 0 and gestures["measured"] is False
+    assert "cv_gestures_motion" in gestures["not_measured_why"]
+    text = (out / "report" / "summary.txt").read_text()
+    assert "gestures: not measured: the pose model that counts gestures" in text
+    assert "use your hands" not in (out / "report" / "spoken.txt").read_text().lower()

@@ -90,7 +90,7 @@ def test_gesture_detector_finds_no_extra_bursts(gesture_run: tuple[Any, Path]) -
 
 def test_gesture_rate_stream_matches_the_true_rate(gesture_run: tuple[Any, Path]) -> None:
     summary, out = gesture_run
-    rates = read_stream(out / "streams" / "cv_gestures.txt")
+    rates = read_stream(out / "streams" / "cv_gestures_motion.txt")
     t_end, rate = rates[-1]
     window = VisionOptions().gesture_window_s
     n_true = sum(1 for b in GEST["bursts"] if t_end - window < b["start"] <= t_end)
@@ -99,7 +99,7 @@ def test_gesture_rate_stream_matches_the_true_rate(gesture_run: tuple[Any, Path]
 
 def test_gesture_rate_is_one_sample_per_second_from_10_s(gesture_run: tuple[Any, Path]) -> None:
     _, out = gesture_run
-    times = [t for t, _ in read_stream(out / "streams" / "cv_gestures.txt")]
+    times = [t for t, _ in read_stream(out / "streams" / "cv_gestures_motion.txt")]
     assert times == [float(i) for i in range(10, int(GEST["duration_s"]))]
 
 
@@ -159,7 +159,7 @@ def test_a_gesture_window_shorter_than_10_s_is_used_as_is(tmp_path: Path) -> Non
         run(source, tmp_path, opts)
     finally:
         source.close()
-    times = [t for t, _ in read_stream(tmp_path / "streams" / "cv_gestures.txt")]
+    times = [t for t, _ in read_stream(tmp_path / "streams" / "cv_gestures_motion.txt")]
     assert times == [5.0, 6.0, 7.0, 8.0]
 
 
@@ -242,7 +242,7 @@ def test_cli_without_mediapipe_still_writes_the_gesture_rate(tmp_path: Path) -> 
     assert proc.returncode == 0, proc.stderr
     assert "python -m prezence.modules.vision_env install" in proc.stderr
     assert "gesture rate from the frame difference (fallback" in proc.stderr
-    times = [t for t, _ in read_stream(tmp_path / "streams" / "cv_gestures.txt")]
+    times = [t for t, _ in read_stream(tmp_path / "streams" / "cv_gestures_motion.txt")]
     assert times == [10.0, 11.0, 12.0]  # none before 10 s of video
     source = read_stream(tmp_path / "streams" / "cv_gestures_source.txt")
     assert source == [(10.0, 2.0), (11.0, 2.0), (12.0, 2.0)]  # 2: frame difference
@@ -251,8 +251,12 @@ def test_cli_without_mediapipe_still_writes_the_gesture_rate(tmp_path: Path) -> 
     # so the report does not take the empty head streams for a camera that saw no face
     status = json.loads((tmp_path / "vision.json").read_text())
     assert status["gesture_source"] == "motion"
-    assert set(status["off"]) == {"cv_headGaze", "cv_headYaw", "cv_facingAudience"}
+    assert set(status["off"]) == {"cv_headGaze", "cv_headYaw", "cv_facingAudience", "cv_gestures"}
     assert all("vision_env install" in why for why in status["off"].values())
+    # session 23: the fallback's rate is its own metric, which no default rule judges (it was
+    # written as cv_gestures and cued "use your hands more" on a video with no one in it)
+    assert read_stream(tmp_path / "streams" / "cv_gestures.txt") == []
+    assert "cv_gestures_motion, too unreliable to advise on" in status["off"]["cv_gestures"]
 
 
 def test_cli_no_head_records_that_head_pose_was_turned_off(tmp_path: Path) -> None:
@@ -265,10 +269,16 @@ def test_cli_no_head_records_that_head_pose_was_turned_off(tmp_path: Path) -> No
     status = json.loads((tmp_path / "vision.json").read_text())
     assert status == {
         "format": 1,
-        "off": dict.fromkeys(
-            ("cv_headGaze", "cv_headYaw", "cv_facingAudience"),
-            "head pose was turned off (--no-head)",
-        ),
+        "off": {
+            **dict.fromkeys(
+                ("cv_headGaze", "cv_headYaw", "cv_facingAudience"),
+                "head pose was turned off (--no-head)",
+            ),
+            "cv_gestures": "--gesture-source motion was asked for; the frame-difference "
+            "fallback's rate is in cv_gestures_motion, too unreliable to advise on (it misses "
+            "most gestures, counts other motion, and cannot tell no one in view from no "
+            "gestures)",
+        },
         "gesture_source": "motion",
     }
 
@@ -332,7 +342,7 @@ def test_a_video_that_breaks_off_is_measured_up_to_there_and_says_so(tmp_path: P
     assert proc.returncode == CUT_SHORT_STATUS, proc.stderr
     assert f"warning: {cut}: the video ended after " in proc.stderr
     assert "the streams hold what was read" in proc.stderr and "error:" not in proc.stderr
-    rates = read_stream(out / "streams" / "cv_gestures.txt")
+    rates = read_stream(out / "streams" / "cv_gestures_motion.txt")
     assert rates and 0.3 * GEST["duration_s"] < rates[-1][0] < 0.7 * GEST["duration_s"]
 
 
