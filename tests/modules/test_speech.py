@@ -613,3 +613,38 @@ def test_the_word_windows_snr_is_written_with_its_clarity() -> None:
         got = measure(name)[0]
         assert [s.t for s in got["speech_snr"]] == [s.t for s in got["speech_accuracy"]]
         assert all(lo <= s.value < hi for s in got["speech_snr"]), name
+
+
+def test_silence_before_the_talk_or_a_long_pause_does_not_slow_the_pace() -> None:
+    # Session 23, a tester: the same reader (158 wpm) read 14-18 % low after 20 s of silence
+    # before the talk and after a 100 s pause (the silence before the window's first speech
+    # counted as a 2 s pause of talk), and down to 120 wpm after a 60 s pause (the window
+    # reached back across the pause on the finalised clock while its words had been pruned on
+    # the output clock). The same speech, read with and without the silence, at the same time
+    # into it: measured after the fix 0.985-1.025 x after 20 s of silence (before: 0.863) and
+    # 0.958-0.996 x after a 60 s pause against a 2 s one (before: 0.869, the dips).
+    x = read_file(MATERIAL / "corpus" / "librivox.flac")
+    talk = np.concatenate([x, x])
+
+    def zeros(s: float) -> np.ndarray:
+        return np.zeros(int(s * 16000), np.int16)
+
+    def speeds(y: np.ndarray) -> dict[float, float]:
+        samples, _ = analyse(blocks(y), SpeechOptions(), loudness=False)
+        return {round(s.t, 2): s.value for s in samples if s.metric == SPEECH_SPEED}
+
+    control = speeds(np.concatenate([talk, zeros(2.0), talk]))
+    lead = speeds(np.concatenate([zeros(20.0), talk]))
+    paused = speeds(np.concatenate([talk, zeros(60.0), talk]))
+    shift = 58.0  # the second talk starts this much later after the 60 s pause
+    after_silence = [
+        v / control[round(t - 20.0, 2)] for t, v in lead.items() if round(t - 20.0, 2) in control
+    ]
+    after_pause = [
+        v / control[round(t - shift, 2)]
+        for t, v in paused.items()
+        if t > len(talk) / 16000 + 60.0 and round(t - shift, 2) in control
+    ]
+    assert len(after_silence) >= 30 and len(after_pause) >= 30
+    assert all(0.95 < r < 1.05 for r in after_silence), after_silence
+    assert all(0.93 < r < 1.05 for r in after_pause), after_pause
