@@ -12,6 +12,9 @@ What it writes (16 kHz mono 16-bit FLAC), with the truth in ``manifest.json``:
   for the volume test.
 - ``snr_20``, ``snr_10``, ``snr_0``: the first ~14 s of ``rate_175`` plus seeded white noise at
   that SNR against the power of the active speech, for the clarity test.
+- ``phone_225``: ``rate_225`` as a telephone line carries it (:func:`phone_copy`: 8 kHz, band-pass
+  300-3400 Hz, played back at 16 kHz), for the narrowband test; the truth is ``rate_225``'s.
+  Alone, from the shipped file: ``python tools/make_test_audio.py --phone-only``.
 
 :func:`long_talk` builds a ~2 minute talk from a shipped ``rate_*`` file at test time (nothing is
 written): its sentences, cut at their pauses, in a seeded random order per round. The speech
@@ -55,6 +58,8 @@ TARGET_WPM = {"rate_130": 130.0, "rate_175": 175.0, "rate_225": 225.0}
 GAINS_DB = {"gain_0": 0.0, "gain_m6": -6.0, "gain_m12": -12.0}
 SNRS_DB = {"snr_20": 20.0, "snr_10": 10.0, "snr_0": 0.0}
 NOISE_SEED = 20261101
+#: The telephone copy: name -> the rate file it is made from.
+PHONE = {"phone_225": "rate_225"}
 
 
 def count_words(text: str) -> int:
@@ -132,6 +137,42 @@ def _cut_at_pause(x: np.ndarray, near_s: float) -> np.ndarray:
     return x[:best]
 
 
+def phone_copy(src: Path, dst: Path) -> None:
+    """``src`` as a telephone line carries it: resampled to 8 kHz, band-passed to 300-3400 Hz
+    and played back at 16 kHz (nothing above 4 kHz), without dither (the same bytes each run)::
+
+        sox -D SRC -r 8000 -t wav - sinc 300-3400 | sox -D -t wav - -r 16000 -C 8 DST
+    """
+    narrow = subprocess.run(
+        ["sox", "-D", str(src), "-r", "8000", "-t", "wav", "-", "sinc", "300-3400"],
+        check=True,
+        capture_output=True,
+    ).stdout
+    subprocess.run(
+        ["sox", "-D", "-t", "wav", "-", "-r", str(RATE), "-C", "8", str(dst)],
+        input=narrow,
+        check=True,
+        capture_output=True,
+    )
+
+
+def make_phone(out: Path, manifest: dict[str, dict[str, object]]) -> None:
+    """Write the telephone copies of :data:`PHONE` from the rate files in ``out``; add them to
+    ``manifest`` (the rate files' entries must be in it)."""
+    for name, source in PHONE.items():
+        path = out / f"{name}.flac"
+        phone_copy(out / f"{source}.flac", path)
+        info = manifest[f"{source}.flac"]
+        manifest[path.name] = {
+            "kind": "phone",
+            "source": f"{source}.flac",
+            "band_hz": [300, 3400],
+            "words": info["words"],
+            "duration_s": round(_duration(path), 4),
+            "true_wpm": info["true_wpm"],
+        }
+
+
 def make(out: Path) -> dict[str, dict[str, object]]:
     """Write every file into ``out`` and return the manifest."""
     for tool in ("text2wave", "sox"):
@@ -163,6 +204,7 @@ def make(out: Path) -> dict[str, dict[str, object]]:
                 "duration_s": round(dur, 4),
                 "true_wpm": round(words / dur * 60.0, 2),
             }
+        make_phone(out, manifest)
         base = _read(out / "rate_175.flac")
         excerpt = _cut_at_pause(base, GAIN_EXCERPT_S)
         for name, gain in GAINS_DB.items():
@@ -259,11 +301,23 @@ def long_talk(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Command line: ``python tools/make_test_audio.py [--out DIR]``."""
+    """Command line: ``python tools/make_test_audio.py [--out DIR] [--phone-only]``."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("tests/modules/material"))
+    ap.add_argument(
+        "--phone-only",
+        action="store_true",
+        help="only (re)make the telephone copies from the rate files already in --out",
+    )
     args = ap.parse_args(argv)
-    manifest = make(args.out)
+    if args.phone_only:
+        path = args.out / "manifest.json"
+        doc = json.loads(path.read_text())
+        make_phone(args.out, doc["files"])
+        path.write_text(json.dumps(doc, indent=2, sort_keys=True) + "\n")
+        manifest = doc["files"]
+    else:
+        manifest = make(args.out)
     total = sum(p.stat().st_size for p in args.out.glob("*.flac"))
     for name, info in sorted(manifest.items()):
         print(name, {k: v for k, v in info.items() if k != "source"})
