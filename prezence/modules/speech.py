@@ -98,7 +98,11 @@ How it works (measured figures: ``shared/reference/input_modules.md``, ``bench/b
   range loses words and syllable peaks alike, and read up to a third slow. Nor where an
   utterance of noise without a voice (1 s or more, under :data:`MIN_VOICED_SHARE` voiced) lies
   in or within ``max_utterance_s`` of the word window: such an utterance is a pause, but the
-  ones joining it to the speech hold noise counted as talk time.
+  ones joining it to the speech hold noise counted as talk time. Nor is the recogniser trusted
+  where the audio is narrowband (a telephone line, an 8 kHz recording: nothing above 4 kHz,
+  :data:`NARROWBAND_EDGE_DB`): its wideband model misses or makes up words there with
+  confident posteriors (a telephone conversation read 25 % slow); the syllable count is used
+  where the SNR allows, and the log says why.
 * Volume: RMS of the 30 ms frames inside voice activity and within 30 dB of the window's
   95th-percentile speech frame, so pauses do not dilute it and it follows a gain change exactly.
 * **Clarity** (speech_accuracy). The recogniser's confidence falls where the speech is hard to
@@ -291,6 +295,27 @@ CLIPPED_LEVEL = 0.9
 #: read -32 % (the coach said "pick up the pace"); +16 dB saved as AAC or MP3 read -13 and
 #: -17 %. Not a retuned threshold: a new condition, set between the first two of those.
 MAX_CLIPPED_SHARE = 0.05
+#: Narrowband (telephone) input: audio sampled at 8 kHz, or cut to the telephone band, and
+#: played at 16 kHz has next to nothing above 4 kHz, and the recogniser, whose model was
+#: trained on wideband speech, misses or invents words there with confident posteriors. Per
+#: 30 ms frame, :func:`edge_db` is the energy above the telephone band
+#: (:data:`NARROWBAND_ABOVE_HZ`) over that inside it (:data:`NARROWBAND_REFERENCE_HZ`); a
+#: word window whose loud frames' median (the frames within 30 dB of the 95th percentile, as
+#: for the volume) is at most :data:`NARROWBAND_EDGE_DB` and whose 1.5-4 kHz band is kept
+#: (:data:`CLEAN_SIGNAL_BAND_DB`: a muffled voice, low-passed, loses that too and is left to
+#: the rule as before) is narrowband: the recogniser's count is not trusted there, and the
+#: syllable count is used where the SNR allows, else nothing. Measured (session 23) on the
+#: corpus and on copies of its clean files at 8 kHz (``sox -r 8000``, with and without
+#: ``sinc 300-3400``, back to 16 kHz): wideband files (every voice and condition but
+#: low-pass) -29.0 dB (J. F. Kennedy's old recording) or more, the dev voices -26.4 or more;
+#: the narrowband copies of the dev voices -57.6 or less; the threshold is the middle of that
+#: dev gap. Held out: the real telephone pair -52.8, the held-out voices' copies -59.2 or less.
+NARROWBAND_EDGE_DB = -42.0
+#: Above the telephone band (Hz): where 8 kHz audio has nothing and wideband speech has its
+#: fricatives.
+NARROWBAND_ABOVE_HZ = (4000.0, 7000.0)
+#: Inside the telephone band (Hz): the reference the band above is held against.
+NARROWBAND_REFERENCE_HZ = (1000.0, 3400.0)
 #: A 30 ms frame is *voiced* (periodic, as a voice is and noise is not) where the YIN
 #: aperiodicity (de Cheveigne & Kawahara 2002: the cumulative-mean-normalised difference
 #: function's minimum) over it and the frame before it is under this, for a pitch of
@@ -377,6 +402,8 @@ _BAND_TAPER = np.hanning(_FRAME)
 _BAND_FREQS = np.fft.rfftfreq(512, 1.0 / SAMPLE_RATE)
 _BAND_LOW = (_BAND_FREQS >= 100.0) & (_BAND_FREQS < 1000.0)
 _BAND_HIGH = (_BAND_FREQS >= 1500.0) & (_BAND_FREQS < 4000.0)
+_BAND_ABOVE_PHONE = (_BAND_FREQS >= NARROWBAND_ABOVE_HZ[0]) & (_BAND_FREQS < NARROWBAND_ABOVE_HZ[1])
+_BAND_PHONE = (_BAND_FREQS >= NARROWBAND_REFERENCE_HZ[0]) & (_BAND_FREQS < NARROWBAND_REFERENCE_HZ[1])
 
 
 _VOICED_LAGS = (
@@ -443,11 +470,31 @@ def voicing(x: np.ndarray) -> tuple[float, float]:
 
 def band_energies(frame: np.ndarray) -> tuple[float, float]:
     """Energy of a 30 ms frame in 0.1-1 kHz and in 1.5-4 kHz (Hann window, 512-point FFT)."""
+    low, high, _ = _frame_spectrum(frame)
+    return low, high
+
+
+def _frame_spectrum(frame: np.ndarray) -> tuple[float, float, float]:
+    """:func:`band_energies` of a 30 ms frame, and its :func:`narrowband edge <edge_db>`."""
     x = np.zeros(_FRAME)
     n = min(len(frame), _FRAME)
     x[:n] = frame[:n]
     p = np.abs(np.fft.rfft(x * _BAND_TAPER, 512)) ** 2
-    return float(p[_BAND_LOW].sum()), float(p[_BAND_HIGH].sum())
+    return float(p[_BAND_LOW].sum()), float(p[_BAND_HIGH].sum()), edge_db(p)
+
+
+def edge_db(power: np.ndarray) -> float:
+    """dB of a 512-point power spectrum's energy in :data:`NARROWBAND_ABOVE_HZ` (above the
+    telephone band) over that in :data:`NARROWBAND_REFERENCE_HZ` (inside it).
+
+    Example:
+        >>> p = np.ones(257)
+        >>> round(edge_db(p), 1)  # a flat spectrum: 96 bins above, 77 inside
+        1.0
+    """
+    above = float(power[_BAND_ABOVE_PHONE].sum())
+    inside = float(power[_BAND_PHONE].sum())
+    return 10.0 * math.log10((above + 1e-3) / (inside + 1e-3))
 
 
 @dataclass(frozen=True)
@@ -647,6 +694,7 @@ class SpeechAnalyser:
         self._n_samples = 0  # samples fed
         self._frame_ms: list[float] = []  # mean square per frame, for the volume
         self._frame_bands: list[tuple[float, float]] = []  # band_energies per frame (clarity)
+        self._frame_edge: list[float] = []  # edge_db per frame (narrowband input)
         self._frame_clipped: list[float] = []  # share of clipped samples per frame
         self._frame_voiced: list[bool] = []  # the frame (with the one before) is periodic
         self._frame_steady: list[bool] = []  # periodic, but in a steady run (a hum, a tone)
@@ -751,7 +799,9 @@ class SpeechAnalyser:
         if len(tail):
             ms = float(np.mean(tail.astype(np.float64) ** 2))
             self._frame_ms.append(ms)
-            self._frame_bands.append(band_energies(tail.astype(np.float64)))
+            low, high, edge = _frame_spectrum(tail.astype(np.float64))
+            self._frame_bands.append((low, high))
+            self._frame_edge.append(edge)
             self._frame_clipped.append(_clipped_share(tail))
             self._frame_voiced.append(False)  # too short to find a pitch in
             self._frame_steady.append(False)
@@ -787,7 +837,9 @@ class SpeechAnalyser:
     def _frame(self, frame: np.ndarray) -> None:
         x = frame.astype(np.float64)
         self._frame_ms.append(float(np.mean(x**2)))
-        self._frame_bands.append(band_energies(x))
+        low, high, edge = _frame_spectrum(x)
+        self._frame_bands.append((low, high))
+        self._frame_edge.append(edge)
         self._frame_clipped.append(_clipped_share(frame))
         both = np.concatenate((self._prev_frame, x))
         ap, period = voicing(both)
@@ -1185,6 +1237,16 @@ class SpeechAnalyser:
         band = self._band_db(lo, t)
         clipped = self._clipped(lo, t)
         source = self._choose_source(mean_post, coverage, snr)
+        edge = self._edge_db(lo, t)
+        narrowband = (
+            edge is not None
+            and edge <= NARROWBAND_EDGE_DB
+            and band is not None
+            and band >= CLEAN_SIGNAL_BAND_DB
+        )
+        if narrowband and source == SOURCE_RECOGNISER:
+            # telephone audio: the recogniser's count is no count (see NARROWBAND_EDGE_DB)
+            source = SOURCE_SYLLABLES if snr >= MIN_SYLLABLE_SNR_DB else SOURCE_NONE
         if clipped > MAX_CLIPPED_SHARE:
             source = SOURCE_NONE
         # Noise without a voice in or just before the word window: the utterances that join
@@ -1208,6 +1270,7 @@ class SpeechAnalyser:
                     "coverage": coverage,
                     "snr_db": snr,
                     "band_db": band if band is not None else math.nan,
+                    "edge_db": edge if edge is not None else math.nan,
                     "clipped": clipped,
                     "source": source,
                 }
@@ -1244,6 +1307,8 @@ class SpeechAnalyser:
                     )
                 if snr < MIN_RECOGNISER_SNR_DB:
                     doubts.append(f"SNR under its {MIN_RECOGNISER_SNR_DB:g} dB")
+                if narrowband:
+                    doubts.append(self._narrowband_reason(edge))
                 log.warning(
                     "t=%.0f s: speech speed cannot be measured (too much noise for the syllable "
                     "count: estimated SNR %.0f dB, under %g dB; recogniser not trusted: %s): "
@@ -1252,6 +1317,12 @@ class SpeechAnalyser:
                     snr,
                     MIN_SYLLABLE_SNR_DB,
                     ", ".join(doubts),
+                )
+            elif source == SOURCE_SYLLABLES and narrowband:
+                log.warning(
+                    "t=%.0f s: speech speed from the syllable nuclei, not the recogniser: %s",
+                    t_out,
+                    self._narrowband_reason(edge),
                 )
             else:
                 log.info(
@@ -1303,6 +1374,17 @@ class SpeechAnalyser:
         return self.options.nuclei_per_word
 
     @staticmethod
+    def _narrowband_reason(edge: float | None) -> str:
+        """Why a narrowband window's recogniser count is not trusted, for the log."""
+        return (
+            f"the audio is narrowband, a telephone line or an 8 kHz recording (the speech "
+            f"above {NARROWBAND_ABOVE_HZ[0] / 1000:g} kHz is {-(edge or 0.0):.0f} dB under that "
+            f"in {NARROWBAND_REFERENCE_HZ[0] / 1000:g}-{NARROWBAND_REFERENCE_HZ[1] / 1000:g} kHz,"
+            f" more than {-NARROWBAND_EDGE_DB:g} dB): the recogniser misses or makes up words "
+            "there with confident posteriors, so its word count is not trusted"
+        )
+
+    @staticmethod
     def _choose_source(mean_post: float, coverage: float, snr_db: float) -> float:
         """Which count speech_speed uses in a window: the rule of the module doc."""
         if (
@@ -1349,6 +1431,15 @@ class SpeechAnalyser:
         bands = np.asarray(self._frame_bands[i0:i1])[self._loud(i0, i1)]
         low, high = float(bands[:, 0].sum()), float(bands[:, 1].sum())
         return 10.0 * math.log10((high + 1e-9) / (low + 1e-9))
+
+    def _edge_db(self, lo: float, t: float) -> float | None:
+        """Median :func:`edge_db` of the loud frames of ``[lo, t)`` (within 30 dB of the 95th
+        percentile, as for the volume): how far the speech above the telephone band lies under
+        that inside it; None without frames."""
+        i0, i1 = self._frames(lo, t)
+        if i1 - i0 < 10:
+            return None
+        return float(np.median(np.asarray(self._frame_edge[i0:i1])[self._loud(i0, i1)]))
 
     def _clipped(self, lo: float, t: float) -> float:
         """Share of clipped samples in the loud frames of ``[lo, t)`` (those within 30 dB of
