@@ -402,8 +402,17 @@ _BAND_TAPER = np.hanning(_FRAME)
 _BAND_FREQS = np.fft.rfftfreq(512, 1.0 / SAMPLE_RATE)
 _BAND_LOW = (_BAND_FREQS >= 100.0) & (_BAND_FREQS < 1000.0)
 _BAND_HIGH = (_BAND_FREQS >= 1500.0) & (_BAND_FREQS < 4000.0)
-_BAND_ABOVE_PHONE = (_BAND_FREQS >= NARROWBAND_ABOVE_HZ[0]) & (_BAND_FREQS < NARROWBAND_ABOVE_HZ[1])
-_BAND_PHONE = (_BAND_FREQS >= NARROWBAND_REFERENCE_HZ[0]) & (_BAND_FREQS < NARROWBAND_REFERENCE_HZ[1])
+
+
+def _in_band(band: tuple[float, float]) -> np.ndarray:
+    """Which bins of a 512-point spectrum at 16 kHz lie in ``band`` (Hz, its top excluded)."""
+    lo, hi = band
+    freqs = _BAND_FREQS
+    return (freqs >= lo) & (freqs < hi)
+
+
+_BAND_ABOVE_PHONE = _in_band(NARROWBAND_ABOVE_HZ)
+_BAND_PHONE = _in_band(NARROWBAND_REFERENCE_HZ)
 
 
 _VOICED_LAGS = (
