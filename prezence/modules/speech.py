@@ -1640,7 +1640,9 @@ def run(
     cpu = time.process_time() - cpu0
     ratio = cpu / totals.duration_s if totals.duration_s > 0 else 0.0
     log.info(
-        "%.1f s of audio, %.1f s of speech, %d words (%.0f wpm), mean posterior %.2f; "
+        "%.1f s of audio, %.1f s of speech, %d words recognised (%.0f wpm by the recogniser's "
+        "count, whether or not trusted: speech_speed_source says what was written), mean "
+        "posterior %.2f; "
         "%.2f CPU s per audio s%s",
         totals.duration_s,
         totals.speech_s,
