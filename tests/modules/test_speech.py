@@ -241,7 +241,7 @@ def test_a_telephone_recording_is_not_timed_by_the_recogniser_it_fools(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     # Session 23: two women on the telephone (8 kHz audio played at 16 kHz) read -25 % with
-    # the recogniser trusted, and the rate files cut to a telephone line read 8-18 % low at
+    # the recogniser trusted, and the corpus's voices cut to a telephone line 5-18 % low at
     # 210 wpm: its model, trained on wideband speech, misses words where nothing lies above
     # 4 kHz, with confident posteriors. phone_225 is rate_225 through a telephone band
     # (tools/make_test_audio.py): it read 204.5 wpm for 225 (-9.1 %) from the recogniser.
