@@ -667,7 +667,7 @@ def cmd_rehearse(args: argparse.Namespace) -> int:
     kw = _backend_kwargs(args)
     options = _options(args, config)
     margs = {
-        "speech": module_args("--speech-args", "speech", args.speech_args),
+        "speech": _speech_words(args),
         "vision": module_args("--vision-args", "vision", args.vision_args),
     }
     out = claim_session_dir(
@@ -707,10 +707,12 @@ def cmd_up(args: argparse.Namespace) -> int:
         specs += modules_on(
             "--audio",
             args.audio,
-            {"speech": module_args("--speech-args", "speech", args.speech_args)},
+            {"speech": _speech_words(args)},
         )
     elif args.speech_args:
         raise PrezenceError("--speech-args without --audio: the speech module is not started")
+    elif args.language is not None:
+        raise PrezenceError("--language without --audio: the speech module is not started")
     if args.video:
         specs += modules_on(
             "--video",
@@ -1084,7 +1086,25 @@ def _add_allocated(p: argparse.ArgumentParser, *, default: str = "the config's")
     )
 
 
+def _speech_words(args: argparse.Namespace) -> list[str]:
+    """The speech module's extra words: ``--language`` (when given) and ``--speech-args``."""
+    from prezence.rehearse import module_args
+
+    words = module_args("--speech-args", "speech", args.speech_args)
+    if args.language is not None:
+        if not args.language.strip():
+            raise PrezenceError("--language is empty: give a tag such as en or de")
+        words = ["--language", args.language, *words]
+    return words
+
+
 def _add_module_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--language",
+        metavar="TAG",
+        help="the talk's language (default en): pace and clarity are measured for English "
+        "talks only; for another (de, es, …) they are not written, and the report says why",
+    )
     for module in ("speech", "vision"):
         p.add_argument(
             f"--{module}-args",

@@ -234,10 +234,11 @@ def measurement_notes(
             msg = failures.get(rec.module)
             if isinstance(msg, str) and rec.module not in ran:
                 unmeasured[name] = f"the {rec.module} module could not run: {_failure_text(msg)}"
-    off = _module_status(root, VISION_STATUS).get("off")
-    if isinstance(off, Mapping):
-        for metric, why in off.items():
-            unmeasured.setdefault(str(metric), str(why))
+    for status in (VISION_STATUS, SPEECH_STATUS):  # speech: a talk not in English
+        off = _module_status(root, status).get("off")
+        if isinstance(off, Mapping):
+            for metric, why in off.items():
+                unmeasured.setdefault(str(metric), str(why))
     activity = _stream_values(root, "speech_activity")
     if activity and not any(activity):  # no voice in any window
         for name, rec in METRICS.items():

@@ -201,6 +201,43 @@ METRICS = (
     SPEECH_ACTIVITY,
 )
 
+#: The metrics that count words or judge them against English: a recogniser with a US-English
+#: model and English's syllables per word. For a talk in another language (``--language``) they
+#: are not written (session 23: German at a true 151 wpm read 212, Spanish at 154 read 263,
+#: each with two confident "slow down" cues); the level, loudness, SNR and voice activity are.
+LANGUAGE_METRICS = frozenset(
+    {
+        SPEECH_SPEED,
+        SPEECH_SPEED_SYLLABLES,
+        SPEECH_SPEED_SOURCE,
+        SPEECH_ARTICULATION,
+        SPEECH_ACCURACY,
+        SPEECH_CONFIDENCE,
+        SPEECH_CLARITY,
+    }
+)
+
+
+def is_english(language: str) -> bool:
+    """Whether a language tag (``en``, ``en-GB``, ``en_US``, ``English``) names English.
+
+    Example:
+        >>> [is_english(x) for x in ("en", "EN-gb", "en_US", "english", "de", "es-MX", "eng")]
+        [True, True, True, True, False, False, True]
+    """
+    tag = language.strip().lower().replace("_", "-")
+    return tag.split("-")[0] in {"en", "eng", "english"}
+
+
+def language_why(language: str) -> str:
+    """Why the word-based metrics are not written for a talk in ``language``."""
+    return (
+        f"the talk is in '{language}' (--language): pace and clarity are measured for English "
+        "talks only (the recogniser knows US English, and words are counted from English's "
+        "syllables per word); volume is measured in any language"
+    )
+
+
 #: Seconds between two lines of every speech stream while voice is in the level window (the
 #: default ``--hop``): the lines come out evenly as the audio arrives, for a file and live alike.
 #: speech_activity keeps this cadence in silence too; the others pause while the last
@@ -1558,18 +1595,33 @@ def analyse(
 STATUS_FILE = "speech.json"
 
 
-def write_status(out: Path, *, calibrated: bool, calibration_db: float) -> None:
-    """Write ``out/speech.json``: which metrics are estimates and why, so the report and the
-    printed table say so next to the figures, not only ``speech.log``."""
+def write_status(
+    out: Path, *, calibrated: bool, calibration_db: float, language: str = "en"
+) -> None:
+    """Write ``out/speech.json``: which metrics are estimates and why, and which are not
+    measured and why (``off``: a talk not in English), so the report and the printed table
+    say so next to the figures, not only ``speech.log``."""
     import json
 
+    off = (
+        {}
+        if is_english(language)
+        else {m: language_why(language) for m in METRICS if m in LANGUAGE_METRICS}
+    )
     estimate = {}
     if not calibrated:
         estimate[SPEECH_VOLUME] = (
             f"an estimate: the microphone is not calibrated (dBFS + {calibration_db:g}, a rough "
             "guess for a laptop microphone; --calibration-db sets it, see docs/modules.md)"
         )
-    status = {"format": 1, "calibration_db": calibration_db, "estimate": estimate}
+    status: dict[str, object] = {
+        "format": 1,
+        "calibration_db": calibration_db,
+        "language": language,
+        "estimate": estimate,
+    }
+    if off:
+        status["off"] = off
     Path(out).mkdir(parents=True, exist_ok=True)
     (Path(out) / STATUS_FILE).write_text(json.dumps(status, indent=1) + "\n")
 
@@ -1582,6 +1634,7 @@ def run(
     t_offset: float | Callable[[], float] = 0.0,
     fresh: bool,
     stop: threading.Event | None = None,
+    language: str = "en",
 ) -> SpeechTotals:
     """Analyse ``source`` and append its samples to the session's stream files.
 
@@ -1593,6 +1646,8 @@ def run(
             called once the first block has arrived, for a live input).
         fresh: replace this module's old stream files (a file run again); else append.
         stop: set it to end a live input; the audio already captured is still analysed.
+        language: the talk's language; for one not English (:func:`is_english`) the
+            :data:`LANGUAGE_METRICS` are not written.
 
     Returns:
         The whole-input totals.
@@ -1610,10 +1665,12 @@ def run(
     last_warn = -math.inf
     behind_warned = False
     with StreamSet(out, METRICS, fresh=fresh) as streams:
+        skip = frozenset() if is_english(language) else LANGUAGE_METRICS
 
         def write(samples: list[Sample]) -> None:
             for s in samples:
-                streams.write(s.metric, (offset or 0.0) + s.t, s.value)
+                if s.metric not in skip:
+                    streams.write(s.metric, (offset or 0.0) + s.t, s.value)
 
         cut: InputCutShort | None = None
         try:
@@ -1697,6 +1754,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help=f"dB SPL = dBFS + this (default {DEFAULT_CALIBRATION_DB:g}, a rough guess)",
     )
+    p.add_argument(
+        "--language",
+        default="en",
+        help="the talk's language (default %(default)s); pace and clarity are measured for "
+        "English only: for another language they are not written, and volume is",
+    )
     p.add_argument("--device", default=None, help="mic: sounddevice device name or number")
     return p
 
@@ -1738,11 +1801,21 @@ def main(argv: list[str] | None = None) -> int:
             "(see --calibration-db)",
             DEFAULT_CALIBRATION_DB,
         )
+    if not args.language.strip():
+        return report_error(
+            "speech", ValueError("--language is empty: give a tag such as en or de")
+        )
+    if not is_english(args.language):
+        log.warning(
+            "%s: speech_speed, speech_articulation and clarity are not written",
+            language_why(args.language),
+        )
     try:
         write_status(
             args.out,
             calibrated=args.calibration_db is not None,
             calibration_db=options.calibration_db,
+            language=args.language,
         )
     except OSError as e:  # the streams will say what they can; the status is a courtesy
         log.warning("could not write %s: %s", Path(args.out) / STATUS_FILE, e)
@@ -1754,7 +1827,15 @@ def main(argv: list[str] | None = None) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, _on_signal)
     try:
-        run(source, args.out, options, t_offset=t_offset, fresh=args.audio != "mic", stop=stop)
+        run(
+            source,
+            args.out,
+            options,
+            t_offset=t_offset,
+            fresh=args.audio != "mic",
+            stop=stop,
+            language=args.language,
+        )
     except (PrezenceError, ValueError) as e:
         return report_error("speech", e)
     finally:

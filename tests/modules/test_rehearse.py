@@ -911,3 +911,38 @@ def test_the_frame_difference_fallback_gives_no_gesture_advice_on_a_video_with_n
     text = (out / "report" / "summary.txt").read_text()
     assert "gestures: not measured: the pose model that counts gestures" in text
     assert "use your hands" not in (out / "report" / "spoken.txt").read_text().lower()
+
+
+@pytest.mark.parametrize("how", [["--language", "de"], ["--speech-args", "--language de"]])
+def test_a_talk_said_to_be_in_another_language_gets_no_pace_or_clarity_and_is_told_why(
+    tmp_path: Path, how: list[str]
+) -> None:
+    # Session 23's student rehearsed in German (a true 151 wpm): the English recogniser read
+    # 212 wpm, trusted, and the robot said "slow down" twice. Saying the talk's language now
+    # keeps the word-based metrics out; the volume is still measured.
+    out = tmp_path / "s"
+    assert main(["-q", "rehearse", str(FAST), "--out", str(out), "--allocated", "20", *how]) == 0
+    streams = out / "streams"
+    for metric in ("speech_speed", "speech_articulation", "speech_accuracy", "speech_clarity"):
+        path = streams / f"{metric}.txt"
+        assert not path.exists() or not path.read_text().strip(), metric
+    assert (streams / "speech_volume.txt").read_text().strip()
+    summary = json.loads((out / "summary.json").read_text())
+    why = summary["metrics"]["speech_speed"]["not_measured_why"]
+    assert "the talk is in 'de'" in why and "English talks only" in why
+    assert summary["metrics"]["speech_accuracy"]["measured"] is False
+    assert not any(c["metric"] == "speech_speed" for c in read_jsonl(out / "cues.jsonl"))
+    page = (out / "report" / "report.html").read_text()
+    assert "English talks only" in page
+
+
+def test_english_said_as_the_language_changes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "s"
+    argv = ["-q", "rehearse", str(FAST), "--out", str(out), "--allocated", "20"]
+    assert main([*argv, "--language", "en-GB", "--no-report"]) == 0
+    assert (out / "streams" / "speech_speed.txt").read_text().strip()
+
+
+def test_language_without_an_audio_input_is_refused(tmp_path: Path) -> None:
+    argv = ["up", "--video", str(GESTURES), "--language", "de", "--out", str(tmp_path / "s")]
+    assert main(argv) == 2
