@@ -158,10 +158,9 @@ def clipped_detail(root: Any) -> str | None:
     """How clipped the recording was, as the speech module's log in the session folder says it
     ("6 % of the speech samples at or near full scale"); None when it does not say so.
 
-    The module writes no machine-readable record of clipping (its streams say only
-    ``speech_speed_source 0``, for noise and music as well), so this reads its log line: a
-    log worded otherwise, or a folder without ``speech.log``, gives None, and the report then
-    says only that neither count was trusted.
+    The module's record (``speech.json``'s ``clipped``, since session 23) is read first; a
+    folder written before it falls back to the log line (a log worded otherwise, or no
+    ``speech.log``, gives None, and the report then says only that neither count was trusted).
 
     Example:
         >>> import tempfile, pathlib
@@ -174,6 +173,13 @@ def clipped_detail(root: Any) -> str | None:
     """
     from pathlib import Path
 
+    record = _module_status(root, SPEECH_STATUS).get("clipped")
+    if isinstance(record, Mapping):  # the module's record (session 23), not its log's words
+        share = record.get("max_share")
+        if isinstance(share, int | float) and not isinstance(share, bool) and share > 0:
+            return (
+                f"up to {100 * share:.0f} % of a word window's speech samples at or near full scale"
+            )
     path = Path(root) / "speech.log"
     try:
         text = path.read_text(encoding="utf-8", errors="replace")

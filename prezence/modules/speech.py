@@ -744,6 +744,8 @@ class SpeechAnalyser:
         self._frame_bands: list[tuple[float, float]] = []  # band_energies per frame (clarity)
         self._frame_edge: list[float] = []  # edge_db per frame (narrowband input)
         self._frame_clipped: list[float] = []  # share of clipped samples per frame
+        #: (t_out, share) of every word window too clipped to count (:data:`MAX_CLIPPED_SHARE`)
+        self.clipped_windows: list[tuple[float, float]] = []
         self._frame_voiced: list[bool] = []  # the frame (with the one before) is periodic
         self._frame_steady: list[bool] = []  # periodic, but in a steady run (a hum, a tone)
         self._steady_period: float | None = None  # the current run's first period, samples
@@ -1297,6 +1299,7 @@ class SpeechAnalyser:
             source = SOURCE_SYLLABLES if snr >= MIN_SYLLABLE_SNR_DB else SOURCE_NONE
         if clipped > MAX_CLIPPED_SHARE:
             source = SOURCE_NONE
+            self.clipped_windows.append((t_out, clipped))
         # Noise without a voice in or just before the word window: the utterances that join
         # it to the speech (up to max_utterance_s each) hold noise counted as talk time, so a
         # 175 wpm talk read 88-114 wpm just after 25 s of noise. No speed until it is out.
@@ -1626,6 +1629,31 @@ def write_status(
     (Path(out) / STATUS_FILE).write_text(json.dumps(status, indent=1) + "\n")
 
 
+def record_clipping(out: Path, windows: list[tuple[float, float]], offset: float) -> None:
+    """Add ``clipped`` to ``out/speech.json``: the word windows too clipped to count, so the
+    report can say "the recording is clipped: record with less input gain" from a record, not
+    from the wording of a log line. A missing or torn status file is left alone (the log still
+    says it)."""
+    import json
+
+    path = Path(out) / STATUS_FILE
+    try:
+        status = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return
+    if not isinstance(status, dict):
+        return
+    status["clipped"] = {
+        "first_s": round(offset + windows[0][0], 3),
+        "windows": len(windows),
+        "max_share": round(max(share for _, share in windows), 4),
+    }
+    try:
+        path.write_text(json.dumps(status, indent=1) + "\n")
+    except OSError as e:
+        log.warning("could not write %s: %s", path, e)
+
+
 def run(
     source: AudioSource,
     out: Path,
@@ -1695,6 +1723,8 @@ def run(
         except InputCutShort as e:
             cut = e  # a recording cut short: what was read is analysed to its last word
         write(an.finish())
+    if an.clipped_windows:
+        record_clipping(out, an.clipped_windows, offset or 0.0)
     totals = an.totals()
     cpu = time.process_time() - cpu0
     ratio = cpu / totals.duration_s if totals.duration_s > 0 else 0.0

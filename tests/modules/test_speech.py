@@ -237,6 +237,24 @@ def test_a_clipped_recording_gets_no_pace_rather_than_a_wrong_one(
     assert [s.value for s in mild[SPEECH_SPEED]] == [pytest.approx(truth, rel=0.05)]
 
 
+def test_the_module_records_a_clipped_recording_in_its_status_file(tmp_path: Path) -> None:
+    # Session 23: the report learnt of clipping only from a log line's wording; the module now
+    # writes it to speech.json (the word windows too clipped to count, the largest share).
+    from prezence.modules import speech
+
+    x = read_file(MATERIAL / "rate_175.flac")
+    clipped = tmp_path / "loud.flac"
+    _encode_samples(_driven_past_full_scale(x, 26.0), clipped, "flac")
+    out = tmp_path / "s"
+    assert speech.main(["--audio", str(clipped), "--out", str(out), "-q"]) == 0
+    record = json.loads((out / "speech.json").read_text())["clipped"]
+    assert record["windows"] >= 1 and record["first_s"] >= 10.0
+    assert 0.05 < record["max_share"] < 0.5
+    plain = tmp_path / "p"
+    assert speech.main(["--audio", str(MATERIAL / "rate_175.flac"), "--out", str(plain)]) == 0
+    assert "clipped" not in json.loads((plain / "speech.json").read_text())
+
+
 def test_a_telephone_recording_is_not_timed_by_the_recogniser_it_fools(
     caplog: pytest.LogCaptureFixture,
 ) -> None:

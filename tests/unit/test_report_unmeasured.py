@@ -325,6 +325,25 @@ def test_a_clipped_recording_is_called_clipped_and_its_volume_not_praised(
     assert "clipped" not in summary_phrase(report)
 
 
+def test_the_speech_modules_clipping_record_is_read_without_its_log(tmp_path: Path) -> None:
+    # The report found clipping by the wording of a log line; since session 23 the speech
+    # module records it in speech.json, which a reworded (or missing) log cannot lose.
+    rows = range(10, 108)
+    streams = {
+        "speech_speed": [],
+        "speech_speed_source": [(float(t), 0.0) for t in rows],
+        "speech_volume": [(float(t), 82.0) for t in rows],
+    }
+    session = rehearsal(tmp_path / "s", streams, talk_s=108.0, recording="clipped.wav")
+    status = {"format": 1, "clipped": {"first_s": 12.0, "windows": 97, "max_share": 0.09}}
+    (session.root / "speech.json").write_text(json.dumps(status))
+    report = build_report(session.root)
+    why = report["metrics"]["speech_speed"]["not_measured_why"]
+    assert why.startswith("the recording is clipped (up to 9 % of a word window's speech")
+    assert "clipped" in report["metrics"]["speech_volume"]["less_reliable"]
+    assert "Your recording is clipped: record it with less input gain." in summary_phrase(report)
+
+
 def test_a_recording_with_no_voice_is_said_so_not_praised(tmp_path: Path) -> None:
     # session 17: 60 s of pink noise read volume 65.8 and clarity 0.53 and got "Your volume and
     # clarity stayed in the ideal range". The speech module now writes speech_activity 0 and
