@@ -65,14 +65,29 @@ def _mmss(t: float | None) -> str:
     return f"{sign}{int(t // 60)}:{t % 60:04.1f}"
 
 
-def format_timeline(summary: dict[str, Any]) -> str:
-    """A readable timeline of the cues and a short per-metric table."""
-    lines = []
+def talk_label(summary: dict[str, Any]) -> str:
+    """What the talk was, for the timeline's header: its scenario, recording, the folder it
+    replays, or its kind (``up`` of files played to their end is no live speaker).
+
+    Example:
+        >>> talk_label({"scenario": "demo"}), talk_label({"kind": "live"})
+        ('demo', 'live')
+        >>> talk_label({"kind": "live", "recording_s": 60.0})
+        'live, from recordings played to their end'
+    """
     name = next(
         (summary[k] for k in ("scenario", "recording", "replay_of", "kind") if summary.get(k)), "?"
     )
+    if name == "live" and summary.get("recording_s") is not None:
+        return "live, from recordings played to their end"
+    return str(name)
+
+
+def format_timeline(summary: dict[str, Any]) -> str:
+    """A readable timeline of the cues and a short per-metric table."""
+    lines = []
     head = (
-        f"Talk: {name}  "
+        f"Talk: {talk_label(summary)}  "
         f"seed {summary.get('seed', '-')}  "
         f"backend {summary.get('backend', '?')}  policy {summary.get('policy', '?')}"
     )

@@ -277,3 +277,12 @@ def test_the_built_in_gestures_pass_the_check_from_the_speed_a_talk_trusts() -> 
         check_talk_gestures(speed, library=None)  # raises if one fails
     with pytest.raises(GestureCheckFailed):
         check_talk_gestures(round(BUILTIN_PASS_FROM_SPEED - 0.01, 2), library=None)
+
+
+def test_the_header_of_up_from_recordings_does_not_call_it_a_live_speaker() -> None:
+    # Session 23's student: `up --audio talk.wav` printed "Talk: live" for a recording.
+    from prezence.cli import talk_label
+
+    assert talk_label({"kind": "live"}) == "live"
+    played = talk_label({"kind": "live", "recording_s": 60.0})
+    assert played == "live, from recordings played to their end"
