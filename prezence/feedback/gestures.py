@@ -299,6 +299,16 @@ def _parse_pose(
                 f"{key}.{joint}",
             )
         pose[joint] = _to_rad(joint, value, doc, f"{key}.{joint}")
+    if mirror and not legs:
+        right = [j for j in pose if j[0] == "R" and j[1:] in _MIRROR_SIGN]
+        if right and not any(j[0] == "L" and j[1:] in _MIRROR_SIGN for j in pose):
+            # session 23's gesture designer: a one-armed gesture played without a word
+            raise doc.error(
+                f"mirror = true copies the left arm's values onto the right arm, and this pose "
+                f"gives right-arm values only ({', '.join(right)}), so the left arm would not "
+                "move: write them as the left arm's (they are mirrored), or set mirror = false",
+                key,
+            )
     return _mirror(pose) if mirror else pose
 
 

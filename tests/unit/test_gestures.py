@@ -313,6 +313,18 @@ def test_a_misspelt_joint_is_not_pointed_at_a_leg_joint_a_gesture_may_not_move(j
     assert not any(leg in said for leg in LEGS), said
 
 
+def test_mirror_with_right_arm_values_only_is_refused_not_played_one_armed() -> None:
+    # Session 23's gesture designer wrote a mirrored gesture with right-arm values: mirror
+    # copies left onto right, so the gesture played one-armed without a word.
+    text = "mirror = true\n[[gestures.wave.keyframes]]\npose = { RShoulderPitch = 35.0 }\n"
+    with pytest.raises(ConfigError, match=r"right-arm values only \(RShoulderPitch\)"):
+        parse_library(_tiny_library(text), limits=LIMITS)
+    both = "mirror = true\n[[gestures.wave.keyframes]]\npose = { LShoulderPitch = 35.0 }\n"
+    lib = parse_library(_tiny_library(both), limits=LIMITS)
+    (kf,) = lib["wave"].keyframes({})
+    assert kf.pose["RShoulderPitch"] == kf.pose["LShoulderPitch"]
+
+
 def test_a_value_just_past_a_limit_reads_past_it() -> None:
     # 0.01° past the documented -18° is refused, and the message shows the decimals that tell
     # the two apart (it said "-18.0° is outside [-18.0°, 76.0°]").
