@@ -249,6 +249,9 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
       which a gesture fails ``prezence gestures check`` (takes more than 10 s) raises
       :class:`~prezence.errors.GestureCheckFailed` (a ``ValueError``) naming the lowest that
       passes.
+    * ``gestures``: a gesture library file of one's own, as ``--gestures FILE`` (its gestures
+      replace the built-in ones of the same name; checked here as every talk checks it, a
+      failure raising with the file and line).
     * ``render_mode``: None, ``"ansi"`` (a one-line text state) or ``"rgb_array"`` (the talk
       runs on the PyBullet NAO; ``render()`` returns a camera image of it, ``render_size``:
       (width, height), two positive integers).
@@ -295,6 +298,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         cue_cost: float = 0.005,
         in_range_penalty: float = 0.01,
         speed_fraction: float = 0.6,
+        gestures: str | Path | None = None,
         render_mode: str | None = None,
         render_size: tuple[int, int] = (240, 240),
     ) -> None:
@@ -337,7 +341,8 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
         self.speed_fraction = float(speed_fraction)
         # as every talk: refused here, not at reset, when a gesture would take so long at this
         # speed that the robot could give no other cue (GestureCheckFailed, a ValueError)
-        library_for_talk(None, speed_fraction=self.speed_fraction)
+        self.gestures = None if gestures is None else str(gestures)
+        library_for_talk(self.gestures, speed_fraction=self.speed_fraction)
         self._limit_checked = False
         self._tmp: Path | None = None
         self._remove_tmp: weakref.finalize[Any, Any] | None = None
@@ -599,6 +604,7 @@ class CoachEnv(gym.Env[npt.NDArray[np.float32], np.int64]):
                 policy="none",
                 seed=pseed,
                 speed_fraction=self.speed_fraction,
+                gestures=self.gestures,
                 realtime=False,
                 report=False,
                 decision_log="off",

@@ -662,3 +662,29 @@ def test_the_old_id_points_to_the_new_version() -> None:
         pytest.raises(gym.error.DeprecatedEnv, match="prezence/Coach-v1"),
     ):
         gym.make("prezence/Coach-v0")
+
+
+#: lookUp as one short nod (the built-in one is longer)
+NOD = """format = 1
+[gestures.look_up]
+description = "A short nod up."
+[[gestures.look_up.keyframes]]
+pose = { HeadPitch = -10.0 }
+"""
+
+
+def test_a_gesture_library_of_ones_own_is_played_and_checked(tmp_path: Path) -> None:
+    # Session 23's gesture designer: CoachEnv(gestures=…) raised TypeError, so an agent could
+    # not be trained with the gestures it would play on the robot.
+    def planned(env: CoachEnv) -> float:
+        env.reset(seed=0)
+        *_, info = env.step(env.action_index("lookUp", "cv_headGaze"))
+        return float(info["cue"]["planned_s"])
+
+    mine = tmp_path / "nod.toml"
+    mine.write_text(NOD)
+    assert planned(CoachEnv("demo", gestures=mine)) < planned(CoachEnv("demo"))
+    bad = tmp_path / "bad.toml"
+    bad.write_text(NOD.replace("HeadPitch = -10.0", "HeadPitch = -95.0"))
+    with pytest.raises(ValueError, match=r"bad\.toml:4: .*HeadPitch"):
+        CoachEnv("demo", gestures=bad)
