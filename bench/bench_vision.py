@@ -156,7 +156,8 @@ def bench_gestures() -> None:
             found = summary.bursts
             hits = sum(1 for s, _ in truth if any(abs(f - s) <= MATCH_S for f in found))
             false = [f for f in found if all(not (s - MATCH_S <= f <= e) for s, e in truth)]
-            t_end, read = streams["cv_gestures"][-1]
+            # the fallback's rate goes to its own stream (session 23), the body's to cv_gestures
+            t_end, read = streams["cv_gestures_motion" if src == "motion" else "cv_gestures"][-1]
             # The last sample's rate is over the video seen until then.
             n_true = sum(1 for s, _ in truth if s <= t_end)
             true = n_true / min(entry["duration_s"], t_end) * 60.0

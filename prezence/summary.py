@@ -169,7 +169,7 @@ def clipped_detail(root: Any) -> str | None:
         ...     "measured (the recording is clipped: 6 % of the speech samples at or near full "
         ...     "scale; record with less input gain)\\n")
         >>> clipped_detail(d), clipped_detail(d / "nothing")
-        ('6 % of the speech samples at or near full scale', None)
+        ('6 % of the speech samples at or near full scale, speech.log', None)
     """
     from pathlib import Path
 
@@ -186,7 +186,7 @@ def clipped_detail(root: Any) -> str | None:
     except OSError:
         return None
     found = _CLIPPED_LOG.search(text)
-    return found.group(1) if found else None
+    return f"{found.group(1)}, speech.log" if found else None
 
 
 def estimate_notes(root: Any) -> dict[str, str]:
@@ -261,7 +261,7 @@ def measurement_notes(
     source = _stream_values(root, "speech_speed_source")
     if source and not any(source) and clipped:
         for metric in ("speech_speed", "speech_articulation"):
-            unmeasured.setdefault(metric, f"{CLIPPED_NOTE} ({clipped}, speech.log): {gain}")
+            unmeasured.setdefault(metric, f"{CLIPPED_NOTE} ({clipped}): {gain}")
     if source and not any(source):  # 0 in every window: no count trusted
         for metric in ("speech_speed", "speech_articulation"):
             unmeasured.setdefault(
@@ -272,7 +272,7 @@ def measurement_notes(
     less: dict[str, str] = {}
     if clipped:
         less["speech_volume"] = (
-            f"{CLIPPED_NOTE} ({clipped}, speech.log), so its level is the recorder's limit, "
+            f"{CLIPPED_NOTE} ({clipped}), so its level is the recorder's limit, "
             f"not your voice's: {gain}"
         )
     # a folder written before session 23, whose fallback rate went to cv_gestures (since then
