@@ -14,7 +14,7 @@ import contextlib
 import json
 import logging
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from operator import attrgetter
 from pathlib import Path
@@ -254,6 +254,7 @@ def replay(
         commands=config.talk_commands(),
     )
     readings = read_streams(paths, max_t=limit, ranges=config.value_ranges())
+    readings = _without_fallback_gestures(readings, (src, rec.streams))
     samples = merge_readings(readings)
     talk_s = float(meta.get("talk_s") or min(limit, samples[-1].t if samples else 0.0))
 
@@ -409,6 +410,46 @@ def load_samples(
     """Every sample of the given stream files, in time order (file order kept for ties);
     ``max_t`` and ``ranges`` as in :func:`read_streams`."""
     return merge_readings(read_streams(paths, max_t=max_t, ranges=ranges))
+
+
+#: ``cv_gestures_source``'s code for the frame-difference fallback (prezence.summary's
+#: GESTURES_FROM_MOTION, not imported: the summary pulls in the report's code).
+_GESTURES_FROM_MOTION = 2.0
+
+
+def _without_fallback_gestures(
+    readings: dict[str, Reading], folders: Sequence[Path]
+) -> dict[str, Reading]:
+    """``readings`` without the ``cv_gestures`` samples a folder written before session 23 took
+    from the frame-difference fallback (``cv_gestures_source`` 2 at the same time). Since then
+    the vision module writes that rate as ``cv_gestures_motion``, which no default rule judges,
+    as the report says ("less reliable, so no advice on it"); a replay of an older folder cued
+    "Use your hands more" from it on a video with no one in view."""
+    if "cv_gestures" not in readings:
+        return readings
+    fallback: set[float] = set()
+    for folder in folders:
+        path = folder / "cv_gestures_source.txt"
+        if path.is_file():
+            for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
+                fields = line.split()
+                try:
+                    if len(fields) == 2 and float(fields[1]) == _GESTURES_FROM_MOTION:
+                        fallback.add(float(fields[0]))
+                except ValueError:
+                    continue
+            break
+    if not fallback:
+        return readings
+    ss, stats, problems = readings["cv_gestures"]
+    kept = [x for x in ss if x.t not in fallback]
+    if len(kept) < len(ss):
+        log.warning(
+            "cv_gestures: %d samples from the frame-difference fallback (cv_gestures_source "
+            "2, a folder written before session 23) not replayed: no rule judges that rate now",
+            len(ss) - len(kept),
+        )
+    return {**readings, "cv_gestures": (kept, stats, problems)}
 
 
 def merge_readings(readings: dict[str, Reading]) -> list[Sample]:

@@ -245,6 +245,15 @@ def measurement_notes(
         if isinstance(off, Mapping):
             for metric, why in off.items():
                 unmeasured.setdefault(str(metric), str(why))
+    if _module_status(root, VISION_STATUS).get("gesture_source") == "motion":
+        # a folder written before session 23 (its fallback rate went to cv_gestures, and
+        # vision.json did not list it as off): a replay takes none of those samples, and one
+        # with no gesture rate left is not measured, not a module that never reported
+        unmeasured.setdefault(
+            "cv_gestures",
+            "counted from the frame difference, the fallback when the pose model cannot run "
+            "(a folder written before session 23): too unreliable to advise on",
+        )
     activity = _stream_values(root, "speech_activity")
     if activity and not any(activity):  # no voice in any window
         for name, rec in METRICS.items():

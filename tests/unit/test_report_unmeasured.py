@@ -476,3 +476,24 @@ def test_nothing_judged_from_a_module_of_ones_own_names_that_module() -> None:
     # one that wrote nothing at all: the same
     report["metrics"]["fidget_rate"] = {"label": "fidget rate", "measured": False, "samples": 0}
     assert nothing_judged_sentence(report).endswith("check the module that writes fidget_rate.")
+
+
+def test_a_replay_of_an_older_folder_takes_no_gesture_advice_from_the_fallback(
+    tmp_path: Path,
+) -> None:
+    # A review of session 23: folders written before it carry the frame-difference fallback's
+    # rate in cv_gestures (cv_gestures_source 2). The vision module now writes it apart, so a
+    # live talk gives no gesture advice from it, but a replay of an older folder still cued
+    # "Use your hands more" from 0.0/min on a video with no one in view.
+    from prezence.cli import main
+    from prezence.session import read_jsonl
+
+    session = rehearsal(tmp_path / "s", {}, talk_s=120.0, recording="slides.mp4")
+    vision_without_head_pose(session, 120)
+    session.stream("cv_gestures.txt").write_text("".join(f"{t} 0.0\n" for t in range(10, 120)))
+    out = tmp_path / "r"
+    assert main(["-q", "replay", str(session.root), "--out", str(out), "--no-report"]) == 0
+    assert not [c for c in read_jsonl(out / "cues.jsonl") if c["metric"] == "cv_gestures"]
+    gestures = json.loads((out / "summary.json").read_text())["metrics"]["cv_gestures"]
+    assert gestures["measured"] is False and gestures["stale_episodes"] == 0
+    assert "frame difference" in gestures["not_measured_why"]
