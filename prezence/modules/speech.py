@@ -439,8 +439,6 @@ _FRAME_S = _FRAME / SAMPLE_RATE
 _NEW_STRETCH_S = 0.5
 _BAND_TAPER = np.hanning(_FRAME)
 _BAND_FREQS = np.fft.rfftfreq(512, 1.0 / SAMPLE_RATE)
-_BAND_LOW = (_BAND_FREQS >= 100.0) & (_BAND_FREQS < 1000.0)
-_BAND_HIGH = (_BAND_FREQS >= 1500.0) & (_BAND_FREQS < 4000.0)
 
 
 def _in_band(band: tuple[float, float]) -> np.ndarray:
@@ -450,6 +448,8 @@ def _in_band(band: tuple[float, float]) -> np.ndarray:
     return (freqs >= lo) & (freqs < hi)
 
 
+_BAND_LOW = _in_band((100.0, 1000.0))
+_BAND_HIGH = _in_band((1500.0, 4000.0))
 _BAND_ABOVE_PHONE = _in_band(NARROWBAND_ABOVE_HZ)
 _BAND_PHONE = _in_band(NARROWBAND_REFERENCE_HZ)
 
