@@ -1109,8 +1109,37 @@ def _speech_words(args: argparse.Namespace) -> list[str]:
     if args.language is not None:
         if not args.language.strip():
             raise PrezenceError("--language is empty: give a tag such as en or de")
+        given = _speech_language(words)
+        if given is not None:
+            # the module would take both and the later would win without a word
+            raise PrezenceError(
+                f"--language {args.language} and --speech-args {args.speech_args!r} (language "
+                f"{given}) both give the talk's language: give it once"
+            )
         words = ["--language", args.language, *words]
     return words
+
+
+def _speech_language(words: Sequence[str]) -> str | None:
+    """The language the speech module's words give (``--language de``, ``--language=de``, an
+    abbreviation argparse accepts), read with the module's own parser; None: none."""
+    import importlib
+
+    try:
+        parser: argparse.ArgumentParser = importlib.import_module(
+            "prezence.modules.speech"
+        ).build_parser()
+    except ImportError:  # its extra is not installed: only the words themselves
+        for i, w in enumerate(words):
+            if w.startswith("--language="):
+                return w.partition("=")[2]
+            if w == "--language":
+                return words[i + 1] if i + 1 < len(words) else ""
+        return None
+    parser.set_defaults(language=None)  # its default (en) is no language given
+    ns, _ = parser.parse_known_args(["--audio", "x", "--out", "x", *words])
+    language = getattr(ns, "language", None)
+    return None if language is None else str(language)
 
 
 def _add_module_args(p: argparse.ArgumentParser) -> None:

@@ -943,6 +943,19 @@ def test_english_said_as_the_language_changes_nothing(tmp_path: Path) -> None:
     assert (out / "streams" / "speech_speed.txt").read_text().strip()
 
 
+@pytest.mark.parametrize("speech_args", ["--language en", "--language=en", "--lang en"])
+def test_language_given_twice_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], speech_args: str
+) -> None:
+    # the module was given both and the later (--speech-args's) won without a word
+    out = tmp_path / "s"
+    argv = ["-q", "rehearse", str(FAST), "--out", str(out), "--language", "de"]
+    assert main([*argv, f"--speech-args={speech_args}"]) == 2
+    err = capsys.readouterr().err
+    assert "--language de and --speech-args" in err and "give it once" in err, err
+    assert not out.exists()
+
+
 def test_language_without_an_audio_input_is_refused(tmp_path: Path) -> None:
     argv = ["up", "--video", str(GESTURES), "--language", "de", "--out", str(tmp_path / "s")]
     assert main(argv) == 2
