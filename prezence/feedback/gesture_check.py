@@ -356,11 +356,17 @@ def check_gestures(
         )
     lines.append(summary)
     if not collisions and lib is not None:
-        lines.append(
-            f"self-collision of the gestures of {library} not checked: a talk on a real robot "
-            f"(--backend naoqi) refuses them here unless given {ALLOW_UNCHECKED}"
-            + ("" if skipped else ' (pip install "prezence[sim]" checks them)')
-        )
+        if pybullet_available():  # skipped here (--no-collisions); every talk checks them
+            lines.append(
+                f"self-collision of the gestures of {library} not checked here "
+                "(--no-collisions): a talk checks them before it starts (PyBullet is installed)"
+            )
+        else:
+            lines.append(
+                f"self-collision of the gestures of {library} not checked: a talk on a real "
+                f"robot (--backend naoqi) refuses them here unless given {ALLOW_UNCHECKED} "
+                '(pip install "prezence[sim]" checks them)'
+            )
     if lib is not None:
         kept = len(lib.names) - len(lib.own)
         lines.append(

@@ -727,6 +727,26 @@ def test_no_collisions_asked_for_is_not_blamed_on_a_missing_pybullet(
     assert report["settings"]["self_collision"] == "not checked (--no-collisions)"
 
 
+def test_no_collisions_with_pybullet_does_not_say_a_robot_would_refuse_the_library(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    # it said "a talk on a real robot (--backend naoqi) refuses them here", where PyBullet is
+    # installed and that talk checks them itself
+    import prezence.feedback.gesture_check as gc
+
+    monkeypatch.setattr(gc, "pybullet_available", lambda: True)  # as after pip install [sim]
+    mine = tmp_path / "mine.toml"
+    mine.write_text(
+        'format = 1\n[gestures.articulate]\ndescription = ""\n'
+        "[[gestures.articulate.keyframes]]\npose = { LShoulderPitch = 20.0 }\n"
+    )
+    text, status = check_gestures(0.6, as_json=False, collisions=False, library=mine)
+    assert status == 0
+    assert "refuses them" not in text and "--allow-unchecked-collision" not in text, text
+    assert f"self-collision of the gestures of {mine} not checked here (--no-collisions): " in text
+    assert "a talk checks them before it starts" in text
+
+
 def test_without_pybullet_gestures_check_prints_no_plain_ok(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
