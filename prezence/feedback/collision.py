@@ -32,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import json
+import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -60,6 +61,8 @@ SAMPLE_DT = 0.01
 _SEARCH_M = 1.0
 #: A first, cheaper search radius (m); the full one is used only when no pair is this close.
 _NEAR_M = 0.05
+
+log = logging.getLogger(__name__)
 
 
 def pybullet_available() -> bool:
@@ -277,10 +280,19 @@ def check_own_clearance(library: GestureLibrary, *, limits: JointLimits) -> None
         LimitViolation: naming the file, the gesture's line, the two links and when.
         BackendUnavailable: PyBullet is not installed.
     """
-    if not library.own:
-        return
+    if library.own:
+        _least_clearance(library, library.own, limits=limits)
+
+
+def _least_clearance(
+    library: GestureLibrary, names: Sequence[str], *, limits: JointLimits
+) -> float:
+    """The least clearance (m) of the gestures ``names`` of ``library`` (each parameter at its
+    smallest and largest value), raising :class:`LimitViolation` at the first one under
+    :data:`MIN_CLEARANCE_M`."""
+    least = math.inf
     with SelfCollisionChecker(limits=limits, library=library) as checker:
-        for name in library.own:
+        for name in names:
             g = library[name]
             for params in g.extreme_params():
                 traj = build_trajectory(
@@ -291,40 +303,74 @@ def check_own_clearance(library: GestureLibrary, *, limits: JointLimits) -> None
                     library=library,
                 )
                 c = checker.trajectory_clearance(traj)
+                least = min(least, c.distance_m)
                 if c.distance_m < MIN_CLEARANCE_M:
                     with_ = "".join(f" with {k} = {v}" for k, v in (params or {}).items())
+                    check = (
+                        f"prezence gestures check {g.path or 'FILE'}"
+                        if name in library.own
+                        else "prezence gestures check"  # a built-in gesture
+                    )
                     raise LimitViolation(
                         f"{g.at()}gesture '{name}'{with_}: self-collision: {c.describe()} "
                         f"(< {1000 * MIN_CLEARANCE_M:.0f} mm clearance; a real NAO's shell "
-                        "would stop it): move its keyframes apart (`prezence gestures check "
-                        f"{g.path or 'FILE'}` shows each gesture's clearance)"
+                        f"would stop it): move its keyframes apart (`{check}` shows each "
+                        "gesture's clearance)"
                     )
+    return least
 
 
 # ---------------------------------------------------------------------------------------------
 # Gestures whose self-collision was not checked, and a robot whose shell would stop them
 #: The shipped record of the built-in gestures' self-collision check: the SHA-256 of the
-#: ``gestures.toml`` and of the URDF that ``tests/sim/test_self_collision.py`` checked (with
-#: PyBullet) and the least clearance it measured. The test fails when either file changes
-#: and the record does not, so a record that matches names what was checked.
+#: ``gestures.toml`` (as parsed: comments, layout and line endings aside) and of the URDF (its
+#: line endings made LF) that ``tests/sim/test_self_collision.py`` checked (with PyBullet),
+#: and the least clearance it measured. The test fails when either changes and the record
+#: does not, so a record that matches names what was checked.
 BUILTIN_RECORD = "gestures_self_collision.json"
-#: How to have the self-collision of a library of one's own checked.
-_HOW = 'pip install "prezence[sim]" (it brings PyBullet)'
+#: How to have the self-collision of gestures checked where the talk runs.
+_HOW = (
+    'pip install "prezence[sim]" where the talk runs (it brings PyBullet; the talk then checks '
+    "them)"
+)
 #: The option that plays unchecked gestures on a robot anyway.
 ALLOW_UNCHECKED = "--allow-unchecked-collision"
 
 
 def builtin_hashes(limits: JointLimits) -> dict[str, str]:
-    """The SHA-256 of the built-in ``gestures.toml`` and of ``limits``' URDF, as the shipped
-    record (:data:`BUILTIN_RECORD`) writes them."""
+    """The hashes of the built-in ``gestures.toml`` and of ``limits``' URDF, as the shipped
+    record (:data:`BUILTIN_RECORD`) writes them.
+
+    ``gestures_sha256`` is over the parsed file (its TOML as canonical JSON), so a comment, a
+    blank line or a CRLF checkout leaves it; ``urdf_sha256`` is over the URDF's bytes with
+    CRLF made LF (on an LF checkout, the file's own SHA-256).
+    """
     from importlib import resources
     from pathlib import Path
 
-    data = resources.files("prezence.feedback").joinpath("data", GESTURES_FILE).read_bytes()
+    text = resources.files("prezence.feedback").joinpath("data", GESTURES_FILE).read_text()
     return {
-        "gestures_sha256": hashlib.sha256(data).hexdigest(),
-        "urdf_sha256": hashlib.sha256(Path(limits.source).read_bytes()).hexdigest(),
+        "gestures_sha256": toml_digest(text),
+        "urdf_sha256": hashlib.sha256(
+            Path(limits.source).read_bytes().replace(b"\r\n", b"\n")
+        ).hexdigest(),
     }
+
+
+def toml_digest(text: str) -> str:
+    """The SHA-256 of a TOML text as parsed (canonical JSON: sorted keys, no spaces): the
+    same for the same values whatever its comments, layout or line endings.
+
+    Example:
+        >>> toml_digest("# a note\\na = 1  # one") == toml_digest("a=1")
+        True
+    """
+    import tomllib
+
+    canonical = json.dumps(
+        tomllib.loads(text), sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str
+    )
+    return hashlib.sha256(canonical.encode()).hexdigest()
 
 
 def builtin_record() -> dict[str, Any]:
@@ -337,21 +383,59 @@ def builtin_record() -> dict[str, Any]:
     return record
 
 
+#: The least clearance (m) of the built-in gestures checked here, by :func:`builtin_hashes`
+#: (only versions that passed: a failing one is checked, and refused, again).
+_BUILTIN_CHECKED: dict[tuple[str, ...], float] = {}
+
+
+def check_builtin_clearance(limits: JointLimits) -> bool:
+    """Whether the self-collision of the built-in gestures is checked: True when the built-in
+    ``gestures.toml`` and the URDF are the ones the shipped record names (the test suite
+    checked them), or, when they are not, where PyBullet is installed, after checking every
+    built-in gesture here as a library of one's own is checked (once per version of the files;
+    a few seconds); False when they are not and PyBullet is not installed.
+
+    Raises:
+        LimitViolation: a built-in gesture, checked here, runs into the robot (its line).
+    """
+    hashes = builtin_hashes(limits)
+    if {k: builtin_record().get(k) for k in hashes} == hashes:
+        return True
+    if not pybullet_available():
+        return False
+    key = (*hashes.values(), str(limits.source))
+    if key not in _BUILTIN_CHECKED:
+        library = load_library(limits)
+        least = _least_clearance(library, library.names, limits=limits)
+        _BUILTIN_CHECKED[key] = least
+        log.info(
+            "the built-in %s (or the URDF) is not the one %s records: its self-collision "
+            "was checked here (least clearance %.1f mm)",
+            GESTURES_FILE,
+            BUILTIN_RECORD,
+            1000 * least,
+        )
+    return True
+
+
 def unchecked_collision(library: GestureLibrary | None, *, limits: JointLimits) -> list[str]:
     """Why the self-collision of the gestures a talk with ``library`` plays (None: the built-in
     ones) was not checked here; empty when it was.
 
     The gestures of a library of one's own are checked when the talk loads them, if PyBullet
-    is installed. The built-in ones are checked by the test suite; they count as checked when
-    the built-in ``gestures.toml`` and the URDF are the files the shipped record names.
+    is installed. The built-in ones count as checked when the built-in ``gestures.toml`` and
+    the URDF are the files the shipped record names (the test suite checked them), and are
+    checked here otherwise, if PyBullet is installed (:func:`check_builtin_clearance`).
+
+    Raises:
+        LimitViolation: a built-in gesture not the one the record names runs into the robot.
     """
     out: list[str] = []
-    record = {k: builtin_record().get(k) for k in ("gestures_sha256", "urdf_sha256")}
-    if record != builtin_hashes(limits):
+    if not check_builtin_clearance(limits):
         out.append(
             f"the built-in {GESTURES_FILE} (or the URDF) is not the one whose self-collision "
-            f"the test suite checked: its SHA-256 is not the one {BUILTIN_RECORD} records "
-            "(run tests/sim/test_self_collision.py, which says what to record)"
+            f"the test suite checked (its SHA-256 is not the one {BUILTIN_RECORD} records), "
+            "and PyBullet is not installed here to check it"
         )
     if library is not None and library.own and not pybullet_available():
         out.append(
@@ -387,7 +471,7 @@ def require_collision_checked(
         raise GestureCheckFailed(
             "\n".join(
                 f"{r}; --backend {backend} moves a real robot, which plays only gestures checked "
-                f"against its own body: {_HOW} where the talk runs, or give {ALLOW_UNCHECKED} "
+                f"against its own body: {_HOW}, or give {ALLOW_UNCHECKED} "
                 "to play them unchecked (recorded in session.json)"
                 for r in reasons
             )
@@ -404,8 +488,10 @@ __all__ = [
     "SelfCollisionChecker",
     "builtin_hashes",
     "builtin_record",
+    "check_builtin_clearance",
     "check_own_clearance",
     "pybullet_available",
     "require_collision_checked",
+    "toml_digest",
     "unchecked_collision",
 ]

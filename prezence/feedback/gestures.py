@@ -685,13 +685,21 @@ def library_for_talk(
     every gesture the talk plays passing ``gestures check`` at ``speed_fraction``
     (:func:`~prezence.feedback.gesture_check.check_talk_gestures`: none takes so long that
     the robot could give no other cue). The file is read and checked once per version and
-    speed (the command's start and its talk both ask).
+    speed (the command's start and its talk both ask). The built-in gestures, when the
+    built-in ``gestures.toml`` or the URDF is not the one the shipped record names, are checked
+    for self-collision here too where PyBullet is
+    (:func:`~prezence.feedback.collision.check_builtin_clearance`, once per version).
 
     Raises:
-        ConfigError, LimitViolation: the file cannot be read or played (``file:line:``).
+        ConfigError, LimitViolation: the file cannot be read or played (``file:line:``); a
+            built-in gesture changed since the record runs into the robot.
         GestureCheckFailed: a command the talk can give has no gesture in the library, or a
             gesture the talk would play fails the check at this speed.
     """
+    from prezence.feedback.collision import check_builtin_clearance
+    from prezence.feedback.limits import load_limits
+
+    check_builtin_clearance(load_limits())  # an edited built-in gestures.toml, as one's own
     if path is None and commands is not None:
         check_command_gestures(None, commands)
     if path is None and BUILTIN_PASS_FROM_SPEED <= speed_fraction <= 1.0:

@@ -281,21 +281,102 @@ def test_an_unchecked_library_plays_on_a_robot_only_when_asked_and_is_recorded(
     assert "self_collision_unchecked" not in json.loads((tmp_path / "b/session.json").read_text())
 
 
-def test_built_in_gestures_not_the_ones_the_tests_checked_are_refused_on_a_robot(
+def test_built_in_gestures_not_the_ones_the_tests_checked_are_refused_on_a_robot_without_pybullet(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # the built-in library is trusted on a robot without PyBullet because the shipped record
     # names the gestures.toml (and URDF) tests/sim/test_self_collision.py checked: an edited
-    # gestures.toml is no longer that file
+    # gestures.toml is no longer that file, and nothing here can check it
     from prezence.feedback import collision
     from prezence.synthetic.runner import run_talk
     from prezence.talk import RunOptions
 
+    monkeypatch.setattr(collision, "pybullet_available", lambda: False)
     record = {**collision.builtin_record(), "gestures_sha256": "0" * 64}
     monkeypatch.setattr(collision, "builtin_record", lambda: record)
-    with pytest.raises(GestureCheckFailed, match="the built-in gestures.toml"):
+    with pytest.raises(GestureCheckFailed, match="the built-in gestures.toml") as e:
         run_talk("short_talk", out=tmp_path / "s", backend=_Robot(), options=RunOptions.default())
+    assert "and PyBullet is not installed here to check it" in str(e.value)
+    assert 'pip install "prezence[sim]" where the talk runs' in str(e.value)
     assert not (tmp_path / "s").exists()
+
+
+def _edited_built_in(monkeypatch: pytest.MonkeyPatch) -> None:
+    """As if the built-in gestures.toml were edited since the shipped record (none checked)."""
+    from prezence.feedback import collision
+
+    record = {**collision.builtin_record(), "gestures_sha256": "0" * 64}
+    monkeypatch.setattr(collision, "builtin_record", lambda: record)
+    monkeypatch.setattr(collision, "_BUILTIN_CHECKED", {})
+
+
+def test_with_pybullet_an_edited_built_in_library_is_checked_at_the_talk_not_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    # session 23's review: a comment added to gestures.toml refused every naoqi talk (the
+    # virtual NAO's too), telling a developer with PyBullet to pip install "prezence[sim]"
+    pytest.importorskip("pybullet", reason="the self-collision check needs the sim extra")
+    from prezence.feedback import collision
+    from prezence.synthetic.runner import run_talk
+    from prezence.talk import RunOptions
+
+    _edited_built_in(monkeypatch)
+    limits = load_limits()
+    with caplog.at_level(logging.INFO, logger="prezence.feedback.collision"):
+        assert collision.require_collision_checked(None, limits=limits, backend="naoqi") == []
+    said = [r.getMessage() for r in caplog.records if "was checked here" in r.getMessage()]
+    assert len(said) == 1 and "least clearance 8.1 mm" in said[0], said
+    run_talk("short_talk", out=tmp_path / "s", backend=_Robot(), options=RunOptions.default())
+    assert "self_collision_unchecked" not in json.loads((tmp_path / "s/session.json").read_text())
+
+
+def test_with_pybullet_an_edited_built_in_gesture_that_runs_into_the_robot_stops_every_talk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # checked as a library of one's own is: refused on every backend, before anything starts
+    pytest.importorskip("pybullet", reason="the self-collision check needs the sim extra")
+    import dataclasses
+
+    from prezence.feedback import collision
+
+    clasp = tmp_path / "clasp.toml"
+    clasp.write_text(CLASP)
+    clasped = dataclasses.replace(load_library_file(clasp), source=None, text="", own=())
+    _edited_built_in(monkeypatch)
+    monkeypatch.setattr(collision, "load_library", lambda limits=None: clasped)
+    out = tmp_path / "s"
+    assert main(["-q", "run", "short_talk", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {clasp}:2: gesture 'articulate': self-collision: "), err
+    assert "`prezence gestures check` shows" in err
+    assert not out.exists()
+
+
+def test_the_record_of_the_built_in_gestures_outlives_a_comment_and_a_crlf_checkout(
+    tmp_path: Path,
+) -> None:
+    # its SHA-256 was over the raw bytes: a comment line, or a checkout with CRLF line endings
+    # (there is no .gitattributes), made the built-in library unchecked
+    from importlib import resources
+
+    from prezence.feedback import collision
+
+    record = collision.builtin_record()
+    limits = load_limits()
+    assert collision.builtin_hashes(limits) == {
+        k: record[k] for k in ("gestures_sha256", "urdf_sha256")
+    }
+    text = resources.files("prezence.feedback").joinpath("data", "gestures.toml").read_text()
+    edited = "# my note\r\n" + text.replace("\n", "\r\n") + "\r\n# another\r\n"
+    assert collision.toml_digest(edited) == record["gestures_sha256"]
+    layout = text.replace("\nhold = 0.15", "\nhold=0.150", 1)  # the same value
+    assert layout != text and collision.toml_digest(layout) == record["gestures_sha256"]
+    changed = text.replace("\nhold = 0.15", "\nhold = 0.25", 1)  # another library
+    assert changed != text and collision.toml_digest(changed) != record["gestures_sha256"]
+    urdf = Path(limits.source)
+    crlf = tmp_path / urdf.name
+    crlf.write_bytes(urdf.read_bytes().replace(b"\r\n", b"\n").replace(b"\n", b"\r\n"))
+    assert collision.builtin_hashes(load_limits(crlf))["urdf_sha256"] == record["urdf_sha256"]
 
 
 #: slow_down of four 5 s holds (the walkthrough's toolong.toml): each keyframe within its limits,
