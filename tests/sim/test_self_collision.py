@@ -163,6 +163,12 @@ def test_gestures_check_reports_self_clearance() -> None:
     assert {tuple(r["clearance_links"]) for r in rows} >= {("l_gripper", "r_gripper")}
 
 
+#: How far (mm) the recorded least clearance may be from the one measured here: the same files
+#: measured by another PyBullet version (its closest-point code) may read a little apart. A
+#: tenth of the 5 mm bound: a change that large is a change of the gestures or the URDF.
+RECORD_CLEARANCE_TOLERANCE_MM = 0.5
+
+
 def test_the_shipped_record_names_the_gestures_checked_here(checker: SelfCollisionChecker) -> None:
     # a talk on a real NAO without PyBullet trusts the built-in gestures because this record
     # names the files checked here (session 23): it must be of these files, and they must pass
@@ -179,7 +185,16 @@ def test_the_shipped_record_names_the_gestures_checked_here(checker: SelfCollisi
         "least_clearance_mm": round(1000 * least, 1),
         "checked_by": "tests/sim/test_self_collision.py",
     }
-    assert builtin_record() == want, (
+    record = builtin_record()
+    write = (
         f"the built-in gestures pass; write to prezence/feedback/data/{BUILTIN_RECORD}:\n"
         + json.dumps(want, indent=2)
     )
+    # the files must be the ones recorded; the clearance, measured by another PyBullet
+    # version, may differ a little with the same files (what is checked is the bound above)
+    assert {k: v for k, v in record.items() if k != "least_clearance_mm"} == {
+        k: v for k, v in want.items() if k != "least_clearance_mm"
+    }, write
+    assert record["least_clearance_mm"] == pytest.approx(
+        want["least_clearance_mm"], abs=RECORD_CLEARANCE_TOLERANCE_MM
+    ), write
