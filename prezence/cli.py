@@ -27,6 +27,7 @@ from prezence.talk import DEFAULT_POLICY, DEFAULT_SPEED_FRACTION, Terminated
 
 if TYPE_CHECKING:
     from prezence.config.model import Config
+    from prezence.feedback.gestures import GestureLibrary
     from prezence.live_view import RichLiveView
     from prezence.talk import RunOptions
 
@@ -495,11 +496,13 @@ def _options(args: argparse.Namespace, config: Config | None) -> RunOptions:
     # refused now, before the robot, a module or a folder: a file that cannot be played, a
     # command the talk can give whose gesture is in no library, or a gesture (of the file or
     # built in) that fails `gestures check` at --speed
-    library_for_talk(
+    library = library_for_talk(
         gestures or None,
         speed_fraction=args.speed,
         commands=config.talk_commands() if config is not None else None,
     )
+    allow = bool(getattr(args, "allow_unchecked_collision", False))
+    _refuse_unchecked_collision(getattr(args, "backend", None), library, allow=allow)
     return RunOptions(
         policy=args.policy,
         seed=args.seed if args.seed is not None else 0,
@@ -509,8 +512,26 @@ def _options(args: argparse.Namespace, config: Config | None) -> RunOptions:
         plots=getattr(args, "plots", True),
         gestures=gestures,
         speaker=_speaker(args),
-        allow_unchecked_collision=bool(getattr(args, "allow_unchecked_collision", False)),
+        allow_unchecked_collision=allow,
     )
+
+
+def _refuse_unchecked_collision(
+    backend: str | None, library: GestureLibrary | None, *, allow: bool
+) -> None:
+    """On a backend that moves a physical body (``naoqi``), refuse gestures whose
+    self-collision was not checked (no PyBullet) now, before a module runs or a folder is
+    written, as the talk itself would later (:func:`~prezence.talk.Talk`; a rehearsal analysed
+    its whole recording first, and left a half-written folder)."""
+    from prezence.backends.registry import BACKENDS
+
+    record = BACKENDS.get(backend) if backend else None
+    if record is None or not record.physical or allow:
+        return
+    from prezence.feedback.collision import require_collision_checked
+    from prezence.feedback.limits import load_limits
+
+    require_collision_checked(library, limits=load_limits(), backend=record.name)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -746,8 +767,9 @@ def cmd_up(args: argparse.Namespace) -> int:
     from prezence.sessiondir import claim_session_dir
 
     kw = _backend_kwargs(args)
-    check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
+    # gestures refused before the robot is reached (and before a module or a folder)
     options = _options(args, config)
+    check_up_inputs(audio=args.audio, video=args.video, backend=args.backend, robot=args.robot)
     backend = make_backend(args.backend, **kw)
     out = claim_session_dir(args.out, "live", force=args.force, root=_speaker_root(args))
     view = None if args.quiet else _live_view(config, specs)

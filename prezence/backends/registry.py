@@ -13,7 +13,8 @@ from prezence.errors import BackendUnavailable, UnknownName
 
 @dataclass(frozen=True)
 class BackendRecord:
-    """A robot backend: where it lives, what to install for it, whether it moves in real time.
+    """A robot backend: where it lives, what to install for it, whether it moves in real time
+    and whether it moves a physical body.
 
     Attributes:
         name: the ``--backend`` name.
@@ -22,20 +23,24 @@ class BackendRecord:
         realtime: the class's own :attr:`~prezence.backends.base.Backend.realtime` (what the
             loop reads; repeated here so that a listing needs no import; a test keeps them
             equal).
+        physical: the class's own :attr:`~prezence.backends.base.Backend.physical` (what a
+            command reads to refuse gestures whose self-collision was not checked before it
+            runs a module or writes a folder; a test keeps them equal).
     """
 
     name: str
     entry_point: str
     extra: str | None
     realtime: bool
+    physical: bool
 
 
 BACKENDS: dict[str, BackendRecord] = {
     r.name: r
     for r in (
-        BackendRecord("fake", "prezence.backends.fake:FakeBackend", None, False),
-        BackendRecord("sim", "sim.backend:SimBackend", "sim", False),
-        BackendRecord("naoqi", "prezence.backends.naoqi:NaoqiBackend", "naoqi", True),
+        BackendRecord("fake", "prezence.backends.fake:FakeBackend", None, False, False),
+        BackendRecord("sim", "sim.backend:SimBackend", "sim", False, False),
+        BackendRecord("naoqi", "prezence.backends.naoqi:NaoqiBackend", "naoqi", True, True),
     )
 }
 

@@ -913,6 +913,44 @@ def test_the_frame_difference_fallback_gives_no_gesture_advice_on_a_video_with_n
     assert "use your hands" not in (out / "report" / "spoken.txt").read_text().lower()
 
 
+#: a library of one's own: unchecked for self-collision where PyBullet is not installed
+OWN_GESTURES = (
+    'format = 1\n[gestures.articulate]\ndescription = ""\n'
+    "[[gestures.articulate.keyframes]]\npose = { LShoulderPitch = 20.0 }\n"
+)
+
+
+@pytest.mark.parametrize("command", ["rehearse", "up"])
+def test_a_robot_refuses_unchecked_gestures_before_anything_is_analysed_or_written(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    command: str,
+) -> None:
+    # session 23's review: without PyBullet, `rehearse --backend naoqi` analysed the whole
+    # recording, then the talk refused the gestures and left config.toml, speech.json,
+    # speech.log and streams/ (no session.json); the same --out then "already exists"
+    import prezence.launcher
+    import prezence.rehearse
+    from prezence.feedback import collision
+
+    monkeypatch.setattr(collision, "pybullet_available", lambda: False)
+    ran: list[str] = []
+    monkeypatch.setattr(prezence.rehearse, "rehearse", lambda *a, **k: ran.append("rehearse"))
+    monkeypatch.setattr(prezence.launcher, "up", lambda *a, **k: ran.append("up"))
+    mine = tmp_path / "mine.toml"
+    mine.write_text(OWN_GESTURES)
+    out = tmp_path / "nb1"
+    inputs = [str(FAST)] if command == "rehearse" else ["--audio", str(FAST)]
+    robot = ["--backend", "naoqi", "--robot", "tcp://127.0.0.1:1"]  # a closed port
+    argv = ["-q", command, *inputs, *robot, "--gestures", str(mine), "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {mine}: the self-collision of its gestures was not checked"), err
+    assert "--allow-unchecked-collision" in err
+    assert not ran and not out.exists()
+
+
 @pytest.mark.parametrize("how", [["--language", "de"], ["--speech-args", "--language de"]])
 def test_a_talk_said_to_be_in_another_language_gets_no_pace_or_clarity_and_is_told_why(
     tmp_path: Path, how: list[str]

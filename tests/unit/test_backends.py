@@ -33,7 +33,7 @@ def test_play_before_open_is_an_error() -> None:
 
 
 def test_backend_records_match_their_classes() -> None:
-    """The registry's records say what the classes say (real time, name)."""
+    """The registry's records say what the classes say (real time, physical body, name)."""
     import importlib
 
     from prezence.backends.registry import BACKENDS
@@ -45,7 +45,7 @@ def test_backend_records_match_their_classes() -> None:
             cls = getattr(importlib.import_module(module), attr)
         except ModuleNotFoundError:
             continue  # its extra is not installed here
-        assert (cls.name, cls.realtime) == (name, rec.realtime)
+        assert (cls.name, cls.realtime, cls.physical) == (name, rec.realtime, rec.physical)
         checked += 1
     assert checked >= 2  # fake and NAOqi import with no extra
 
