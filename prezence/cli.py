@@ -853,9 +853,12 @@ def _finish_session(
 
 
 def cmd_check_config(args: argparse.Namespace) -> int:
+    from prezence.backends.registry import BACKENDS
     from prezence.config.load import check_config_files, load_room
-    from prezence.errors import ConfigError
+    from prezence.errors import ConfigError, UnknownName
 
+    if args.backend not in BACKENDS:
+        raise UnknownName("backend", args.backend, BACKENDS)
     files = [Path(p) for p in args.files]
     room = None
     library = None
@@ -876,6 +879,8 @@ def cmd_check_config(args: argparse.Namespace) -> int:
         except PrezenceError as e:
             problems.append(str(e))
     notes: list[str] = []
+    if not problems:
+        _check_collision_checked(args, library, problems, notes)
     good: list[Path] = []  # each file is checked, and said ok, on its own: a lint step's view
     if not problems:
         for f in files:
@@ -896,6 +901,36 @@ def cmd_check_config(args: argparse.Namespace) -> int:
     for f in good:
         print(f"{f}: ok" + (f" (room {args.room})" if args.room else ""))
     return 1 if problems else 0
+
+
+def _check_collision_checked(
+    args: argparse.Namespace,
+    library: GestureLibrary | None,
+    problems: list[str],
+    notes: list[str],
+) -> None:
+    """``check-config``: gestures whose self-collision was not checked here (no PyBullet) fail
+    for a ``--backend`` that moves a physical body, as such a talk refuses them; for another
+    backend, a note says that a talk on a real robot would."""
+    from prezence.backends.registry import BACKENDS
+    from prezence.feedback.collision import require_collision_checked, unchecked_collision
+    from prezence.feedback.limits import load_limits
+
+    record = BACKENDS[args.backend]
+    limits = load_limits()
+    try:
+        if record.physical:
+            require_collision_checked(library, limits=limits, backend=record.name)
+            return
+        reasons = unchecked_collision(library, limits=limits)
+    except PrezenceError as e:  # refused as that talk refuses it
+        problems.append(str(e))
+        return
+    robots = " or ".join(f"--backend {n}" for n, r in BACKENDS.items() if r.physical)
+    for r in reasons:
+        notes.append(
+            f"{r}: a talk on a real robot ({robots}) refuses it (check-config {robots} fails it)"
+        )
 
 
 def _is_room_file(path: Path) -> bool:
@@ -1315,6 +1350,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=speed_fraction,
         default=DEFAULT_SPEED_FRACTION,
         help=f"the talks' gesture speed fraction (0..1], default {DEFAULT_SPEED_FRACTION}",
+    )
+    p.add_argument(
+        "--backend",
+        default="fake",
+        help="the talks' backend, fake | sim | naoqi (default: fake); naoqi: gestures whose "
+        "self-collision was not checked here (no PyBullet) fail, as such a talk refuses them",
     )
     p.set_defaults(func=cmd_check_config)
 

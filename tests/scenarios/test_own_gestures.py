@@ -505,3 +505,58 @@ def test_check_config_with_a_library_fails_what_every_talk_refuses(
         == 2
     )
     assert f"{mine}{says}" in capsys.readouterr().err
+
+
+#: a library of one's own that passes every check but self-collision, unchecked without PyBullet
+RAISED = (
+    'format = 1\n[gestures.articulate]\ndescription = ""\n'
+    "[[gestures.articulate.keyframes]]\npose = { LShoulderPitch = 20.0 }\n"
+)
+
+
+def test_check_config_without_pybullet_fails_for_a_robot_what_a_robot_talk_refuses(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 23's review: without PyBullet, `check-config RULES --gestures FILE` said ok
+    # (exit 0) for a library every talk on --backend naoqi refuses (exit 2)
+    from prezence.feedback import collision
+
+    monkeypatch.setattr(collision, "pybullet_available", lambda: False)
+    rules = tmp_path / "myrules.txt"
+    rules.write_text("speech_speed inRange 140 180 speedUp slowDown\n")
+    mine = tmp_path / "mine.toml"
+    mine.write_text(RAISED)
+    unchecked = f"{mine}: the self-collision of its gestures was not checked"
+    # the default backend (fake) plays it: ok, with a note that a robot talk would not
+    assert main(["-q", "check-config", str(rules), "--gestures", str(mine)]) == 0
+    captured = capsys.readouterr()
+    assert f"{rules}: ok" in captured.out
+    assert captured.err.startswith(f"warning: {unchecked}"), captured.err
+    assert "a talk on a real robot (--backend naoqi) refuses it" in captured.err
+    # the backend the talks use: refused as that talk refuses it, in its words
+    argv = ["-q", "check-config", str(rules), "--gestures", str(mine), "--backend", "naoqi"]
+    assert main(argv) == 1
+    captured = capsys.readouterr()
+    assert f"{rules}: ok" not in captured.out
+    assert captured.err.startswith(unchecked), captured.err
+    said = captured.err.strip()
+    robot = ["--backend", "naoqi", "--robot", "tcp://127.0.0.1:1"]
+    assert main(["-q", "run", "short_talk", *robot, "--gestures", str(mine)]) == 2
+    assert capsys.readouterr().err.strip() == f"error: {said}"
+    # an unknown backend is named
+    assert main(["-q", "check-config", str(rules), "--backend", "nao"]) == 2
+    assert "did you mean 'naoqi'?" in capsys.readouterr().err
+
+
+def test_check_config_for_a_robot_passes_a_library_checked_here(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("pybullet", reason="the self-collision check needs the sim extra")
+    rules = tmp_path / "myrules.txt"
+    rules.write_text("speech_speed inRange 140 180 speedUp slowDown\n")
+    mine = tmp_path / "mine.toml"
+    mine.write_text(RAISED)
+    argv = ["-q", "check-config", str(rules), "--gestures", str(mine), "--backend", "naoqi"]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    assert f"{rules}: ok" in captured.out and not captured.err, captured.err
