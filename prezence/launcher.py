@@ -62,6 +62,9 @@ log = logging.getLogger(__name__)
 HEARTBEAT_ENV = "PREZENCE_HEARTBEAT"
 #: Modules are looked at (exit status, signs of life) at most this often, seconds.
 SUPERVISE_PERIOD_S = 0.2
+#: How often (talk seconds) an ``up`` of recordings looks at the newest stamp of every stream
+#: file, the recordings' clock (:meth:`LiveSource.time_used`).
+CLOCK_LOOK_S = 0.5
 #: The exit status with which a module says it cannot use its input (a missing file, no
 #: microphone): restarting cannot help, so the talk stops with the module's own message.
 BAD_INPUT_STATUS = 2
@@ -570,8 +573,11 @@ class LiveSource(SourceBase):
         self._stopped = False
         #: every input is a file played as if live (``session.json``'s ``recorded_inputs``)
         self._recorded = bool(self.modules) and all(m.finite for m in self.modules)
-        #: the newest stamp :meth:`poll` gave (the recordings' clock when every input is one)
+        #: the newest stamp :meth:`poll` gave, and the newest in any stream file at the last
+        #: look (the recordings' clock, when every input is one, is the newer of the two)
         self._newest = 0.0
+        self._written = 0.0
+        self._next_clock_look = 0.0
 
     @property
     def talk_s(self) -> float | None:
@@ -608,8 +614,8 @@ class LiveSource(SourceBase):
         return samples
 
     def time_used(self, now: float) -> float | None:
-        """When every input is a file played as if live: the newest stamp given, the
-        recordings' own clock (None, the talk's clock, otherwise).
+        """When every input is a file played as if live: the newest stamp the modules wrote,
+        the recordings' own clock (None, the talk's clock, otherwise).
 
         The talk's clock runs ahead of the recordings' while the modules start up and on
         after their end (the module on a 60.00 s file finished at 1:02.5), and the time
@@ -617,8 +623,24 @@ class LiveSource(SourceBase):
         the robot said "You are over time" at 1:00.5, then "You used 1 minute of 1 minute,
         right on time". On the recordings' clock a time warning falls where the recording
         reaches it, and a recording that ends within its time gets no overtime cue.
+
+        Every stream counts, not only those :meth:`poll` reads (the rules'): in a pause the
+        speech module writes ``speech_activity`` alone, and the video fallback without the
+        vision env ``cv_gestures_motion``, which no rule judges. On the rules' streams alone
+        the clock stopped in silence: a recording that ran over in a pause was never told
+        (session 23's review: 30.5 s of speech and 25 s of silence with --allocated 40 got
+        no cue, then "You used 55.5 seconds of 40 seconds, 39% over"). The other files'
+        newest stamps are read every :data:`CLOCK_LOOK_S` (their last 4 kB), as
+        :meth:`recording_s` reads them; a stamp the coach would skip as ahead of its clock
+        counts for nothing.
         """
-        return self._newest if self._recorded else None
+        if not self._recorded:
+            return None
+        if now >= self._next_clock_look and self._streams is not None:
+            self._next_clock_look = now + CLOCK_LOOK_S
+            written = newest_stamp(self._streams, max_t=now + MAX_AHEAD_S)
+            self._written = max(self._written, written)
+        return max(self._newest, self._written)
 
     def wait(self, timeout_s: float) -> bool:
         assert self._tailer is not None

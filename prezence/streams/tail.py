@@ -1086,15 +1086,16 @@ class MultiTailer:
             return _PollWatcher(self.poll_interval_s)
 
 
-def newest_stamp(streams: Path) -> float:
+def newest_stamp(streams: Path, *, max_t: float = math.inf) -> float:
     """The newest sample time in any stream file of ``streams`` (0.0 when none): how far the
     modules have got. Only each file's last lines are read (4 kB), and only ``<t> <value>``
     lines count: a ``<value>`` line has no time of its own (the coach stamps it, in a
-    ``.stamps`` file), and its value is not one."""
-    return newest_stamp_of(streams.glob("*.txt"))
+    ``.stamps`` file), and its value is not one. Stamps after ``max_t`` are passed over (a
+    line the coach skips as ahead of its clock is no time the modules reached)."""
+    return newest_stamp_of(streams.glob("*.txt"), max_t=max_t)
 
 
-def newest_stamp_of(paths: Iterable[Path]) -> float:
+def newest_stamp_of(paths: Iterable[Path], *, max_t: float = math.inf) -> float:
     """:func:`newest_stamp` of the stream files ``paths`` (those missing count as empty): how
     far one module has got."""
     newest = 0.0
@@ -1113,7 +1114,7 @@ def newest_stamp_of(paths: Iterable[Path]) -> float:
                 t = float(fields[0])
             except ValueError:
                 continue
-            if math.isfinite(t):
+            if math.isfinite(t) and t <= max_t:
                 newest = max(newest, t)
                 break
     return newest

@@ -638,3 +638,62 @@ def test_a_recording_longer_than_its_time_is_still_told_it_is_over(tmp_path: Pat
     assert [c["command"] for c in summary["cues"]] == ["overtime"]
     assert summary["time"]["used_s"] == 3.0
     assert summary["post_talk"]["phrase"].startswith("You used 3 seconds of 2 seconds, 50% over")
+
+
+#: A module playing a "file" that ends in silence: ``speech_speed`` (judged) 0.5 … ``SPEECH``
+#: s, and ``speech_activity`` (no rule judges it: the speech module writes it alone in a
+#: pause) 0.5 … ``N``/2 s, half a second apart at real-time pace, then exit 0 at its end.
+_ENDS_IN_SILENCE = """
+import sys, time
+from pathlib import Path
+
+out, n, speech = Path(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
+(out / "streams").mkdir(parents=True, exist_ok=True)
+with open(out / "streams" / "speech_speed.txt", "a") as pace, open(
+    out / "streams" / "speech_activity.txt", "a"
+) as act:
+    for i in range(1, n + 1):
+        time.sleep(0.5)
+        t = i * 0.5
+        if t <= speech:
+            pace.write(f"{t} 160.0\\n")
+            pace.flush()
+        act.write(f"{t} {0.9 if t <= speech else 0.0}\\n")
+        act.flush()
+time.sleep(0.5)
+"""
+
+
+def _played_file_ending_in_silence(allocated_s: float, tmp_path: Path) -> dict:
+    """``up`` of one "file": spoken to 3.0 s, silent to 6.0 s, with ``allocated_s``: the
+    summary."""
+    script = tmp_path / "silence.py"
+    script.write_text(_ENDS_IN_SILENCE)
+    spec = ModuleSpec(
+        "speech",
+        [sys.executable, str(script), "{session}", "12", "3.0"],
+        metrics=("speech_speed", "speech_activity"),
+        finite=True,
+    )
+    result = up(
+        CONFIG.with_allocated(allocated_s),
+        session_dir=tmp_path / "s",
+        modules=[spec],
+        backend=FakeBackend(time_scale=0.01),
+        grace_s=10.0,
+        options=RunOptions.default(report=True),
+    )
+    return result.summary
+
+
+@pytest.mark.slow
+def test_a_recording_that_runs_over_in_silence_is_told_it_is_over(tmp_path: Path) -> None:
+    # Session 23, a review: the recordings' clock was the newest stamp of the streams the
+    # rules judge, which stop in a pause (the speech module writes only speech_activity), so
+    # `up --audio tail.wav --allocated 40` of 30.5 s of speech and 25 s of silence gave no cue,
+    # then "You used 55.5 seconds of 40 seconds, 39% over."
+    summary = _played_file_ending_in_silence(4.0, tmp_path)
+    assert summary["time"]["used_s"] == 6.0
+    assert [c["command"] for c in summary["cues"]] == ["overtime"]
+    assert 4.0 <= summary["cues"][0]["t"] < summary["talk_s"]
+    assert summary["post_talk"]["phrase"].startswith("You used 6 seconds of 4 seconds, 50% over")
