@@ -14,7 +14,7 @@ import contextlib
 import json
 import logging
 import os
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from operator import attrgetter
 from pathlib import Path
@@ -316,6 +316,14 @@ def replay(
         for p in sorted(src.glob("*"))
         if p.is_file() and (p.name in (SPEECH_STATUS, VISION_STATUS) or p.suffix == ".log")
     }
+    # an `up` whose every input was a file judged its time on the recordings' clock, the
+    # newest stamp its modules wrote: the replay's clock runs on to the live talk's end (the
+    # coach's clock, past the recordings'), so it judges time on the recordings' too
+    clock = (
+        recordings_clock(samples, context.values(), max_t=limit)
+        if rec_meta.get("recorded_inputs")
+        else None
+    )
     recorded_summary = _read_json_or_empty(rec.summary)
     stopped = recorded_summary.get("stopped_at_time_limit")
     if stopped:  # the recorded talk was cut at its time limit: so is its replay
@@ -337,12 +345,26 @@ def replay(
         context_streams=context,
         copy_files=files,
         readings=readings,
+        clock=clock,
         meta={
             "source": source,
             **({"scenario": meta["scenario"]} if "scenario" in meta else {}),
         },
         extra=extra,
     )
+
+
+def recordings_clock(
+    samples: Sequence[Sample], others: Iterable[Path], *, max_t: float
+) -> list[float]:
+    """Every stamp of ``samples`` and of the stream files ``others`` (those no rule judges:
+    in a pause the speech module writes ``speech_activity`` alone), up to ``max_t``, sorted:
+    the recordings' clock of an ``up`` of files (:class:`prezence.talk.RecordedSource`)."""
+    stamps = [s.t for s in samples]
+    for path in others:
+        stamps.extend(s.t for s in read_stream(path, path.stem, max_t=max_t)[0])
+    stamps.sort()
+    return stamps
 
 
 def recorded_gestures(rec: SessionDir, meta: Mapping[str, Any]) -> Path:
@@ -503,6 +525,7 @@ def process_recorded(
     kind: str = "replay",
     meta: dict[str, Any] | None = None,
     extra: dict[str, Any] | None = None,
+    clock: Sequence[float] | None = None,
 ) -> ReplayResult:
     """Run the coach over recorded samples on their own clock; write decisions, cues, summary.
 
@@ -523,6 +546,8 @@ def process_recorded(
         kind: the session's kind (``replay``, ``rehearsal``).
         meta: more for ``session.json``.
         extra: more for ``summary.json``.
+        clock: the recordings' clock, which the time is judged on (see
+            :class:`prezence.talk.RecordedSource`); None: the talk's clock.
     """
     source = RecordedSource(
         samples,
@@ -538,6 +563,7 @@ def process_recorded(
         kind=kind,
         readings=readings,
         copy_files=copy_files,
+        clock=clock,
     )
     bk = make_backend(backend, **(backend_kwargs or {}))
     with _said_already(session.streams):

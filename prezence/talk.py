@@ -244,7 +244,15 @@ _SCAN = 16
 
 
 class RecordedSource(SourceBase):
-    """Samples already recorded (a replay, a rehearsal's module files), in time order."""
+    """Samples already recorded (a replay, a rehearsal's module files), in time order.
+
+    ``clock``: every stamp the recording's modules wrote, in any stream file, sorted, when its
+    time was judged on the recordings' clock (an ``up`` whose every input was a file,
+    ``session.json``'s ``recorded_inputs``): :meth:`time_used` is then the newest of them
+    given so far, as the live run's was (:meth:`prezence.launcher.LiveSource.time_used`), so
+    that the replay, whose clock runs on to the live talk's end past the recordings', makes
+    the live run's time decisions. None: the time used is the talk's clock.
+    """
 
     kind = "replay"
 
@@ -261,8 +269,12 @@ class RecordedSource(SourceBase):
         kind: str = "replay",
         readings: Mapping[str, Any] | None = None,
         copy_files: dict[str, Path] | None = None,
+        clock: Sequence[float] | None = None,
     ) -> None:
         self.kind = kind
+        self._clock = clock
+        self._ci = 0
+        self._clock_t = 0.0
         self._copy_files = dict(copy_files or {})
         self._readings = readings
         self.keep_streams = keep_streams
@@ -283,6 +295,8 @@ class RecordedSource(SourceBase):
         summary and report read what the coach read, and the recording's other files (its
         modules' status records and logs) into its folder."""
         self._i = 0
+        self._ci = 0
+        self._clock_t = 0.0
         for name, path in self._copy_files.items():
             shutil.copyfile(path, session.root / name)
         for name, path in self._copy.items():
@@ -307,6 +321,17 @@ class RecordedSource(SourceBase):
                 break
         self._i = j
         return ss[i:j]
+
+    def time_used(self, now: float) -> float | None:
+        clock = self._clock
+        if clock is None:
+            return None
+        i = self._ci
+        if i < len(clock) and clock[i] <= now:
+            i = bisect_right(clock, now, lo=i)
+            self._ci = i
+            self._clock_t = clock[i - 1]
+        return self._clock_t
 
     def meta(self) -> dict[str, Any]:
         return {"talk_s": self._talk_s, **self._meta}

@@ -697,3 +697,26 @@ def test_a_recording_that_runs_over_in_silence_is_told_it_is_over(tmp_path: Path
     assert [c["command"] for c in summary["cues"]] == ["overtime"]
     assert 4.0 <= summary["cues"][0]["t"] < summary["talk_s"]
     assert summary["post_talk"]["phrase"].startswith("You used 6 seconds of 4 seconds, 50% over")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("silent", "allocated_s", "commands"),
+    [(False, 3.0, []), (True, 4.0, ["overtime"])],
+    ids=["ends-on-time", "over-in-silence"],
+)
+def test_a_replay_of_an_up_of_recordings_makes_its_time_decisions(
+    silent: bool, allocated_s: float, commands: list[str], tmp_path: Path
+) -> None:
+    # Session 23, a review: a replay ran its clock to the live talk's talk_s (the coach's
+    # clock, past the recording's end) and judged the time on it, so the replay of a 3.0 s
+    # recording with 3 s allocated, which got no cue live, gave `0:03.5 overtime`.
+    from prezence.replay import replay
+
+    live = (_played_file_ending_in_silence if silent else _played_file)(allocated_s, tmp_path)
+    assert [c["command"] for c in live["cues"]] == commands
+    replayed = replay(tmp_path / "s", out=tmp_path / "r", options=RunOptions.default(report=True))
+    again = replayed.summary
+    assert [c["command"] for c in again["cues"]] == commands
+    assert again["time"]["used_s"] == live["time"]["used_s"]
+    assert again["post_talk"]["phrase"] == live["post_talk"]["phrase"]
