@@ -118,7 +118,14 @@ class RunOptions:
 
 
 class SampleSource(Protocol):
-    """Where a talk's samples come from (a presenter, recorded files, live modules)."""
+    """Where a talk's samples come from (a presenter, recorded files, live modules).
+
+    A source may also define ``time_used(now) -> float | None``: the time the presenter has
+    used at talk time ``now``, when it is not ``now`` (an ``up`` of recordings, or its replay:
+    the recordings' own clock, which the time warnings are judged on); None: ``now``. It is
+    not required: a source without it (written before session 23) has the talk's clock
+    (:meth:`SourceBase.time_used` gives None).
+    """
 
     #: ``synthetic``, ``replay``, ``rehearsal`` or ``live`` (the session's ``kind``).
     kind: str
@@ -146,11 +153,6 @@ class SampleSource(Protocol):
 
     def ended(self, now: float) -> bool:
         """True when the talk is over by the source's own account (live: time is up)."""
-        ...
-
-    def time_used(self, now: float) -> float | None:
-        """The time the presenter has used at talk time ``now``, when it is not ``now``
-        (an ``up`` of recordings: the recordings' own clock); None: ``now``."""
         ...
 
     def events(self, now: float) -> list[str]:
@@ -208,6 +210,7 @@ class SourceBase:
         return False
 
     def time_used(self, now: float) -> float | None:
+        """The time used at ``now`` when it is not ``now`` (see :class:`SampleSource`)."""
         return None
 
     def events(self, now: float) -> list[str]:
@@ -463,6 +466,8 @@ class Talk:
         self._meta: dict[str, Any] = {}
         #: The samples the last :meth:`step` gave the processor.
         self.last_samples: Sequence[Sample] = ()
+        #: The source's clock of the time used, when it has one (optional: see SampleSource).
+        self._time_used: Callable[[float], float | None] | None = getattr(source, "time_used", None)
 
     @property
     def paced(self) -> bool:
@@ -536,7 +541,7 @@ class Talk:
         ends at ``now``: the samples count, but no cue is given after the talk)."""
         assert self.coach is not None, "start() first"
         self.last_samples = self.source.poll(now)
-        spent = self.source.time_used(now)
+        spent = None if self._time_used is None else self._time_used(now)
         d = self.coach.tick(now, self.last_samples, over=over, spent=spent)
         if self.on_decision is not None:
             self.on_decision(d)
