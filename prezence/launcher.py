@@ -550,7 +550,7 @@ class LiveSource(SourceBase):
         # metric from two sources (session 22's module-author walkthrough).
         writers: dict[str, list[str]] = {}
         for m in modules:
-            for metric in m.metrics:
+            for metric in dict.fromkeys(m.metrics):  # a metric a module lists twice is one
                 writers.setdefault(metric, []).append(m.name)
         shared = {k: v for k, v in writers.items() if len(v) > 1}
         if shared:

@@ -14,6 +14,7 @@ from prezence.launcher import (
     DEFAULT_HANG_S,
     SPEECH_HEARTBEAT_METRIC,
     VISION_METRICS,
+    LiveSource,
     ModuleProcess,
     ModuleSpec,
     speech_module,
@@ -304,6 +305,9 @@ def test_two_modules_writing_one_metric_are_refused_before_anything_starts(tmp_p
             options=RunOptions.default(),
         )
     assert not (tmp_path / "s").exists()
+    # a module of one's own that lists a metric twice is no second writer (a review)
+    twice = ModuleSpec.parse("mine:my_a,my_a=python pace.py --out {session}")
+    LiveSource([twice], end_at=None)
 
 
 @pytest.mark.slow
