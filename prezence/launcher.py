@@ -647,7 +647,14 @@ class LiveSource(SourceBase):
         return bool(self._tailer.wait(timeout_s))
 
     def ended(self, now: float) -> bool:
-        if self.end_at is not None and now >= self.end_at:
+        clock = now
+        if self.grace_s is not None and self._recorded:
+            # the time limit (allocated + grace) on the recordings' clock, as the time warnings
+            # and the time used: on the coach's clock, which runs ahead of the recordings', a
+            # 62.4 s file with 32 + 31 s was stopped at 1:03 before its end and told "you were
+            # still going … at least 98% over" (session 23's verification)
+            clock = self.time_used(now) or 0.0
+        if self.end_at is not None and clock >= self.end_at:
             going_on = [p for p in self.procs if not p.finished]
             if self.grace_s is not None and going_on and not self.stopped_at_limit:
                 # Session 20: a 360 s file played with --allocated 5m stopped at 5:30 and was

@@ -600,9 +600,9 @@ def test_a_module_that_exits_0_while_the_others_go_on_ended_and_is_not_restarted
     assert "crashed" not in printed and "restarted" not in printed
 
 
-def _played_file(allocated_s: float, tmp_path: Path) -> dict:
+def _played_file(allocated_s: float, tmp_path: Path, grace_s: float = 10.0) -> dict:
     """``up`` of one "file" (speech_speed 0.5 … 3.0 s, then 2 s of decoding before its
-    exit 0) with ``allocated_s``: the summary."""
+    exit 0) with ``allocated_s`` and ``grace_s``: the summary."""
     script = tmp_path / "play.py"
     script.write_text(_PLAYS_A_FILE)
     spec = ModuleSpec(
@@ -616,10 +616,22 @@ def _played_file(allocated_s: float, tmp_path: Path) -> dict:
         session_dir=tmp_path / "s",
         modules=[spec],
         backend=FakeBackend(time_scale=0.01),
-        grace_s=10.0,
+        grace_s=grace_s,
         options=RunOptions.default(report=True),
     )
     return result.summary
+
+
+@pytest.mark.slow
+def test_a_recording_that_ends_within_its_time_limit_is_not_stopped_at_it(tmp_path: Path) -> None:
+    # Session 23's verification: `up --audio en150.wav --allocated 32 --grace 31` (62.4 s) was
+    # stopped at 1:03 on the coach's clock, before the file's end, and told "You were still
+    # going when the coach stopped … at least 98% over". The limit is on the recordings' clock.
+    summary = _played_file(2.0, tmp_path, grace_s=1.5)  # the file's 3.0 s within 3.5
+    assert summary["talk_s"] > 3.5  # the coach's clock passed the limit
+    assert not summary.get("stopped_at_time_limit")
+    assert summary["time"]["used_s"] == 3.0 and summary.get("recording_s") == 3.0
+    assert summary["post_talk"]["phrase"].startswith("You used 3 seconds of 2 seconds, 50% over")
 
 
 @pytest.mark.slow
