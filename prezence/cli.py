@@ -96,7 +96,9 @@ def format_timeline(summary: dict[str, Any]) -> str:
     if summary.get("gestures"):
         g = summary["gestures"]
         mine = ", ".join(g.get("defines") or ())
-        lines.append(f"gestures: {mine} from {g.get('file')}; the others built in")
+        # a whole library leaves none built in (an older folder does not say: "the others")
+        rest = "" if g.get("built_in") == [] else "; the others built in"
+        lines.append(f"gestures: {mine} from {g.get('file')}{rest}")
     lines.append(f"{'time':>7}  {'cue':<12} {'metric':<16} {'lat':>6} {'ok':>3}  reason")
     for c in summary["cues"]:
         lat = c.get("latency_s")

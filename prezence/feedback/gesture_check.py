@@ -367,7 +367,7 @@ def check_gestures(
                 f"robot (--backend naoqi) refuses them here unless given {ALLOW_UNCHECKED} "
                 '(pip install "prezence[sim]" checks them)'
             )
-    if lib is not None:
+    if lib is not None and len(lib.names) > len(lib.own):  # a whole library leaves none
         kept = len(lib.names) - len(lib.own)
         lines.append(
             f"the other {kept} gestures a talk with --gestures {library} plays are the built-in "

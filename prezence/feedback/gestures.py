@@ -201,11 +201,12 @@ class GestureLibrary:
 
     def record(self) -> dict[str, Any]:
         """What a session records of a library of one's own: the file (absolute), the SHA-256
-        of the text that was read, and the gestures it defines (the others were built in)."""
+        of the text that was read, the gestures it defines and those left built in."""
         return {
             "file": str(Path(self.source).resolve()) if self.source else None,
             "sha256": hashlib.sha256(self.text.encode("utf-8")).hexdigest(),
             "defines": list(self.own),
+            "built_in": [n for n in self.names if n not in self.own],
         }
 
 

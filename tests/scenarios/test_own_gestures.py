@@ -560,3 +560,22 @@ def test_check_config_for_a_robot_passes_a_library_checked_here(
     assert main(argv) == 0
     captured = capsys.readouterr()
     assert f"{rules}: ok" in captured.out and not captured.err, captured.err
+
+
+def test_a_library_of_every_gesture_is_not_said_to_leave_built_in_ones(tmp_path: Path) -> None:
+    # Session 23's verification: a full library through --gestures printed "the other 0
+    # gestures … are the built-in ones" and "the others built in".
+    from importlib.resources import files
+
+    from prezence.cli import format_timeline
+
+    whole = tmp_path / "all.toml"
+    text = (files("prezence.feedback") / "data" / "gestures.toml").read_text()
+    whole.write_text("format = 1\n" + text[text.index("\n[gestures.") :])
+    out = tmp_path / "s"
+    assert main(["-q", "run", "short_talk", "--gestures", str(whole), "--out", str(out)]) in (0, 3)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["gestures"]["built_in"] == []
+    assert "built in" not in format_timeline(summary).splitlines()[1]
+    text, _ = check_gestures(0.6, as_json=False, library=whole)
+    assert "the other 0 gestures" not in text
