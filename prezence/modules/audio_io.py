@@ -50,6 +50,11 @@ class AudioSource(Protocol):
         ...
 
 
+#: Containers whose index (MP4's moov) is written when the recording stops: a file cut off
+#: before that cannot be opened at all.
+_INDEXED_AT_THE_END = frozenset({".m4a", ".mp4", ".mov", ".m4v", ".3gp"})
+
+
 def _av() -> Any:
     try:
         import av
@@ -87,8 +92,17 @@ def decode_file(path: str | Path) -> Generator[np.ndarray, None, None]:
         # e reads "[Errno 1094995529] Invalid data found …: 'path'": its strerror is the part
         # that means something to a person
         why = getattr(e, "strerror", None) or str(e)
+        hint = ""
+        if path.suffix.lower() in _INDEXED_AT_THE_END:
+            # session 23's student: a phone's .m4a cut off while recording (its index, written
+            # last, is missing) was called a file of the wrong kind
+            hint = (
+                f"; a {path.suffix} recording cut off before it was saved (the recording app or "
+                "the battery stopped it) has no index and no player can read it: export it "
+                "again, or repair it with a tool that rebuilds the index"
+            )
         raise ModuleInputError(
-            path, f"not an audio or video file the decoder can read ({why})"
+            path, f"not an audio or video file the decoder can read ({why}){hint}"
         ) from e
     n_out = 0
     try:

@@ -997,3 +997,33 @@ def test_language_given_twice_is_refused(
 def test_language_without_an_audio_input_is_refused(tmp_path: Path) -> None:
     argv = ["up", "--video", str(GESTURES), "--language", "de", "--out", str(tmp_path / "s")]
     assert main(argv) == 2
+
+
+def test_a_phone_recording_cut_off_before_it_was_saved_is_said_to_be_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Session 23's student: a phone's .m4a whose recording stopped before its index was written
+    # (moov, at the end) was called "not an audio or video file the decoder can read".
+    import av
+    import numpy as np
+
+    whole = tmp_path / "talk.m4a"
+    with av.open(str(whole), "w") as out:
+        stream = out.add_stream("aac", rate=16000, layout="mono")
+        tone = (3000 * np.sin(np.arange(16000 * 3) * 0.05)).astype(np.int16)
+        frame = av.AudioFrame.from_ndarray(tone.reshape(1, -1), format="s16", layout="mono")
+        frame.sample_rate = 16000
+        for f in av.AudioResampler(format="fltp", layout="mono", rate=16000).resample(frame):
+            for packet in stream.encode(f):
+                out.mux(packet)
+        for packet in stream.encode(None):
+            out.mux(packet)
+    cut = tmp_path / "cut.m4a"
+    data = whole.read_bytes()
+    moov = data.find(b"moov")
+    assert moov > 0
+    cut.write_bytes(data[: moov - 4])  # everything before the index: as if cut off
+    status = main(["-q", "rehearse", str(cut), "--out", str(tmp_path / "s")])
+    assert status == 2
+    said = capsys.readouterr().err
+    assert f"{cut}: not an audio or video file" in said and "cut off before it was saved" in said
