@@ -323,6 +323,11 @@ def nothing_judged_sentence(report: Mapping[str, Any]) -> str:
             "I heard no voice, only silence, noise or a whisper, so I could not judge your "
             f"delivery: speak aloud, or check {_inputs_used(report)}."
         )
+    if "the talk is in '" in whys:  # --language: pace and clarity not measured, and why
+        return (
+            "I measure pace and clarity in English talks only, and could not judge the rest "
+            "of your delivery."
+        )
     if any(m.get("too_brief") for m in metrics):
         return "I measured too little of your delivery to judge it."
     return f"I could not measure enough of your delivery to judge it: check {_inputs_used(report)}."
@@ -997,6 +1002,17 @@ def _some_praise(report: Mapping[str, Any]) -> str:
         for k, m in (report.get("metrics") or {}).items()
         if isinstance(m, Mapping) and _judged(m)
     ]
+    whys = [
+        str(m.get("not_measured_why") or "")
+        for m in (report.get("metrics") or {}).values()
+        if isinstance(m, Mapping)
+    ]
+    if any(w.startswith("the talk is in '") for w in whys):
+        # the speech module was told the talk's language (--language): the reason is said too
+        return (
+            f"Your {_and(good)} stayed {_in(report)}; I did not judge your {_and(rest)}: "
+            "I measure them in English talks only."
+        )
     return f"Your {_and(good)} stayed {_in(report)}; I could not judge your {_and(rest)}."
 
 

@@ -972,6 +972,8 @@ def test_a_talk_said_to_be_in_another_language_gets_no_pace_or_clarity_and_is_to
     assert not any(c["metric"] == "speech_speed" for c in read_jsonl(out / "cues.jsonl"))
     page = (out / "report" / "report.html").read_text()
     assert "English talks only" in page
+    said = (out / "report" / "spoken.txt").read_text()
+    assert "English talks only" in said, said  # the robot says why, not only the report
 
 
 def test_english_said_as_the_language_changes_nothing(tmp_path: Path) -> None:

@@ -497,3 +497,15 @@ def test_a_replay_of_an_older_folder_takes_no_gesture_advice_from_the_fallback(
     gestures = json.loads((out / "summary.json").read_text())["metrics"]["cv_gestures"]
     assert gestures["measured"] is False and gestures["stale_episodes"] == 0
     assert "frame difference" in gestures["not_measured_why"]
+
+
+def test_a_talk_said_not_to_be_in_english_is_told_why_pace_was_not_judged(tmp_path: Path) -> None:
+    # Session 23's verification: with --language de the robot said only "I could not judge
+    # your pace and clarity"; the reason was in the table and report alone.
+    streams = {"speech_volume": [(float(t), 66.0) for t in range(10, 120)]}
+    session = rehearsal(tmp_path / "s", streams, talk_s=120.0, recording="vortrag.m4a")
+    why = "the talk is in 'de' (--language): pace and clarity are measured for English talks only"
+    off = {"speech_speed": why, "speech_accuracy": why}
+    (session.root / "speech.json").write_text(json.dumps({"format": 1, "off": off}))
+    said = summary_phrase(build_report(session.root))
+    assert "I did not judge your pace" in said and "English talks only" in said, said
