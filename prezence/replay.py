@@ -36,7 +36,7 @@ from prezence.session import (
 from prezence.sessiondir import overlaps
 from prezence.streams.locate import locate_streams, no_streams_error
 from prezence.streams.tail import StreamProblem, TailStats, read_stream
-from prezence.summary import SPEECH_STATUS, VISION_STATUS
+from prezence.summary import GESTURES_FROM_MOTION, SPEECH_STATUS, VISION_STATUS
 from prezence.talk import RecordedSource, RunOptions, run_talk
 
 log = logging.getLogger(__name__)
@@ -434,11 +434,6 @@ def load_samples(
     return merge_readings(read_streams(paths, max_t=max_t, ranges=ranges))
 
 
-#: ``cv_gestures_source``'s code for the frame-difference fallback (prezence.summary's
-#: GESTURES_FROM_MOTION, not imported: the summary pulls in the report's code).
-_GESTURES_FROM_MOTION = 2.0
-
-
 def _without_fallback_gestures(
     readings: dict[str, Reading], folders: Sequence[Path]
 ) -> dict[str, Reading]:
@@ -451,12 +446,12 @@ def _without_fallback_gestures(
         return readings
     fallback: set[float] = set()
     for folder in folders:
-        path = folder / "cv_gestures_source.txt"
+        path = folder / f"{GESTURES_SOURCE}.txt"
         if path.is_file():
             for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
                 fields = line.split()
                 try:
-                    if len(fields) == 2 and float(fields[1]) == _GESTURES_FROM_MOTION:
+                    if len(fields) == 2 and float(fields[1]) == GESTURES_FROM_MOTION:
                         fallback.add(float(fields[0]))
                 except ValueError:
                     continue

@@ -248,18 +248,24 @@ def test_the_printed_table_marks_a_fallback_and_says_what_was_not_measured() -> 
     assert row.split()[1] == "-*"
 
 
+def untimed(talk_s: int, volume: float) -> dict[str, list[tuple[float, float]]]:
+    """The streams of a recording the speech module could not time: ``speech_speed_source``
+    0 and a volume in every window from 10 s, no speed."""
+    rows = range(10, talk_s)
+    return {
+        "speech_speed": [],
+        "speech_speed_source": [(float(t), 0.0) for t in rows],
+        "speech_volume": [(float(t), volume) for t in rows],
+    }
+
+
 def test_a_recording_the_speech_module_could_not_time_is_said_not_praised(
     tmp_path: Path,
 ) -> None:
     # session 16: a clipped recording (or noise alone) ran the speech module, which wrote
     # speech_speed_source 0 in every window and no speed; the table said "no data" with no
     # reason and the robot "Everything I could measure stayed in the ideal range. Well done!"
-    rows = range(10, 61)
-    streams = {
-        "speech_speed": [],
-        "speech_speed_source": [(float(t), 0.0) for t in rows],
-        "speech_volume": [(float(t), 87.0) for t in rows],
-    }
+    streams = untimed(61, 87.0)
     session = rehearsal(tmp_path / "s", streams, talk_s=61.0, recording="talk.wav")
     report = build_report(session.root)
     why = report["metrics"]["speech_speed"]["not_measured_why"]
@@ -298,12 +304,7 @@ def test_a_clipped_recording_is_called_clipped_and_its_volume_not_praised(
     # speech.log says which)", the volume read 82 dB "in the ideal range", and the robot
     # "Your volume and clarity stayed in the ideal range; I could not judge your pace." The
     # one thing to act on (lower the input gain) was in speech.log alone.
-    rows = range(10, 108)
-    streams = {
-        "speech_speed": [],
-        "speech_speed_source": [(float(t), 0.0) for t in rows],
-        "speech_volume": [(float(t), 82.0) for t in rows],
-    }
+    streams = untimed(108, 82.0)
     session = rehearsal(tmp_path / "s", streams, talk_s=108.0, recording="clipped.wav")
     (session.root / "speech.log").write_text(CLIPPED_LOG)
     report = build_report(session.root)
@@ -328,12 +329,7 @@ def test_a_clipped_recording_is_called_clipped_and_its_volume_not_praised(
 def test_the_speech_modules_clipping_record_is_read_without_its_log(tmp_path: Path) -> None:
     # The report found clipping by the wording of a log line; since session 23 the speech
     # module records it in speech.json, which a reworded (or missing) log cannot lose.
-    rows = range(10, 108)
-    streams = {
-        "speech_speed": [],
-        "speech_speed_source": [(float(t), 0.0) for t in rows],
-        "speech_volume": [(float(t), 82.0) for t in rows],
-    }
+    streams = untimed(108, 82.0)
     session = rehearsal(tmp_path / "s", streams, talk_s=108.0, recording="clipped.wav")
     status = {"format": 1, "clipped": {"first_s": 12.0, "windows": 97, "max_share": 0.09}}
     (session.root / "speech.json").write_text(json.dumps(status))
