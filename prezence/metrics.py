@@ -65,6 +65,12 @@ class Metric:
         scale: the built-in rule's percent scale (deviation of 100 % at this distance).
         first_after_s: its module's first value comes this long into the talk (the window it
             needs: pace after 10 s of talk); a shorter talk is too short to measure it.
+        error_pct: the module's measurement error, in percent of the value: a reading this
+            close to a bound of the band, outside it, cannot be told from one inside it, so
+            the report advises on the time out by more than it only (:meth:`margin`); None:
+            no error is stated (the reading is taken as exact).
+        error_abs: the same in the metric's unit (head pitch: degrees); the larger of the two
+            holds.
     """
 
     name: str
@@ -77,6 +83,19 @@ class Metric:
     band: tuple[str, float | None, float | None] | None = None
     scale: float | None = None
     first_after_s: float = 0.0
+    error_pct: float | None = None
+    error_abs: float | None = None
+
+    def margin(self, bound: float) -> float:
+        """How far outside ``bound`` a reading may be and still lie within the measurement's
+        error of it (0 without a stated error).
+
+        Example:
+            >>> METRICS["speech_speed"].margin(140.0)
+            11.2
+        """
+        rel = abs(bound) * self.error_pct / 100.0 if self.error_pct is not None else 0.0
+        return round(max(rel, self.error_abs or 0.0), 9)
 
     @property
     def shown_unit(self) -> str:
@@ -164,6 +183,11 @@ METRICS: Mapping[str, Metric] = {
             physical_range=(0.0, 400.0),
             band=("inRange", 140.0, 180.0),
             first_after_s=10.0,  # the speech module's --window: 10 s of talk
+            # issue 11's accuracy target for the median reading, which the corpus meets on
+            # every clean development voice (worst 5.5 %); held out, a pitch-shifted voice
+            # reads -13.7 %. A reader at 158 wpm read 135-137 for 49 s of 120 around a pause
+            # and was told "pick up the pace" (session 23's verification)
+            error_pct=8.0,
         ),
         # words per minute estimated from syllable nuclei (nuclei / 1.26 per word), not syllables
         Metric("speech_speed_syllables", "wpm", "pace from syllables", "speech", _SPEECH),
@@ -217,6 +241,9 @@ METRICS: Mapping[str, Metric] = {
             physical_range=(-90.0, 90.0),
             band=("min", -15.0, None),
             scale=10.0,
+            # issue 11's head-pose target; the worst frame of the two fitted faces is 2.9
+            # degrees of pitch, of the three held out 6.6 (README's head-pose table)
+            error_abs=5.0,
         ),
         Metric("cv_headYaw", "degrees", "head turn", "vision", _VISION),
         Metric("cv_facingAudience", "0..1", "facing the audience", "vision", _VISION),

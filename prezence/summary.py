@@ -53,7 +53,9 @@ def _in_range_time(
     ``ts`` (sorted) and ``vs`` are the samples' times and values. Each value holds from its
     time until the next sample, the stale time, the talk's end or the next of ``cuts`` (its
     module died), whichever comes first; a stretch out of range is broken by a value in range
-    or by a gap (a stale module).
+    or by a gap (a stale module). For a metric whose record states a measurement error
+    (:meth:`prezence.metrics.Metric.margin`), ``within_error_s`` is the time out of range by
+    no more than it.
     """
     k = int(np.searchsorted(ts, talk_s, side="left"))  # samples before the talk's end
     t = ts[:k]
@@ -68,6 +70,16 @@ def _in_range_time(
     out = below | above
     in_s = float(dt[~out].sum())
     out_s = float(dt[out].sum())
+    rec = METRICS.get(rule.metric)
+    near: dict[str, float] = {}
+    if rec is not None and (rec.error_pct is not None or rec.error_abs is not None):
+        # out, but by no more than the measurement's error: cannot be told from in range
+        close = np.zeros(k, dtype=bool)
+        if rule.low is not None:
+            close |= below & (v >= rule.low - rec.margin(rule.low))
+        if rule.high is not None:
+            close |= above & (v <= rule.high + rec.margin(rule.high))
+        near["within_error_s"] = round(float(dt[close].sum()), 3)
     longest_out = 0.0
     if out.any():
         gap = end < nxt
@@ -85,6 +97,7 @@ def _in_range_time(
         "no_data_s": round(max(0.0, talk_s - covered), 3),
         "time_in_range": round(in_s / covered, 4) if covered > 0 else None,  # type: ignore[dict-item]
         "longest_out_of_range_s": round(longest_out, 3),
+        **near,
     }
 
 

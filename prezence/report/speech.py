@@ -471,8 +471,19 @@ def near_words(report: Mapping[str, Any]) -> str:
             for i, x in enumerate(_sides(row))
         ]
         label = str(row.get("label") or row.get("metric"))
-        said.append(f"{label} {was(label)} {' and '.join(parts)}")
+        said.append(f"{label} {was(label)} {' and '.join(parts)}{_within_error(row)}")
     return "; ".join(said)
+
+
+def _within_error(row: Mapping[str, Any]) -> str:
+    """ ", all of it by less than the measurement's error (8%)" for a ``near_range`` row whose
+    time out was partly or wholly within it ("" otherwise)."""
+    near = row.get("within_error_s")
+    if not isinstance(near, int | float) or near <= 0.0:
+        return ""
+    out = sum(float(x.get("out_s") or 0.0) for x in _sides(row))
+    much = "all of it" if near >= out - 0.05 else f"{_out_for(float(near))} of it"
+    return f", {much} by less than the measurement's error ({row.get('error')})"
 
 
 def praise_line(report: Mapping[str, Any], share: str) -> str:
@@ -1040,6 +1051,10 @@ def _near_spoken(report: Mapping[str, Any]) -> str:
         )
         for i, x in enumerate(_sides(row))
     ]
+    near = row.get("within_error_s")
+    out = sum(float(x.get("out_s") or 0.0) for x in _sides(row))
+    if isinstance(near, int | float) and near > 0.0 and near >= out - 0.05:
+        said[-1] += ", by less than my measuring error"
     return f"Your {label} {was(label)} {' and '.join(said)}."
 
 

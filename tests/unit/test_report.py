@@ -282,10 +282,11 @@ def test_a_pace_a_little_under_all_talk_is_not_praised_as_in_range(tmp_path: Pat
 
 
 def test_a_pace_a_little_under_for_a_while_is_a_little_off(tmp_path: Path) -> None:
-    # under the band for 30 % of the talk, 5 % under: too little to work on, too much to praise
+    # under the band for 30 % of the talk, 11 % under (more than the pace's 8 % measurement
+    # error): too little to work on, too much to praise
     session = _fifty_second_talk(
         tmp_path,
-        speech_speed=lambda t: 150.0 if t <= 35 else 133.0,
+        speech_speed=lambda t: 150.0 if t <= 35 else 125.0,
         speech_volume=lambda t: 66.0,
         cv_headGaze=lambda t: 0.0,
     )
@@ -311,7 +312,7 @@ def test_a_short_glance_away_still_leaves_the_praise(tmp_path: Path) -> None:
         tmp_path,
         speech_speed=lambda t: 150.0,
         speech_volume=lambda t: 66.0,
-        cv_headGaze=lambda t: -20.0 if t == 30 else 0.0,
+        cv_headGaze=lambda t: -25.0 if t == 30 else 0.0,  # beyond the head pose's 5 degrees
     )
     report = build_report(session.root, ended=True)
     assert report["priorities"] == [] and report["slightly_off"] == []
