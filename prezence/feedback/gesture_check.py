@@ -178,6 +178,7 @@ def _row(
             f"takes {traj.duration:.1f} s > {MAX_DURATION_S:g} s: while a gesture plays the "
             "robot gives no other cue, a time warning included (fewer holds or repeats)"
         )
+    collided = False
     if checker is not None:
         clearance = checker.trajectory_clearance(traj)
         row.update(
@@ -186,6 +187,7 @@ def _row(
             clearance_at_s=clearance.time_s,
         )
         if clearance.distance_m < MIN_CLEARANCE_M:
+            collided = True
             problems.append(
                 f"self-collision: {clearance.describe()} "
                 f"(< {1000 * MIN_CLEARANCE_M:.0f} mm clearance)"
@@ -204,7 +206,10 @@ def _row(
         joints=len(traj.joints),
     )
     if problems:
-        row["error"] = "; ".join(problems)
+        # a self-collision row names the gesture's file:line, as a row out of a limit names
+        # its keyframe's (and a talk's refusal of it, the same line); the others keep their
+        # text, which the speed checks below read
+        row["error"] = (lib[name].at() if collided else "") + "; ".join(problems)
     return row
 
 
@@ -233,7 +238,8 @@ def gesture_failure(
         row = _row(name, name, params, speed_fraction, limits, lib, checker)
     if row["ok"] or "duration_s" not in row:
         return None
-    return str(row["error"])
+    # the caller names the gesture's file:line itself (a self-collision row starts with it)
+    return str(row["error"]).removeprefix(lib[name].at())
 
 
 def check_gestures(

@@ -197,6 +197,23 @@ def test_a_gesture_that_runs_into_the_robot_stops_the_talk_before_it_starts(
     assert not out.exists()
 
 
+def test_gestures_check_names_the_line_of_a_gesture_that_runs_into_the_robot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 23's gesture designer: a row out of a limit said `clasp.toml:4: …`, the
+    # self-collision row only `FAIL: self-collision: …`, with no line to go to
+    pytest.importorskip("pybullet", reason="the self-collision check needs the sim extra")
+    clasp = tmp_path / "clasp.toml"
+    clasp.write_text(CLASP)
+    assert main(["-q", "gestures", "check", str(clasp)]) == 1
+    [row] = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("articulate")]
+    assert f"FAIL: {clasp}:2: self-collision: " in row, row
+    [row] = json.loads(check_gestures(0.6, as_json=True, collisions=True, library=clasp)[0])[
+        "gestures"
+    ]
+    assert row["error"].startswith(f"{clasp}:2: self-collision: "), row
+
+
 def test_without_pybullet_a_talk_says_the_collision_check_was_not_made(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
