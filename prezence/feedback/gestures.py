@@ -43,7 +43,14 @@ from typing import Any
 import numpy as np
 
 from prezence.errors import ConfigError, LimitViolation, UnknownName, did_you_mean, unknown_message
-from prezence.feedback.limits import HANDS, HIP_YAW_PITCH, LEGS, JointLimits, require_finite
+from prezence.feedback.limits import (
+    HANDS,
+    HIP_YAW_PITCH,
+    LEGS,
+    JointLimits,
+    load_limits,
+    require_finite,
+)
 from prezence.feedback.trajectory import (
     Trajectory,
     min_segment_duration,
@@ -566,26 +573,61 @@ def unset_params(library: GestureLibrary) -> list[str]:
 RADIANS_LIKE_DEG = 2.1
 
 
-def radians_like(library: GestureLibrary) -> list[str]:
-    """A note per gesture of one's own whose angles all look like radians (``RShoulderPitch =
-    1.2``): the file is read in degrees, so the arm would move 1.2°, not 69°."""
+def radians_like(library: GestureLibrary, *, limits: JointLimits | None = None) -> list[str]:
+    """A note per gesture of one's own whose angles look like radians: all of them
+    (``RShoulderPitch = 1.2``: the file is read in degrees, so the arm would move 1.2°, not
+    69°), or every value of a joint beside larger angles (a nod ``HeadPitch = 0.4`` beside
+    ``HeadYaw = 3``), where each value read as radians is within the joint's limits (``limits``,
+    default the project's URDF): ``LShoulderRoll = -2`` beside degrees is no radian (-115° is
+    past its limit), and the built-in ``gesture_less`` writes it."""
     out = []
     for name in library.own:
         g = library[name]
-        angles = [
-            (j, math.degrees(v))
+        written = [
+            (j, math.degrees(v), kf.line)
             for kf in g.keyframes({p.name: p.low for p in g.params.values()})
             for j, v in kf.pose.items()
             if j not in HANDS
         ]
-        if angles and max(abs(a) for _, a in angles) <= RADIANS_LIKE_DEG:
-            joint, big = max(angles, key=lambda ja: abs(ja[1]))
+        if written and max(abs(a) for _, a, _ in written) <= RADIANS_LIKE_DEG:
+            joint, big, _ = max(written, key=lambda w: abs(w[1]))
             out.append(
                 f"{g.at()}gestures.{name}: every angle is within ±{RADIANS_LIKE_DEG:g}; angles "
                 f"are degrees, so {joint} = {big:g} is {big:g}°, not {math.degrees(big):.0f}° "
                 "(radians? multiply by 57.3)"
             )
+            continue
+        note = _radians_beside_degrees(g, written, limits if limits is not None else load_limits())
+        if note:
+            out.append(note)
     return out
+
+
+def _radians_beside_degrees(
+    g: Gesture, written: list[tuple[str, float, int | None]], limits: JointLimits
+) -> str | None:
+    """The note for joints of ``g`` written in radians beside angles in degrees (see
+    :func:`radians_like`), or None. ``written``: (joint, value as written, its line)."""
+    by_joint: dict[str, list[float]] = {}
+    for j, a, _ in written:
+        by_joint.setdefault(j, []).append(a)
+    small = [
+        j
+        for j, values in by_joint.items()
+        if max(abs(a) for a in values) <= RADIANS_LIKE_DEG
+        and any(values)  # 0 is 0 in either unit
+        and all(limits[j].lower <= a <= limits[j].upper for a in values)  # read as radians
+    ]
+    if not small:
+        return None
+    joint, big, line = max((w for w in written if w[0] in small), key=lambda w: abs(w[1]))
+    other, beside, _ = max((w for w in written if w[0] not in small), key=lambda w: abs(w[1]))
+    every = " and ".join(small)
+    return (
+        f"{g.at(line)}gestures.{g.name}: every {every} is within ±{RADIANS_LIKE_DEG:g} where "
+        f"{other} = {beside:g} is not; angles are degrees, so {joint} = {big:g} is {big:g}°, "
+        f"not {math.degrees(big):.0f}° (radians? multiply by 57.3)"
+    )
 
 
 def library_notes(library: GestureLibrary) -> list[str]:

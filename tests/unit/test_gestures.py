@@ -617,6 +617,37 @@ def test_a_gesture_written_in_radians_is_noted_with_what_it_would_do(tmp_path: P
     assert radians_like(every) == []  # no built-in gesture looks like radians
 
 
+def test_a_nod_in_radians_beside_a_yaw_in_degrees_is_noted(tmp_path: Path) -> None:
+    # session 23's gesture designer: HeadPitch = 0.4 and -0.2 (radians) beside HeadYaw = 3.0
+    # (degrees) passed `gestures check` with no note: the ±2.1 rule looked at every angle of
+    # the gesture at once, and the robot nodded 0.4°
+    head = "format = 1\n[gestures.encourage]\n[[gestures.encourage.keyframes]]\n"
+    mixed = head + (
+        "pose = { HeadPitch = 0.4, HeadYaw = 3.0 }\n"
+        "[[gestures.encourage.keyframes]]\npose = { HeadPitch = -0.2 }\n"
+    )
+    text, status = check_gestures(
+        0.6, as_json=False, collisions=False, library=_write(tmp_path, mixed)
+    )
+    assert status == 0, text  # within every limit: a note, not a failure
+    [note] = [ln for ln in text.splitlines() if ln.startswith("note: ")]
+    # the line of the keyframe that holds the value it names, as a keyframe out of a limit
+    assert note.startswith(f"note: {tmp_path}/lib.toml:3: gestures.encourage: every HeadPitch "), (
+        note
+    )
+    assert (
+        "where HeadYaw = 3 is not; angles are degrees, so HeadPitch = 0.4 is 0.4°, not 23°" in note
+    )
+    # the same nod in degrees, and a small angle no radian could be (LShoulderRoll = -2 beside
+    # degrees, as the built-in gesture_less writes it: -2 rad is past the joint's limit)
+    for pose in (
+        "{ HeadPitch = 23.0, HeadYaw = 3.0 }",
+        "{ LShoulderRoll = -2.0, LShoulderPitch = 60.0 }",
+    ):
+        lib = load_library_file(_write(tmp_path, head + f"pose = {pose}\n"), limits=LIMITS)
+        assert radians_like(lib) == [], pose
+
+
 def test_a_gesture_that_keeps_the_robot_busy_too_long_fails_the_check(tmp_path: Path) -> None:
     # ten repeats of two 5 s holds: 113 s of one cue passed, and a talk gave no time warning
     # while it played
