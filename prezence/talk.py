@@ -457,6 +457,9 @@ class Talk:
         #: Why the self-collision of gestures this talk plays was not checked (empty: it was).
         #: A robot that moves a physical body refuses them unless the options allow them.
         self.unchecked_collision = _unchecked_collision(self.library, backend, options)
+        #: The built-in gestures.toml or URDF where it is not the one the shipped record of their
+        #: self-collision check names (edited in place), as session.json records it ({}: it is).
+        self.builtin_edits = _builtin_edits()
         self.coach: Coach | None = None
         #: The folder held for this talk from :meth:`start` until it is finished or abandoned.
         self.hold: FolderLock | None = None
@@ -499,6 +502,7 @@ class Talk:
                 "backend": self.backend.name,
                 "speed_fraction": self.options.speed_fraction,
                 **({"gestures": self.library.record()} if self.library else {}),
+                **({"built_in_gestures": self.builtin_edits} if self.builtin_edits else {}),
                 **(
                     {"self_collision_unchecked": self.unchecked_collision}
                     if self.unchecked_collision
@@ -828,6 +832,15 @@ def run_talk(
 
 #: The loggers whose warnings name a bad line of the talk's files (a stream line, a cue line).
 _LINE_LOGGERS = ("prezence.streams.tail", "prezence.session")
+
+
+def _builtin_edits() -> dict[str, Any]:
+    """:func:`~prezence.feedback.collision.builtin_edits` of the project's URDF (after
+    :func:`_unchecked_collision`, which checks an edited built-in library where it can)."""
+    from prezence.feedback.collision import builtin_edits
+    from prezence.feedback.limits import load_limits
+
+    return builtin_edits(load_limits())
 
 
 def _unchecked_collision(

@@ -418,6 +418,41 @@ def check_builtin_clearance(limits: JointLimits) -> bool:
     return True
 
 
+def builtin_edits(limits: JointLimits) -> dict[str, Any]:
+    """What a session records when the built-in ``gestures.toml`` or ``limits``' URDF is not
+    the file the shipped record (:data:`BUILTIN_RECORD`) names, e.g. edited in place by a
+    gesture designer; ``{}`` when both are.
+
+    Returns:
+        ``file`` (the built-in ``gestures.toml``) and ``urdf``, absolute; their hashes as the
+        record writes them (``gestures_sha256``, ``urdf_sha256``: :func:`builtin_hashes`);
+        ``differs_from_record``, which of the two files is not the recorded one; and
+        ``least_clearance_mm`` where their self-collision was checked here
+        (:func:`check_builtin_clearance`; absent: not checked).
+    """
+    from importlib import resources
+    from pathlib import Path
+
+    hashes = builtin_hashes(limits)
+    record = builtin_record()
+    gestures = Path(str(resources.files("prezence.feedback").joinpath("data", GESTURES_FILE)))
+    urdf = Path(limits.source).resolve()
+    files = {"gestures_sha256": gestures.name, "urdf_sha256": urdf.name}
+    differs = [name for key, name in files.items() if record.get(key) != hashes[key]]
+    if not differs:
+        return {}
+    out: dict[str, Any] = {
+        "file": str(gestures.resolve()),
+        "urdf": str(urdf),
+        **hashes,
+        "differs_from_record": differs,
+    }
+    least = _BUILTIN_CHECKED.get((*hashes.values(), str(limits.source)))
+    if least is not None:
+        out["least_clearance_mm"] = round(1000 * least, 1)
+    return out
+
+
 def unchecked_collision(library: GestureLibrary | None, *, limits: JointLimits) -> list[str]:
     """Why the self-collision of the gestures a talk with ``library`` plays (None: the built-in
     ones) was not checked here; empty when it was.
@@ -486,6 +521,7 @@ __all__ = [
     "SAMPLE_DT",
     "Clearance",
     "SelfCollisionChecker",
+    "builtin_edits",
     "builtin_hashes",
     "builtin_record",
     "check_builtin_clearance",

@@ -347,6 +347,46 @@ def test_with_pybullet_an_edited_built_in_library_is_checked_at_the_talk_not_ref
     assert "self_collision_unchecked" not in json.loads((tmp_path / "s/session.json").read_text())
 
 
+def test_a_talk_with_an_edited_built_in_library_records_the_edit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # session 23's verification: a --gestures file is recorded in session.json with its
+    # SHA-256, but a talk after gestures.toml was edited in place said nothing of it
+    from prezence.feedback import collision
+    from prezence.feedback.gestures import GESTURES_FILE
+
+    run = ["-q", "run", "short_talk", "--out"]
+    assert main([*run, str(tmp_path / "shipped")]) == 0
+    meta = json.loads((tmp_path / "shipped/session.json").read_text())
+    assert "built_in_gestures" not in meta  # the files the shipped record names
+    _edited_built_in(monkeypatch)
+    monkeypatch.setattr(collision, "pybullet_available", lambda: False)
+    assert main([*run, str(tmp_path / "edited")]) == 0
+    meta = json.loads((tmp_path / "edited/session.json").read_text())
+    got = meta["built_in_gestures"]
+    limits = load_limits()
+    assert got["gestures_sha256"] == collision.builtin_hashes(limits)["gestures_sha256"]
+    assert got["gestures_sha256"] != collision.builtin_record()["gestures_sha256"]
+    assert got["differs_from_record"] == [GESTURES_FILE]
+    assert Path(got["file"]).is_absolute() and Path(got["file"]).name == GESTURES_FILE
+    assert "least_clearance_mm" not in got  # not checked: self_collision_unchecked says why
+    assert meta["self_collision_unchecked"]
+
+
+def test_with_pybullet_a_talk_records_the_clearance_of_an_edited_built_in_library(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("pybullet", reason="the self-collision check needs the sim extra")
+    from prezence.feedback import collision
+
+    shipped = collision.builtin_record()["least_clearance_mm"]  # the same gestures, in fact
+    _edited_built_in(monkeypatch)
+    assert main(["-q", "run", "short_talk", "--out", str(tmp_path / "s")]) == 0
+    meta = json.loads((tmp_path / "s/session.json").read_text())
+    assert meta["built_in_gestures"]["least_clearance_mm"] == pytest.approx(shipped, abs=0.5)
+    assert "self_collision_unchecked" not in meta
+
+
 def test_with_pybullet_an_edited_built_in_gesture_that_runs_into_the_robot_stops_every_talk(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -161,7 +161,17 @@ def talks(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
         runner.run_talk(scenario, out=root / name, seed=0, backend=backend, report=True)
         out.append(root / name)
     assert main(["replay", str(root / "demo"), "--policy", "rhema", "--out", str(root / "rp")]) == 0
-    return [*out, root / "rp"]
+    out.append(root / "rp")
+    # as after gestures.toml was edited in place (no PyBullet to check it: a second's check less)
+    from prezence.feedback import collision
+
+    record = {**collision.builtin_record(), "gestures_sha256": "0" * 64}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(collision, "builtin_record", lambda: record)
+        mp.setattr(collision, "pybullet_available", lambda: False)
+        runner.run_talk("short_talk", out=root / "edited", seed=0, backend="fake", report=True)
+    assert "built_in_gestures" in json.loads((root / "edited/session.json").read_text())
+    return [*out, root / "edited"]
 
 
 def test_every_field_a_talk_writes_is_in_the_session_folder_doc(talks: list[Path]) -> None:
