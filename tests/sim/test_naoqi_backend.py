@@ -7,6 +7,7 @@ its motions, refuse cues and come back; an unreachable one must give BackendUnav
 from __future__ import annotations
 
 import re
+import shutil
 import socket
 import subprocess
 import sys
@@ -206,23 +207,47 @@ def test_missing_qi_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
         backend.open()
 
 
+def native_stacks(pid: int) -> str:
+    """Every thread's native stack of a live process, by gdb if it is installed."""
+    gdb = shutil.which("gdb")
+    if gdb is None:
+        return "(no gdb: no native stacks)"
+    got = subprocess.run(
+        [gdb, "-p", str(pid), "-batch", "-ex", "thread apply all bt 30"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    return got.stdout[-20000:] + got.stderr[-2000:]
+
+
 def test_plain_naoqi_client_runs_unchanged(server: tuple[subprocess.Popen[str], str]) -> None:
-    done = subprocess.run(
+    client = subprocess.Popen(
         [
             sys.executable,
             str(Path(__file__).with_name("naoqi_client_example.py")),
             f"--qi-url={server[1]}",
         ],
-        capture_output=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
         text=True,
-        timeout=60,
     )
-    assert done.returncode == 0, done.stdout + done.stderr
-    values = {k: float(v) for k, v in re.findall(r"^(\w+ \w+): (\S+)$", done.stdout, re.M)}
+    try:
+        out, err = client.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        # seen once in a whole-suite run (README, "Not done"): the client printed every line,
+        # then did not exit. Keep its threads' stacks, which name where it waits, then fail.
+        stacks = native_stacks(client.pid)
+        client.kill()
+        out, err = client.communicate()
+        pytest.fail(f"the client did not exit within 60 s\n{out}{err}\n{stacks}")
+    assert client.returncode == 0, out + err
+    values = {k: float(v) for k, v in re.findall(r"^(\w+ \w+): (\S+)$", out, re.M)}
     assert values["setAngles HeadYaw"] == pytest.approx(0.3, abs=TOL)
     assert values["angleInterpolation HeadYaw"] == pytest.approx(0.0, abs=TOL)
     assert values["angleInterpolation HeadPitch"] == pytest.approx(0.1, abs=TOL)
-    assert "said: Hello, I am NAO." in done.stdout
+    assert "said: Hello, I am NAO." in out
 
 
 @pytest.mark.parametrize(
