@@ -23,6 +23,7 @@ jitter; a metric written every 2 s (speech at most) goes stale after 6 s, one wr
 from __future__ import annotations
 
 import difflib
+import enum
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -44,6 +45,49 @@ SNR_METRIC = "speech_snr"
 NOISY_SNR_DB = 15.0
 #: The metric whose cues ask for clearer speech (a strict or weighted cue on it).
 NOISY_METRIC = "speech_accuracy"
+
+#: The speech module's reason code per window where it wrote no pace, or a pace from the
+#: syllable count (:class:`Untimed`): the report says why pace or clarity was measured over
+#: only part of the talk ("music or noise next to the words for 0:31"), not only speech.log.
+UNTIMED_METRIC = "speech_untimed_reason"
+
+
+class Untimed(enum.IntEnum):
+    """``speech_untimed_reason``'s codes (issue 11): why the speech module wrote no
+    ``speech_speed`` at a window's time, or one from the syllable count (``speech_speed_source``
+    2). One code per line, the first that applies in this order; nothing is written where the
+    recogniser's count was used. The numbers are a file format: never renumber one.
+    """
+
+    #: Under 1 s of voice activity in the level window: a pause, or silence.
+    PAUSE = 1
+    #: Sound without a voice (noise, music, a hum, a whisper): ``speech_activity`` 0.
+    NO_VOICE = 2
+    #: Voice heard, but under ``--window`` s of talk in the word window yet (the start of the
+    #: talk, or of the speech after sound without a voice): too little to time.
+    TOO_LITTLE_TALK = 3
+    #: Speech again after a pause of ``--window`` s or more: waiting for its first words.
+    AFTER_PAUSE = 4
+    #: Noise or music without a voice in, or next to, the word window (it would count as talk).
+    NOISE_NEAR = 5
+    #: Over 5 % of the word window's speech samples clipped (too much input gain).
+    CLIPPED = 6
+    #: The estimated SNR too low for either count (background noise).
+    NOISY = 7
+    #: Pace from the syllable count: narrowband audio (a telephone line, an 8 kHz recording).
+    NARROWBAND = 8
+    #: Pace from the syllable count: the recogniser's words were unsure (posterior, coverage,
+    #: or an SNR of 15-20 dB).
+    UNSURE = 9
+    #: The talk is not in English (``--language``): pace and clarity are not measured.
+    LANGUAGE = 10
+
+
+#: The codes decided over the word window, once a count could be chosen (the others, over the
+#: level window): for a talk not in English each such window is :attr:`Untimed.LANGUAGE`.
+WORD_WINDOW_REASONS = frozenset(
+    {Untimed.NOISE_NEAR, Untimed.CLIPPED, Untimed.NOISY, Untimed.NARROWBAND, Untimed.UNSURE}
+)
 
 
 @dataclass(frozen=True)
@@ -193,6 +237,9 @@ METRICS: Mapping[str, Metric] = {
         Metric("speech_speed_syllables", "wpm", "pace from syllables", "speech", _SPEECH),
         # where pace and articulation came from: 1 recogniser, 2 syllable nuclei, 0 not measured
         Metric("speech_speed_source", "code", "pace source", "speech", _SPEECH),
+        # why no pace was written at a window's time, or one from syllables (Untimed's codes);
+        # only where one of them applies: no line where the recogniser's count was used
+        Metric(UNTIMED_METRIC, "code", "why pace was not timed", "speech", _SPEECH),
         # the word window's estimated signal-to-noise ratio, written with speed and clarity:
         # no rule judges it; the coach and the report say a low clarity came in noise
         Metric("speech_snr", "dB", "estimated SNR", "speech", _SPEECH),

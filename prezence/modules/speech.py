@@ -24,6 +24,11 @@ speech_speed_syllables the ASR-free estimate: syllable nuclei / :data:`NUCLEI_PE
 speech_speed_source    where the speech_speed and speech_articulation of the same ``t`` came
                        from: 1 = recogniser words, 2 = syllable nuclei, 0 = neither could be
                        trusted (and those two streams have no line at that ``t``)
+speech_untimed_reason  why a window has no speech_speed, or one from the syllable count: a
+                       code of :class:`prezence.metrics.Untimed` (1 a pause, 2 no voice, 3 too
+                       little talk yet, 4 after a long pause, 5 noise or music next to the
+                       words, 6 clipped, 7 too noisy, 8 narrowband, 9 recogniser unsure, 10 not
+                       English); no line where the recogniser's count was used
 speech_snr             the word window's estimated SNR, dB (loud p90 over quiet p10 30 ms
                        frames, :meth:`SpeechAnalyser._snr_db`): what speed and clarity were
                        measured in. The coach reads it to say the room is noisy when it cues
@@ -155,6 +160,7 @@ from typing import Any
 import numpy as np
 
 from prezence.errors import BackendUnavailable, PrezenceError
+from prezence.metrics import UNTIMED_METRIC, WORD_WINDOW_REASONS, Untimed
 from prezence.modules.audio_io import SAMPLE_RATE, AudioSource, FileSource, MicSource
 from prezence.modules.common import (
     Heartbeat,
@@ -185,11 +191,15 @@ SOURCE_RECOGNISER = 1.0
 SOURCE_SYLLABLES = 2.0
 #: Neither count can be trusted: speech_speed and speech_articulation are not written.
 SOURCE_NONE = 0.0
+#: Why a window has no speech_speed, or one from the syllable count: a code of
+#: :class:`prezence.metrics.Untimed` (the log says it in words; the report reads this).
+SPEECH_UNTIMED_REASON = UNTIMED_METRIC
 #: Every metric this module may write, in the order it writes them.
 METRICS = (
     SPEECH_SPEED,
     SPEECH_SPEED_SYLLABLES,
     SPEECH_SPEED_SOURCE,
+    SPEECH_UNTIMED_REASON,
     # before speech_accuracy: a reader that sees a window's clarity sees its SNR too
     SPEECH_SNR,
     SPEECH_ARTICULATION,
@@ -1185,7 +1195,7 @@ class SpeechAnalyser:
         heard = voiced >= MIN_VOICED_SHARE  # voice activity that is a voice
         out = [Sample(SPEECH_ACTIVITY, t, min(1.0, speech_s / dur) if heard else 0.0)]
         if speech_s < min(opt.min_speech_s, 0.5 * dur):
-            return out
+            return [_untimed(t, Untimed.PAUSE), *out]
         if not heard:
             # Sound without a voice in it (noise, a fan, music without singing, a whisper):
             # not voiced speech, so neither quiet nor unclear nor slow speech. Said once per
@@ -1208,7 +1218,7 @@ class SpeechAnalyser:
                     what,
                 )
                 self._voiceless = True
-            return [Sample(SPEECH_ACTIVITY, t, 0.0)]
+            return [_untimed(t, Untimed.NO_VOICE), Sample(SPEECH_ACTIVITY, t, 0.0)]
         if self._voiceless:
             log.info("t=%.0f s: a voice is heard again (%.0f %% voiced)", t, 100 * voiced)
             self._voiceless = False
@@ -1220,6 +1230,7 @@ class SpeechAnalyser:
             out.append(Sample(SPEECH_LOUDNESS, t, lufs))
         words_until = t if final else min(t, max(0.0, self._finalised_until()))
         if not final and self._before_a_long_pause(t, words_until, spans):
+            out.append(_untimed(t, Untimed.AFTER_PAUSE))
             return sorted(out, key=lambda smp: _ORDER[smp.metric])
         out += self._word_samples(t, words_until, spans, final=final)
         return sorted(out, key=lambda smp: _ORDER[smp.metric])
@@ -1268,7 +1279,7 @@ class SpeechAnalyser:
         if talk_s < MIN_WORD_TALK_S or (
             talk_s < min(opt.window_s, opt.word_window_s) - 1e-9 and not final
         ):
-            return []
+            return [_untimed(t_out, Untimed.TOO_LITTLE_TALK)]
         voiced_s = sum(_overlap(a, b, lo, t) for a, b in spans)
         n_asr = 0.0
         p_sum = 0.0
@@ -1391,6 +1402,22 @@ class SpeechAnalyser:
             Sample(SPEECH_SPEED_SOURCE, t_out, source),
             Sample(SPEECH_SNR, t_out, snr),
         ]
+        # why no speed, or one from syllables: the first that applies, as the log says it
+        why = (
+            Untimed.NOISE_NEAR
+            if near_noise
+            else Untimed.CLIPPED
+            if clipped > MAX_CLIPPED_SHARE
+            else Untimed.NOISY
+            if source == SOURCE_NONE
+            else Untimed.NARROWBAND
+            if source == SOURCE_SYLLABLES and narrowband
+            else Untimed.UNSURE
+            if source == SOURCE_SYLLABLES
+            else None
+        )
+        if why is not None:
+            out.append(_untimed(t_out, why))
         if source == SOURCE_RECOGNISER:
             words = n_asr
             # Per-speaker calibration of the syllable count, from the windows the recogniser
@@ -1546,6 +1573,11 @@ class SpeechAnalyser:
         return v if math.isfinite(v) else None
 
 
+def _untimed(t: float, why: Untimed) -> Sample:
+    """A ``speech_untimed_reason`` sample: why no speed was written at ``t``."""
+    return Sample(SPEECH_UNTIMED_REASON, t, float(why))
+
+
 def _cut(
     spans: list[tuple[float, float]], holes: Iterable[tuple[float, float]]
 ) -> list[tuple[float, float]]:
@@ -1693,10 +1725,20 @@ def run(
     last_warn = -math.inf
     behind_warned = False
     with StreamSet(out, METRICS, fresh=fresh) as streams:
-        skip = frozenset() if is_english(language) else LANGUAGE_METRICS
+        english = is_english(language)
+        skip = frozenset() if english else LANGUAGE_METRICS
 
         def write(samples: list[Sample]) -> None:
             for s in samples:
+                if not english and s.metric == SPEECH_SPEED_SOURCE:
+                    # a word window: whatever else held, pace is not measured for the language
+                    s = _untimed(s.t, Untimed.LANGUAGE)
+                elif (
+                    not english
+                    and s.metric == SPEECH_UNTIMED_REASON
+                    and s.value in WORD_WINDOW_REASONS
+                ):
+                    continue  # said by the language, from this window's source sample
                 if s.metric not in skip:
                     streams.write(s.metric, (offset or 0.0) + s.t, s.value)
 

@@ -19,6 +19,7 @@ pytest.importorskip("cv2", reason='the vision module needs OpenCV: pip install "
 
 from prezence.cli import main  # noqa: E402
 from prezence.errors import ConfigError  # noqa: E402
+from prezence.metrics import WORD_WINDOW_REASONS, Untimed  # noqa: E402
 from prezence.rehearse import module_commands, rehearse  # noqa: E402
 from prezence.session import read_jsonl  # noqa: E402
 from prezence.talk import RunOptions
@@ -965,6 +966,10 @@ def test_a_talk_said_to_be_in_another_language_gets_no_pace_or_clarity_and_is_to
         path = streams / f"{metric}.txt"
         assert not path.exists() or not path.read_text().strip(), metric
     assert (streams / "speech_volume.txt").read_text().strip()
+    # each word window's reason code is the language, not a noise or a doubt (issue 11)
+    lines = (streams / "speech_untimed_reason.txt").read_text().split()
+    codes = {float(v) for v in lines[1::2]}
+    assert Untimed.LANGUAGE in codes and not codes & WORD_WINDOW_REASONS, codes
     summary = json.loads((out / "summary.json").read_text())
     why = summary["metrics"]["speech_speed"]["not_measured_why"]
     assert "the talk is in 'de'" in why and "English talks only" in why

@@ -26,6 +26,7 @@ pytest.importorskip(
     "pocketsphinx", reason='the speech module needs pocketsphinx: pip install "prezence[speech]"'
 )
 
+from prezence.metrics import UNTIMED_METRIC, Untimed  # noqa: E402
 from prezence.modules.audio_io import FileSource, decode_file, read_file  # noqa: E402
 from prezence.modules.common import CUT_SHORT_STATUS, InputCutShort, ModuleInputError  # noqa: E402
 from prezence.modules.speech import (  # noqa: E402
@@ -33,6 +34,7 @@ from prezence.modules.speech import (  # noqa: E402
     METRICS,
     SOURCE_NONE,
     SOURCE_RECOGNISER,
+    SOURCE_SYLLABLES,
     SPEECH_ACTIVITY,
     SPEECH_LOUDNESS,
     SPEECH_SPEED,
@@ -223,6 +225,8 @@ def test_a_clipped_recording_gets_no_pace_rather_than_a_wrong_one(
             assert s.value == pytest.approx(truth, rel=0.12), f"+{gain_db:g} dB: {s.value:.1f}"
         assert [s.value for s in got[SPEECH_SPEED_SOURCE]] == [SOURCE_NONE]
         assert "clipped" in caplog.text
+        # and the stream says why, for the report (issue 11)
+        assert [s.value for s in got[UNTIMED_METRIC]] == [Untimed.CLIPPED]
         assert got[SPEECH_VOLUME], "the level is still measured"
     # A phone saves it as AAC: the codec rounds the flat tops off under full scale.
     phone = tmp_path / "clipped.m4a"
@@ -272,6 +276,10 @@ def test_a_telephone_recording_is_not_timed_by_the_recogniser_it_fools(
                 assert s.value == pytest.approx(truth, rel=0.08), f"t={s.t:g}: {s.value:.1f}"
             assert got[SPEECH_SPEED_SOURCE], "the source is written, with a reason in the log"
             assert SOURCE_RECOGNISER not in {s.value for s in got[SPEECH_SPEED_SOURCE]}
+            # each window timed from the syllables says why in its stream too (issue 11)
+            why = {s.t: s.value for s in got[UNTIMED_METRIC]}
+            fallback = [s.t for s in got[SPEECH_SPEED_SOURCE] if s.value == SOURCE_SYLLABLES]
+            assert fallback and all(why.get(t) == Untimed.NARROWBAND for t in fallback)
     assert "narrowband" in caplog.text and "telephone" in caplog.text
     # The same reading at full band is still timed by the recogniser.
     wide = measure("rate_225.flac")[0]
@@ -289,6 +297,9 @@ def test_no_speed_in_noise_names_the_noise_not_a_doubt_the_recogniser_did_not_ha
     with caplog.at_level("WARNING", logger="prezence.modules.speech"):
         got = by_metric(analyse(blocks(x), SpeechOptions())[0])
     assert not got[SPEECH_SPEED] and got[SPEECH_SPEED_SOURCE]
+    # every window the count was chosen in says why in its stream: the noise (issue 11)
+    untimed = {s.t: s.value for s in got[UNTIMED_METRIC]}
+    assert {untimed.get(s.t) for s in got[SPEECH_SPEED_SOURCE]} == {Untimed.NOISY}
     (why,) = [r.getMessage() for r in caplog.records if "cannot be measured" in r.getMessage()]
     assert "too much noise" in why and "SNR" in why
     assert "posterior" not in why and "unsure" not in why
@@ -355,8 +366,12 @@ def test_windows_are_written_in_time_order_on_the_hop_grid() -> None:
 def test_silence_writes_only_the_activity_heartbeat() -> None:
     samples, totals = analyse([np.zeros(16000 * 12, np.int16)], SpeechOptions())
     assert totals.words == 0
-    assert {s.metric for s in samples} == {SPEECH_ACTIVITY}
-    assert [s.t for s in samples] == [10.0, 11.0, 12.0] and all(s.value == 0 for s in samples)
+    assert {s.metric for s in samples} == {SPEECH_ACTIVITY, UNTIMED_METRIC}
+    heartbeat = [s for s in samples if s.metric == SPEECH_ACTIVITY]
+    assert [s.t for s in heartbeat] == [10.0, 11.0, 12.0] and all(s.value == 0 for s in heartbeat)
+    # with the reason no pace was written at each (issue 11): a pause
+    why = [(s.t, s.value) for s in samples if s.metric == UNTIMED_METRIC]
+    assert why == [(10.0, Untimed.PAUSE), (11.0, Untimed.PAUSE), (12.0, Untimed.PAUSE)]
 
 
 def test_activity_is_written_every_hop_and_follows_the_voice() -> None:

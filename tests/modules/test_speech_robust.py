@@ -23,6 +23,7 @@ pytest.importorskip(
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
+from prezence.metrics import UNTIMED_METRIC, Untimed  # noqa: E402
 from prezence.modules import speech  # noqa: E402
 from prezence.modules.audio_io import read_file  # noqa: E402
 from prezence.modules.speech import (  # noqa: E402
@@ -206,8 +207,10 @@ def test_very_short_input(seconds: float) -> None:
 def test_digital_silence_writes_only_the_heartbeat() -> None:
     an = SpeechAnalyser(SpeechOptions(), loudness=True)
     out = an.feed(np.zeros(16000 * 25, np.int16)) + an.finish()
-    assert {s.metric for s in out} == {SPEECH_ACTIVITY}
-    assert all(s.value == 0.0 for s in out)
+    assert {s.metric for s in out} == {SPEECH_ACTIVITY, UNTIMED_METRIC}
+    assert all(s.value == 0.0 for s in out if s.metric == SPEECH_ACTIVITY)
+    # and the reason no pace was written: a pause (issue 11)
+    assert {s.value for s in out if s.metric == UNTIMED_METRIC} == {Untimed.PAUSE}
 
 
 def test_continuous_speech_without_pauses_past_many_cuts() -> None:

@@ -15,6 +15,7 @@ from collections import defaultdict
 import numpy as np
 import pytest
 
+from prezence.metrics import Untimed
 from prezence.modules.speech import (
     MIN_VOICED_SHARE,
     VOICED_APERIODICITY,
@@ -23,6 +24,8 @@ from prezence.modules.speech import (
 
 RATE = 16000
 FRAME = 480
+#: The reason the module gives for a window with no voice in it (issue 11).
+NO_VOICE = float(Untimed.NO_VOICE)
 
 
 def coloured_noise(kind: str, seconds: float, seed: int) -> np.ndarray:
@@ -138,9 +141,10 @@ def test_noise_alone_is_not_measured_as_quiet_unclear_or_slow_speech(
     # -20 dBFS RMS: the voice-activity detector hears "speech" throughout
     with caplog.at_level(logging.WARNING, logger="prezence.modules.speech"):
         got = analyse(coloured_noise(kind, 30.0, seed=3))
-    assert set(got) == {"speech_activity"}
+    assert set(got) == {"speech_activity", "speech_untimed_reason"}
     assert len(got["speech_activity"]) >= 20
     assert all(v == 0.0 for _, v in got["speech_activity"])
+    assert got["speech_untimed_reason"] == [(t, NO_VOICE) for t, _ in got["speech_activity"]]
     said = [r.getMessage() for r in caplog.records if "no voice heard" in r.getMessage()]
     assert len(said) == 1  # once per stretch of noise, not every second
     assert f"under {100 * MIN_VOICED_SHARE:g} %" in said[0]
@@ -169,9 +173,10 @@ def test_a_steady_hum_or_tone_alone_is_not_heard_as_a_voice(
     # noise clarity 0 (an `articulate` cue for a buzz). A voice's pitch moves; a hum's holds.
     with caplog.at_level(logging.WARNING, logger="prezence.modules.speech"):
         got = analyse(steady_sound(kind))
-    assert set(got) == {"speech_activity"}
+    assert set(got) == {"speech_activity", "speech_untimed_reason"}
     assert len(got["speech_activity"]) >= 20
     assert all(v == 0.0 for _, v in got["speech_activity"])
+    assert got["speech_untimed_reason"] == [(t, NO_VOICE) for t, _ in got["speech_activity"]]
     said = [r.getMessage() for r in caplog.records if "no voice heard" in r.getMessage()]
     assert len(said) == 1 and "steady hum or tone" in said[0]
 
@@ -196,9 +201,10 @@ def test_a_buzz_barely_over_noise_is_not_heard_as_a_voice(
     x = x + coloured_noise("pink", 30.0, seed=int(f0) + 11) * 10 ** (-snr_db / 20)
     with caplog.at_level(logging.WARNING, logger="prezence.modules.speech"):
         got = analyse(x)
-    assert set(got) == {"speech_activity"}
+    assert set(got) == {"speech_activity", "speech_untimed_reason"}
     assert len(got["speech_activity"]) >= 20
     assert all(v == 0.0 for _, v in got["speech_activity"])
+    assert got["speech_untimed_reason"] == [(t, NO_VOICE) for t, _ in got["speech_activity"]]
     said = [r.getMessage() for r in caplog.records if "no voice heard" in r.getMessage()]
     assert len(said) == 1 and "steady hum or tone" in said[0]
 
@@ -255,3 +261,33 @@ def test_speech_after_a_stretch_of_noise_is_measured_again_and_not_as_unclear() 
     # the utterances joining noise to speech count as talk time: 88-114 wpm for 175 was
     # written after it; now no speed until the noise is out of the word window (the log says)
     assert not [t for t, _ in got["speech_speed"] if t >= 37.0]
+
+
+def test_every_window_with_no_pace_says_why_after_a_noise_intro() -> None:
+    # issue 11: a talk after 16 s of music read "pace measured over 1:09 of 2:03" with no
+    # reason: speech.log alone said it (no voice, then noise next to the words). The module
+    # now writes a reason code (speech_untimed_reason) at every window it writes no pace.
+    pytest.importorskip("av", reason='needs PyAV: pip install "prezence[speech]"')
+    from pathlib import Path
+
+    from prezence.modules.audio_io import read_file
+
+    talk = read_file(Path(__file__).parent / "material" / "rate_175.flac").astype(np.float64)
+    intro = coloured_noise("pink", 16.0, seed=6)
+    got = analyse(np.concatenate([intro, talk, talk, talk]))
+    why = dict(got["speech_untimed_reason"])
+    paced = {t for t, _ in got["speech_speed"]}
+    hops = [t for t, _ in got["speech_activity"]]
+    # each window has a pace or a reason, never both where the recogniser timed it
+    assert all(t in paced or t in why for t in hops)
+    assert not paced & set(why)
+    # no voice in the intro's windows, then the noise next to the words until it leaves the
+    # word window, then the talk is timed: the reasons in the order they held, as the log says
+    order = [int(v) for t, v in sorted(why.items())]
+    runs = [c for i, c in enumerate(order) if i == 0 or order[i - 1] != c]
+    assert runs[0] == Untimed.NO_VOICE and Untimed.NOISE_NEAR in runs
+    assert runs.index(Untimed.NOISE_NEAR) > runs.index(Untimed.NO_VOICE)
+    silent = {t for t, v in got["speech_activity"] if v == 0.0}  # no voice, or silence
+    assert all(why.get(t) in (Untimed.NO_VOICE, Untimed.PAUSE) for t in silent)
+    assert silent >= {t for t, v in why.items() if v == Untimed.NO_VOICE}
+    assert paced and max(why) < min(paced) < hops[-1] - 20.0
