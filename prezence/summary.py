@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from prezence.config.model import Config, Rule
-from prezence.metrics import METRICS
+from prezence.metrics import METRICS, UNTIMED_METRIC, WORD_WINDOW_REASONS
 from prezence.samples import Sample
 from prezence.session import CUE_KEYS, SessionDir, read_jsonl, write_json
 
@@ -159,6 +159,23 @@ def _stream_values(folder: Any, metric: str) -> list[float]:
     return [x.value for x in samples]
 
 
+def untimed_labels(codes: Sequence[float]) -> str:
+    """The speech module's reasons for its untimed word windows (``speech_untimed_reason``),
+    in words, the most frequent first; "" for none.
+
+    Example:
+        >>> untimed_labels([7.0, 7.0, 3.0, 5.0])
+        'too much background noise, music or noise next to the words'
+    """
+    from prezence.report.speech import UNTIMED_WORDS
+
+    counts: dict[str, int] = {}
+    for c in codes:
+        if c in WORD_WINDOW_REASONS and int(c) in UNTIMED_WORDS:
+            counts[UNTIMED_WORDS[int(c)]] = counts.get(UNTIMED_WORDS[int(c)], 0) + 1
+    return ", ".join(sorted(counts, key=lambda w: -counts[w]))
+
+
 #: How the report's notes on a clipped recording begin (the spoken summary looks for it).
 CLIPPED_NOTE = "the recording is clipped"
 
@@ -285,11 +302,15 @@ def measurement_notes(
         for metric in ("speech_speed", "speech_articulation"):
             unmeasured.setdefault(metric, f"{CLIPPED_NOTE} ({clipped}): {gain}")
     if source and not any(source):  # 0 in every window: no count trusted
+        # which reasons, where the module wrote them (issue 11); else the log says which
+        said = untimed_labels(_stream_values(root, UNTIMED_METRIC))
         for metric in ("speech_speed", "speech_articulation"):
             unmeasured.setdefault(
                 metric,
                 "the speech module trusted neither its recogniser nor its syllable count "
-                "in any window (noise, music, a clipped recording: speech.log says which)",
+                "in any window ("
+                + (said or "noise, music, a clipped recording: speech.log says which")
+                + ")",
             )
     less: dict[str, str] = {}
     if clipped:

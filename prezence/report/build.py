@@ -23,7 +23,7 @@ from typing import Any
 
 from prezence.config.model import Config, Rule, signed
 from prezence.errors import ConfigError, PrezenceError
-from prezence.metrics import METRICS, NOISY_METRIC, NOISY_SNR_DB, SNR_METRIC
+from prezence.metrics import METRICS, NOISY_METRIC, NOISY_SNR_DB, SNR_METRIC, UNTIMED_METRIC
 from prezence.report.speech import measured_s, mmss, was
 from prezence.samples import Sample
 from prezence.session import (
@@ -41,6 +41,7 @@ from prezence.summary import (
     measured_end_s,
     measurement_notes,
     module_notes,
+    no_data_spans,
     with_failures,
 )
 
@@ -365,6 +366,63 @@ def room_snr(session: SessionDir, limit: float | None = None) -> list[Sample] | 
         return None
     samples, _ = read_stream(path, SNR_METRIC, max_t=limit, problems=[])
     return sorted(samples, key=lambda s: s.t)
+
+
+def untimed_reasons(session: SessionDir, limit: float | None = None) -> list[Sample] | None:
+    """The speech module's reason codes (``speech_untimed_reason``), in time order; None
+    without that stream (a folder written before issue 11, a synthetic talk)."""
+    from prezence.streams.tail import read_stream
+
+    path = session.stream(f"{UNTIMED_METRIC}.txt")
+    if not path.is_file():
+        return None
+    samples, _ = read_stream(path, UNTIMED_METRIC, max_t=limit, problems=[])
+    return sorted(samples, key=lambda s: s.t)
+
+
+def untimed_seconds(
+    reasons: Sequence[Sample],
+    samples: Sequence[Sample],
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float] = (),
+    *,
+    first_after_s: float = 0.0,
+) -> list[dict[str, Any]]:
+    """Why a speech metric was not measured where it was not: per reason code, the seconds
+    its lines held (each until the next line, the stale time or the talk's end, as a value
+    holds) inside the stretches the metric's own values did not hold, largest first.
+
+    The module's first line (at ``first_after_s``, its window's end) describes that window,
+    so it holds from the talk's start (music from 0:00 to 0:16: "no voice for 0:16", not 0:06).
+    A stretch the reasons do not cover (a module that died) is left out: said elsewhere.
+
+    Example:
+        >>> r = [Sample("r", float(t), 2.0 if t < 16 else 5.0) for t in range(10, 30)]
+        >>> ss = [Sample("v", float(t), 150.0) for t in range(30, 60)]
+        >>> untimed_seconds(r, ss, 60.0, 6.0, first_after_s=10.0)
+        [{'code': 2, 's': 16.0}, {'code': 5, 's': 14.0}]
+    """
+    gaps = no_data_spans(samples, talk_s, stale_s, cuts)
+    if not gaps or not reasons:
+        return []
+    ts = [s.t for s in reasons]
+    per: dict[int, float] = {}
+    g = 0
+    for i, s in enumerate(reasons):
+        start = 0.0 if i == 0 and s.t <= first_after_s + 1e-6 else s.t
+        nxt = ts[i + 1] if i + 1 < len(ts) else talk_s
+        end = min(nxt, s.t + stale_s, talk_s)
+        while g < len(gaps) and gaps[g][1] <= start:
+            g += 1
+        j = g
+        while j < len(gaps) and gaps[j][0] < end:
+            held = min(end, gaps[j][1]) - max(start, gaps[j][0])
+            if held > 0:
+                per[int(s.value)] = per.get(int(s.value), 0.0) + held
+            j += 1
+    rows = [{"code": c, "s": round(v, 1)} for c, v in per.items() if v > 0]
+    return sorted(rows, key=lambda r: (-r["s"], r["code"]))
 
 
 def noisy_low_seconds(
@@ -1076,6 +1134,7 @@ def _rebuild(
     end_s = measured_end_s(talk_s, rec_s)
     dev_s: dict[str, dict[str, float]] = {}
     metrics: dict[str, Any] = {}
+    reasons: list[Sample] | None = None  # the speech module's, read when first needed
     for rule in cfg.rules:
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         m = dict(summary["metrics"][rule.metric])
@@ -1104,6 +1163,20 @@ def _rebuild(
             m["where"] = rule.band_words().strip()
         if m.get("samples"):  # over how much of the talk it was measured
             m["measured_s"] = round(measured_s(m), 3)
+            record = METRICS.get(rule.metric)
+            if record is not None and record.module == "speech":
+                if reasons is None:
+                    reasons = untimed_reasons(session, limit) or []
+                why = untimed_seconds(
+                    reasons,
+                    streams[rule.metric],
+                    end_s,
+                    stale_s,
+                    cuts,
+                    first_after_s=record.first_after_s,
+                )
+                if why:  # where and why the speech module could not measure it (issue 11)
+                    m["untimed"] = why
         metrics[rule.metric] = m
 
     rules = {r.metric: r for r in cfg.rules}

@@ -6,6 +6,8 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
+from prezence.metrics import Untimed
+
 #: The spoken summary stays under this many words (the robot speaks at ~150 wpm: ~16 s).
 MAX_SPOKEN_WORDS = 40
 
@@ -408,6 +410,11 @@ COVERED_SLACK_S = 5.0
 
 
 def coverage_gaps(report: Mapping[str, Any]) -> list[tuple[str, float]]:
+    """:func:`_gap_rows`' label and seconds measured."""
+    return [(label, secs) for _, label, secs in _gap_rows(report)]
+
+
+def _gap_rows(report: Mapping[str, Any]) -> list[tuple[Mapping[str, Any], str, float]]:
     """The judged metrics measured over less than :data:`COVERED_SHARE` of the talk after
     their first window (``Metric.first_after_s``: a module's first value of a windowed metric
     comes only when its window has filled), with the seconds they were measured (a video whose
@@ -428,17 +435,103 @@ def coverage_gaps(report: Mapping[str, Any]) -> list[tuple[str, float]]:
         first = min(rec.first_after_s, talk) if rec is not None else 0.0
         missed = (talk - first) - secs
         if missed > max((1.0 - COVERED_SHARE) * (talk - first), COVERED_SLACK_S):
-            out.append((str(m.get("label") or k), secs))
+            out.append((m, str(m.get("label") or k), secs))
     return out
+
+
+#: The report's words for each reason the speech module gives for a window it could not time
+#: (``speech_untimed_reason``, :class:`prezence.metrics.Untimed`; issue 11), in the words a
+#: presenter understands. The two kinds of pause are one to a presenter: silence (before the
+#: first words too, where "pauses" was wrong).
+UNTIMED_WORDS: Mapping[int, str] = {
+    Untimed.PAUSE: "silence",
+    Untimed.NO_VOICE: "no voice",
+    Untimed.TOO_LITTLE_TALK: "too little speech yet to time",
+    Untimed.AFTER_PAUSE: "silence",
+    Untimed.NOISE_NEAR: "music or noise next to the words",
+    Untimed.CLIPPED: "a clipped recording",
+    Untimed.NOISY: "too much background noise",
+    Untimed.NARROWBAND: "telephone-quality audio",
+    Untimed.UNSURE: "words the recogniser was unsure of",
+    Untimed.LANGUAGE: "a talk not in English",
+}
+#: The robot's sentence for a reason, when it is the largest (:func:`untimed_sentence`).
+UNTIMED_SPOKEN: Mapping[int, str] = {
+    Untimed.PAUSE: "There were long silences.",
+    Untimed.NO_VOICE: "At times I heard no voice.",
+    Untimed.TOO_LITTLE_TALK: "There was too little speech to time.",
+    Untimed.AFTER_PAUSE: "There were long silences.",
+    Untimed.NOISE_NEAR: "Music or noise was near your words.",
+    Untimed.CLIPPED: "Your recording is clipped.",
+    Untimed.NOISY: "There was too much background noise.",
+}
+#: A reason is named when it held at least this long: a lone window of one is no reason to
+#: give a presenter (the level window of music can hold under 1 s of voice activity: a "pause").
+MIN_UNTIMED_S = 2.0
+
+
+def untimed_words(m: Mapping[str, Any]) -> str:
+    """Why a metric was not measured where it was not, from its ``untimed`` rows (the speech
+    module's reason codes and their seconds; "" in a folder without them), largest first.
+
+    Example:
+        >>> untimed_words({"untimed": [{"code": 5, "s": 31.0}, {"code": 2, "s": 16.0},
+        ...                            {"code": 1, "s": 1.0}, {"code": 99, "s": 3.0}]})
+        'music or noise next to the words for 0:31, no voice for 0:16, reason 99 for 0:03'
+    """
+    per: dict[str, float] = {}
+    for row in m.get("untimed") or ():
+        if not isinstance(row, Mapping) or not isinstance(row.get("s"), int | float):
+            continue
+        code = row.get("code")
+        label = UNTIMED_WORDS.get(code, f"reason {code}") if isinstance(code, int) else None
+        if label is not None:
+            per[label] = per.get(label, 0.0) + float(row["s"])
+    said = sorted(((s, w) for w, s in per.items() if s >= MIN_UNTIMED_S), key=lambda x: -x[0])
+    return ", ".join(f"{w} for {mmss(s)}" for s, w in said)
+
+
+def untimed_sentence(report: Mapping[str, Any]) -> str:
+    """The robot's one sentence on why pace or clarity was measured over only part of the
+    talk: the reason that held longest in any of them ("" when none is known, or the only
+    ones are said otherwise). Too little speech to time is named only alone: it follows
+    from the others (after music, the module waits for 10 s of words).
+
+    Example:
+        >>> m = {"label": "pace", "in_range_s": 69.0, "out_of_range_s": 0.0, "check": "min",
+        ...      "samples": 69, "untimed": [{"code": 5, "s": 31.0}, {"code": 2, "s": 16.0}]}
+        >>> untimed_sentence({"talk_s": 123.0, "metrics": {"speech_speed": m}})
+        'Music or noise was near your words.'
+    """
+    longest: dict[str, float] = {}
+    for m, _, _ in _gap_rows(report):
+        per: dict[str, float] = {}
+        for row in m.get("untimed") or ():
+            code = row.get("code") if isinstance(row, Mapping) else None
+            if isinstance(code, int) and isinstance(row.get("s"), int | float):
+                said = UNTIMED_SPOKEN.get(code)
+                if said is not None:
+                    per[said] = per.get(said, 0.0) + float(row["s"])
+        for said, secs in per.items():
+            longest[said] = max(longest.get(said, 0.0), secs)
+    if clipped(report):
+        longest.pop(UNTIMED_SPOKEN[Untimed.CLIPPED], None)  # said already, with what to do
+    known = {w: s for w, s in longest.items() if s >= MIN_UNTIMED_S}
+    if len(known) > 1:
+        known.pop(UNTIMED_SPOKEN[Untimed.TOO_LITTLE_TALK], None)
+    return max(known, key=lambda w: known[w]) if known else ""
 
 
 def coverage_words(report: Mapping[str, Any]) -> str:
     """``"gestures measured over 0:15 of 0:54, head pitch measured over 0:26 of 0:54"`` (""
-    when every judged metric covered the talk)."""
+    when every judged metric covered the talk), each with why where the module said
+    (``"pace measured over 1:09 of 2:03 (music or noise next to the words for 0:31, …)"``)."""
     talk = mmss(_talk_s(report))
-    return ", ".join(
-        f"{label} measured over {mmss(secs)} of {talk}" for label, secs in coverage_gaps(report)
-    )
+    out = []
+    for m, label, secs in _gap_rows(report):
+        why = untimed_words(m)
+        out.append(f"{label} measured over {mmss(secs)} of {talk}" + (f" ({why})" if why else ""))
+    return ", ".join(out)
 
 
 def _out_for(secs: float) -> str:
@@ -925,6 +1018,11 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
             parts.append(nothing_judged_sentence(report))
         elif share == "some" or coverage_gaps(report):
             parts.append(_some_praise(report))
+            # the praise says "only part of the talk" when it names no metric it could not judge
+            why = "" if unjudged_labels(report) else untimed_sentence(report)
+            if why:  # why it measured only part (issue 11); kept before the near sentence
+                parts.append(why)
+                droppable.append(why)
         else:
             parts.append(f"Your delivery stayed {_in(report)}. Well done!")
         if share != "none" and _near_spoken(report):  # which one was near, not in: if room

@@ -459,3 +459,56 @@ def test_praise_says_in_range_only_when_every_metric_was(tmp_path: Path) -> None
     assert report["near_range"] == []
     assert "Every metric stayed in its ideal range." in format_text(report)
     assert summary_phrase(report).endswith("Your delivery stayed in the ideal range. Well done!")
+
+
+def _music_intro(root: Path, *, reasons: bool) -> SessionDir:
+    """A 2:03 rehearsal after 16 s of music, as the speech module wrote it (issue 11's
+    student): no voice heard until 0:16 (a lone level window of it under 1 s of voice
+    activity, a "pause"), too little talk to time until 0:23, then the music next to the words
+    until 0:54, when the pace comes; with the module's reason codes or (an older folder)
+    without."""
+    codes = {t: 2.0 for t in range(10, 16)} | {12: 1.0}
+    codes |= {t: 3.0 for t in range(16, 23)} | {t: 5.0 for t in range(23, 54)}
+    values: dict[str, tuple[Iterable[int], Callable[[int], float]]] = {
+        "speech_speed": (range(54, 123), lambda t: 160.0),
+        "speech_volume": (range(16, 123), lambda t: 66.0),
+        "speech_activity": (range(10, 123), lambda t: 0.0 if t < 16 else 0.9),
+    }
+    if reasons:
+        values["speech_untimed_reason"] = (sorted(codes), codes.__getitem__)
+    return talk(root, 123, values)
+
+
+def test_a_pace_measured_over_part_of_the_talk_says_why_where_the_module_did(
+    tmp_path: Path,
+) -> None:
+    # issue 11: "pace measured over 1:09 of 2:03" and the robot "…only part of the talk",
+    # with the reason only in speech.log. The module's reason codes now say it.
+    report = build_report(_music_intro(tmp_path / "m", reasons=True).root)
+    text = format_text(report)
+    assert (
+        "pace measured over 1:09 of 2:03 (music or noise next to the words for 0:31, "
+        "no voice for 0:15, too little speech yet to time for 0:07)"
+    ) in text, text
+    assert "silence" not in text  # one second of it: no reason to name
+    phrase = summary_phrase(report)
+    assert phrase.endswith("only part of the talk. Music or noise was near your words."), phrase
+    assert len(phrase.split()) <= 40
+    page = write_report(report["session"]).read_text()
+    assert "music or noise next to the words for 0:31" in page
+    # an older folder, without the codes, keeps today's words
+    old = build_report(_music_intro(tmp_path / "o", reasons=False).root)
+    assert "pace measured over 1:09 of 2:03." in format_text(old)
+    assert summary_phrase(old).endswith("only part of the talk.")
+    # a clean talk: the codes of its first seconds (too little talk yet) are said nowhere
+    clean = talk(
+        tmp_path / "c",
+        108,
+        {
+            "speech_speed": (range(12, 108), lambda t: 160.0),
+            "speech_volume": (range(10, 108), lambda t: 66.0),
+            "speech_untimed_reason": ([10, 11], lambda t: 3.0),
+        },
+    )
+    report = build_report(clean.root)
+    assert "too little" not in format_text(report) and "only part" not in summary_phrase(report)

@@ -505,3 +505,16 @@ def test_a_talk_said_not_to_be_in_english_is_told_why_pace_was_not_judged(tmp_pa
     (session.root / "speech.json").write_text(json.dumps({"format": 1, "off": off}))
     said = summary_phrase(build_report(session.root))
     assert "I did not judge your pace" in said and "English talks only" in said, said
+
+
+def test_a_recording_never_timed_names_the_modules_reason_not_a_list_to_look_up(
+    tmp_path: Path,
+) -> None:
+    # issue 11: "(noise, music, a clipped recording: speech.log says which)" sent the reader
+    # to the log; the module's reason codes (speech_untimed_reason) say which
+    streams = untimed(61, 66.0)
+    streams["speech_untimed_reason"] = [(float(t), 7.0) for t in range(10, 61)]
+    session = rehearsal(tmp_path / "s", streams, talk_s=61.0, recording="talk.wav")
+    why = build_report(session.root)["metrics"]["speech_speed"]["not_measured_why"]
+    assert why.endswith("in any window (too much background noise)"), why
+    assert "speech.log" not in why
