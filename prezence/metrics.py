@@ -61,7 +61,8 @@ class Untimed(enum.IntEnum):
 
     #: Under 1 s of voice activity in the level window: a pause, or silence.
     PAUSE = 1
-    #: Sound without a voice (noise, music, a hum, a whisper): ``speech_activity`` 0.
+    #: Sound without a voice (noise, music, a hum, a whisper): ``speech_activity`` 0; also a
+    #: window with under 1 s of voice activity inside such a stretch (until a voice is heard).
     NO_VOICE = 2
     #: Voice heard, but under ``--window`` s of talk in the word window yet (the start of the
     #: talk, or of the speech after sound without a voice): too little to time.

@@ -1195,7 +1195,9 @@ class SpeechAnalyser:
         heard = voiced >= MIN_VOICED_SHARE  # voice activity that is a voice
         out = [Sample(SPEECH_ACTIVITY, t, min(1.0, speech_s / dur) if heard else 0.0)]
         if speech_s < min(opt.min_speech_s, 0.5 * dur):
-            return [_untimed(t, Untimed.PAUSE), *out]
+            # inside a stretch of sound without a voice (the detector fires on noise now and
+            # then), a window it left alone is that stretch still, not the presenter's pause
+            return [_untimed(t, Untimed.NO_VOICE if self._voiceless else Untimed.PAUSE), *out]
         if not heard:
             # Sound without a voice in it (noise, a fan, music without singing, a whisper):
             # not voiced speech, so neither quiet nor unclear nor slow speech. Said once per
