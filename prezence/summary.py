@@ -39,6 +39,37 @@ def hold_ends(ts: Sequence[float] | np.ndarray, cuts: Sequence[float] | np.ndarr
     return c[np.searchsorted(c, np.asarray(ts, dtype=float), side="left")]
 
 
+#: The percentiles a metric's summary gives (p10, p50, p90), as fractions.
+_DECILES = np.true_divide([10, 50, 90], 100)
+
+
+def _percentiles(a: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``np.percentile(a, 100 * q)`` (its default, linear method) for finite ``a``, bit for bit.
+
+    numpy's own looks its bounds up with ``np.unique``, whose first call imports ``numpy.ma``
+    (about 10 ms of a replay's start); this takes the same steps on a sorted copy: virtual
+    index ``(n - 1)·q``, its floor and the next, and numpy's two-sided interpolation.
+    """
+    n = len(a)
+    s = np.sort(a)
+    virtual = (n - 1) * q
+    lo = np.floor(virtual)
+    hi = lo + 1.0
+    above = virtual >= n - 1
+    lo[above] = -1
+    hi[above] = -1
+    below = virtual < 0
+    lo[below] = 0
+    hi[below] = 0
+    prev = s[lo.astype(np.intp)]
+    nxt = s[hi.astype(np.intp)]
+    gamma = virtual - lo
+    diff = nxt - prev
+    out = np.add(prev, diff * gamma)
+    np.subtract(nxt, diff * (1 - gamma), out=out, where=gamma >= 0.5)
+    return out
+
+
 def _in_range_time(
     rule: Rule,
     ts: np.ndarray,
@@ -839,7 +870,7 @@ def build_summary(
             # the figures are of the values as judged, so that they read against the band; a
             # rule's offset is kept with them, and the mean as measured
             judged = vals + rule.offset if rule.offset else vals
-            p = np.percentile(judged, [10, 50, 90])
+            p = _percentiles(judged, _DECILES)
             with np.errstate(over="ignore", invalid="ignore"):  # 1e308s: mean inf, then None
                 mean = float(judged.mean())
                 raw_mean = float(vals.mean())

@@ -33,7 +33,6 @@ from time import time as unix_time
 from typing import Any, Protocol
 
 from prezence.backends.base import Backend
-from prezence.backends.naoqi import REAL_NAO_SPEED_MAX
 from prezence.clock import ManualClock, MonotonicClock
 from prezence.coach import Coach, RoomNoise, default_planner
 from prezence.config.model import Config
@@ -440,14 +439,14 @@ class Talk:
         # a library of one's own is read and planned, every command the talk can give
         # found in it, and every gesture the talk plays checked at its speed, before the
         # robot opens (the Gymnasium env and any caller of Talk included)
-        if backend.name == "naoqi" and options.speed_fraction > REAL_NAO_SPEED_MAX:
+        if backend.name == "naoqi" and options.speed_fraction > _real_nao_speed_max():
             log.warning(
                 "--speed %.2g plans gestures at %.0f%% of the URDF's joint velocities, which are "
                 "no-load values a loaded real NAO joint does not reach; a real NAO may lag or "
                 "clip them: use --speed %.1f or less on a real robot (docs/naoqi.md)",
                 options.speed_fraction,
                 100 * options.speed_fraction,
-                REAL_NAO_SPEED_MAX,
+                _real_nao_speed_max(),
             )
         self.library = library_for_talk(
             options.gestures or None,
@@ -713,6 +712,13 @@ class Talk:
         except KeyboardInterrupt:
             log.info("post-talk summary skipped (Ctrl-C)")
             return None
+
+
+def _real_nao_speed_max() -> float:
+    # imported on use: the NAOqi client's module (sockets, threads) is for naoqi talks only
+    from prezence.backends.naoqi import REAL_NAO_SPEED_MAX
+
+    return REAL_NAO_SPEED_MAX
 
 
 class View(Protocol):
