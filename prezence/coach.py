@@ -236,7 +236,8 @@ class Coach:
         (``over``: the talk ends at ``now``, so no cue is given; ``spent``: the time used,
         which the time warnings are judged on, None: ``now``)."""
         self.backend.advance(now)
-        self._settle()
+        if self._current is not None:
+            self._settle()
         free_since = self._free_since if not self.backend.busy else None
         decision = self.processor.step(
             now, samples, free_since=free_since, with_views=False, over=over, spent=spent

@@ -42,6 +42,9 @@ from prezence.processor.state import MetricState
 from prezence.processor.types import Candidate, Cue, Decision, Kind, MetricView
 from prezence.samples import MAX_AHEAD_S, Sample
 
+#: The reason of a free decision point with no candidate.
+_NO_CUE = "all metrics in range or below threshold"
+
 
 class Processor:
     """Keeps the books of the talk and decides.
@@ -96,6 +99,11 @@ class Processor:
         #: Metrics the coach stopped cueing (escalation): one record each, in order.
         self.escalations: list[dict[str, Any]] = []
         self._escalated: set[str] = set()
+        #: The reason of a free decision point with no candidate (one string, made again only
+        #: when a metric is escalated: the decision log compares it at every point).
+        self._no_cue_why = _NO_CUE
+        #: Each metric's place in the rules' order (and in :meth:`status`).
+        self._index = {m: i for i, m in enumerate(self._states)}
         self._undo: tuple[Cue, str | None, MetricState | None, set[float], float] | None = None
         # status(): the last one worked out, and the time before which it cannot change
         # unless a sample or a cue changes it (then it is dropped)
@@ -112,6 +120,7 @@ class Processor:
                 and counted. None takes every sample's time as it is.
         """
         states = self._states
+        index = self._index
         whole = self.policy.whole
         horizon = math.inf if now is None else now + MAX_AHEAD_S
         for s in samples:
@@ -123,7 +132,15 @@ class Processor:
                 st.ahead += 1
                 continue
             if st.ingest(s.t, s.value):
-                self._status_until = -math.inf
+                # The status kept (see status()) still holds unless this metric's part of it
+                # changed: fresh now, its side, its strict warning. A newer sample only moves
+                # its stale time later, so the time the status was kept until stays safe.
+                if self._status_until > -math.inf and self._status[index[s.metric]] != (
+                    False,
+                    st.side,
+                    st.strict_pending,
+                ):
+                    self._status_until = -math.inf
                 if whole:
                     self.policy.feed(st.rule, s.t, s.value)
 
@@ -203,10 +220,7 @@ class Processor:
             )
         cands = self._candidates(now, self._spent)
         if not cands:
-            why = "all metrics in range or below threshold"
-            if self._escalated:
-                why += f"; not repeating {', '.join(sorted(self._escalated))} (escalated)"
-            return Decision(now, None, why, False, (), views)
+            return Decision(now, None, self._no_cue_why, False, (), views)
         chosen = self.policy.choose(cands, self._order)
         if chosen is None:
             return Decision(
@@ -395,6 +409,9 @@ class Processor:
         if n <= 0 or st.unheeded < n:
             return False
         self._escalated.add(st.rule.metric)
+        self._no_cue_why = (
+            f"{_NO_CUE}; not repeating {', '.join(sorted(self._escalated))} (escalated)"
+        )
         offset = st.rule.offset
         rec: dict[str, Any] = {
             "t": now,

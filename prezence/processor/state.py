@@ -139,7 +139,10 @@ class MetricState:
         if t < self.last_sample_t:
             self.late += 1
             return False
-        self._move_base(t)  # with the value held until now
+        # _move_base(t), with the value held until now (written out: once per sample)
+        if t > self.base_t:
+            self.base_weight, self.base_persistence = self._integrate(t)
+            self.base_t = t
         # After a gap longer than the staleness limit nothing is known of the time between:
         # an out-of-range stretch starts again at this sample (session 20: a 40 s pause, with
         # no speed written, counted in "since 22 s, 65 s after onset", and a report's delay
@@ -155,7 +158,15 @@ class MetricState:
         dev, side = self.rule.judge(value)
         self.dev = dev
         self.side = side
-        self._reach()
+        # _reach(), written out (once per sample)
+        rate = self.rule.gain * dev
+        if self.base_weight >= self.threshold:
+            self.reach_t = -math.inf
+        elif rate > 0.0:
+            reach = self.base_t + (self.threshold - self.base_weight) / rate
+            self.reach_t = reach - 1e-6 * (1.0 + abs(reach))
+        else:
+            self.reach_t = math.inf
         if dev > 0.0:
             if self.out_since is None:
                 self.out_since = t
