@@ -36,6 +36,11 @@ class FakeBackend(Backend):
     def _start_speech(self, text: str, motion: Motion) -> None:
         self.log.append({"t": motion.started_at, "say": text, "planned_s": motion.planned_s})
 
+    def advance(self, now: float) -> None:
+        # nothing to move or finish while nothing runs (most decision points of a talk)
+        if self._running:
+            super().advance(now)
+
     def _advance(self, now: float) -> None:
         for m in self._running:
             end = m.started_at + m.planned_s * self.time_scale

@@ -102,6 +102,7 @@ class Processor:
         #: The reason of a free decision point with no candidate (one string, made again only
         #: when a metric is escalated: the decision log compares it at every point).
         self._no_cue_why = _NO_CUE
+        self._min_gap_why = f"min gap ({s.min_gap_s:g} s) since the robot became free"
         #: Each metric's place in the rules' order (and in :meth:`status`).
         self._index = {m: i for i, m in enumerate(self._states)}
         self._undo: tuple[Cue, str | None, MetricState | None, set[float], float] | None = None
@@ -123,26 +124,27 @@ class Processor:
         index = self._index
         whole = self.policy.whole
         horizon = math.inf if now is None else now + MAX_AHEAD_S
-        for s in samples:
-            st = states.get(s.metric)
+        # The status kept (see status()), while it holds: a sample leaves it so unless it
+        # changes its metric's part of it (fresh, side, strict warning pending). A newer
+        # sample only moves a fresh metric's stale time later: the time it was kept until
+        # stays safe.
+        kept = self._status if self._status_until > -math.inf else None
+        for metric, t, value in samples:
+            st = states.get(metric)
             if st is None:
                 self.unknown_samples += 1
                 continue
-            if s.t > horizon:
+            if t > horizon:
                 st.ahead += 1
                 continue
-            if st.ingest(s.t, s.value):
-                # The status kept (see status()) still holds unless this metric's part of it
-                # changed: fresh now, its side, its strict warning. A newer sample only moves
-                # its stale time later, so the time the status was kept until stays safe.
-                if self._status_until > -math.inf and self._status[index[s.metric]] != (
-                    False,
-                    st.side,
-                    st.strict_pending,
-                ):
-                    self._status_until = -math.inf
+            if st.ingest(t, value):
+                if kept is not None:
+                    stale, side, pending = kept[index[metric]]
+                    if stale or side != st.side or pending != st.strict_pending:
+                        self._status_until = -math.inf
+                        kept = None
                 if whole:
-                    self.policy.feed(st.rule, s.t, s.value)
+                    self.policy.feed(st.rule, t, value)
 
     def counts(self) -> dict[str, dict[str, int]]:
         """Per metric: samples used, and samples dropped as ``late`` or ``ahead`` of the clock."""
@@ -213,11 +215,8 @@ class Processor:
             return Decision(now, cue, cue.reason, False, (chosen,), views)
         if free_since is None:
             return Decision(now, None, "robot busy", True, (), views)
-        gap = self.settings.min_gap_s
-        if self._last_cue is not None and now - free_since < gap:
-            return Decision(
-                now, None, f"min gap ({gap:g} s) since the robot became free", False, (), views
-            )
+        if self._last_cue is not None and now - free_since < self.settings.min_gap_s:
+            return Decision(now, None, self._min_gap_why, False, (), views)
         cands = self._candidates(now, self._spent)
         if not cands:
             return Decision(now, None, self._no_cue_why, False, (), views)
@@ -276,18 +275,13 @@ class Processor:
         praise_after_s = s.praise_after_s
         refractory_s = s.refractory_s
         escalated = self._escalated
-        any_problem_recent = False
-        any_fresh = False
         for st in self._states.values():
-            if st.value is None or now - st.last_sample_t > st.stale_after_s:
-                continue  # no value, or stale
-            any_fresh = True
-            if now - st.last_problem_t < praise_after_s:
-                any_problem_recent = True
-            if now - st.last_fired < refractory_s:
-                continue
             if not st.strict_pending and (st.dev <= 0.0 or (now < st.reach_t and not all_out)):
                 continue  # in range, or its weight cannot have reached the threshold yet
+            if st.value is None or now - st.last_sample_t > st.stale_after_s:
+                continue  # no value, or stale
+            if now - st.last_fired < refractory_s:
+                continue
             r = st.rule
             if r.metric in escalated:
                 continue
@@ -350,14 +344,25 @@ class Processor:
                 )
         if (
             s.praise_command
-            and s.praise_after_s > 0
+            and praise_after_s > 0
             and not out
-            and not any_problem_recent
-            and now - max(self._last_cue_t, 0.0) >= s.praise_after_s
-            and any_fresh
+            and now - max(self._last_cue_t, 0.0) >= praise_after_s
+            and self._all_well_since(now, praise_after_s)
         ):
             out.append(Candidate(Kind.PRAISE, s.praise_command, None, eligible=True, recency=now))
         return out
+
+    def _all_well_since(self, now: float, window_s: float) -> bool:
+        """Some metric is fresh at ``now`` and no fresh one was out of range in the last
+        ``window_s`` (praise is due); worked out only when the rest of the praise is due."""
+        any_fresh = False
+        for st in self._states.values():
+            if st.value is None or now - st.last_sample_t > st.stale_after_s:
+                continue  # no value, or stale
+            any_fresh = True
+            if now - st.last_problem_t < window_s:
+                return False
+        return any_fresh
 
     def _time_candidates(self, now: float) -> list[Candidate]:
         """The time warning or overtime cue due when the presenter has used ``now`` seconds."""
