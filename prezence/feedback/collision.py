@@ -29,6 +29,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import json
@@ -357,6 +358,7 @@ def builtin_hashes(limits: JointLimits) -> dict[str, str]:
     }
 
 
+@functools.lru_cache(maxsize=8)  # a talk's start asks for the built-in file's three times
 def toml_digest(text: str) -> str:
     """The SHA-256 of a TOML text as parsed (canonical JSON: sorted keys, no spaces): the
     same for the same values whatever its comments, layout or line endings.
