@@ -430,8 +430,15 @@ class JsonlWriter:
         except ValueError:  # an infinite priority or a NaN mean: standard JSON says null
             text = json.dumps(strict_json(obj), allow_nan=False, separators=(",", ":"))
         if self._flush:
-            with self.path.open("a", encoding="utf-8") as f:
-                f.write(text + "\n")
+            # one append per line, the file closed at once, without the text-file layers
+            # (a 6-hour replay appends 868 cues)
+            data = (text + "\n").encode("utf-8")
+            fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+            try:
+                while data:
+                    data = data[os.write(fd, data) :]
+            finally:
+                os.close(fd)
             return
         if self._f is None:
             if self._closed:
