@@ -44,7 +44,7 @@ _DECILES = np.true_divide([10, 50, 90], 100)
 
 
 def _percentiles(a: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``np.percentile(a, 100 * q)`` (its default, linear method) for finite ``a``, bit for bit.
+    """``np.percentile(a, 100 * q)`` (its default, linear method), bit for bit.
 
     numpy's own looks its bounds up with ``np.unique``, whose first call imports ``numpy.ma``
     (about 10 ms of a replay's start); this takes the same steps on a sorted copy: virtual
@@ -67,6 +67,8 @@ def _percentiles(a: np.ndarray, q: np.ndarray) -> np.ndarray:
     diff = nxt - prev
     out = np.add(prev, diff * gamma)
     np.subtract(nxt, diff * (1 - gamma), out=out, where=gamma >= 0.5)
+    if np.isnan(s[-1]):  # numpy's answer for values with a NaN (sorted last)
+        out[:] = s[-1]
     return out
 
 
