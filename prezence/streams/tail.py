@@ -453,9 +453,10 @@ class StreamTailer:
         ):
             return None
         try:
-            values = np.array(list(map(float, complete.split())), dtype=np.float64)
+            floats = list(map(float, complete.split()))
         except ValueError:
             return None
+        values = np.array(floats, dtype=np.float64)
         ts = values[0::2]
         vs = values[1::2]
         lo = 0.0 if self._last_t is None else max(0.0, self._last_t)
@@ -477,7 +478,7 @@ class StreamTailer:
             self._last_t = float(ts[keep - 1])
         # tuple.__new__ makes each Sample in C (Sample(...) runs the named tuple's __new__, a
         # Python function): the same objects in half the time, 108k of them in a 6-hour replay
-        rows = zip(repeat(self.metric), ts[:keep].tolist(), vs[:keep].tolist())
+        rows = zip(repeat(self.metric), floats[0 : 2 * keep : 2], floats[1 : 2 * keep : 2])
         return list(map(tuple.__new__, repeat(Sample), rows))
 
     def _feed(self, data: bytes, now: float | None) -> list[Sample]:
