@@ -249,27 +249,21 @@ def not_judged_why(entry: Any) -> str | None:
 def off_side(entry: Any) -> str | None:
     """``"low"`` or ``"high"``: the side of its band a metric was mostly out on, when it was out
     for :data:`prezence.report.build.SLIGHTLY_OFF_SHARE` or more of the time it was measured
-    (what the report calls a little off or to work on: out by more than the measurement's
-    error, ``within_error_s``, unless out for :data:`~prezence.report.build.FAR_OFF_SHARE` or
-    more); None otherwise or when not recorded.
+    (what the report calls a little off or to work on); None otherwise or when not recorded.
 
     Example:
         >>> off_side({"time_in_range": 0.0, "below_s": 0.0, "above_s": 60.0})
         'high'
         >>> off_side({"time_in_range": 0.9, "below_s": 6.0, "above_s": 0.0})
-        >>> off_side({"time_in_range": 0.6, "in_range_s": 60.0, "out_of_range_s": 40.0,
-        ...     "below_s": 40.0, "above_s": 0.0, "within_error_s": 40.0})
     """
-    from prezence.report.build import FAR_OFF_SHARE, SLIGHTLY_OFF_SHARE, share_out
+    from prezence.report.build import SLIGHTLY_OFF_SHARE
 
     if not isinstance(entry, dict):
         return None
     tir, below, above = (_number(entry.get(k)) for k in ("time_in_range", "below_s", "above_s"))
     if tir is None or below is None or above is None:
         return None
-    beyond = share_out(entry, beyond_error=True)
-    off = 1.0 - tir >= FAR_OFF_SHARE or (beyond is not None and beyond >= SLIGHTLY_OFF_SHARE)
-    if not off or not below + above > 0.0:
+    if 1.0 - tir < SLIGHTLY_OFF_SHARE or not below + above > 0.0:
         return None
     return "low" if below >= above else "high"
 

@@ -492,7 +492,7 @@ def still_going(heard: Sequence[float] | None, talk_s: float) -> bool:
     return heard is None or (bool(heard) and heard[-1] >= talk_s - STILL_GOING_S)
 
 
-def share_out(m: Mapping[str, Any], *, beyond_error: bool = False) -> float | None:
+def _share_out(m: Mapping[str, Any], *, beyond_error: bool = False) -> float | None:
     """The share of the measured time out of range; with ``beyond_error``, out by more than
     the measurement's error (``within_error_s``, for a metric whose record states one)."""
     tir = m.get("time_in_range")
@@ -573,7 +573,7 @@ def needs_work(
     score = float(d.get("below", 0.0)) + float(d.get("above", 0.0))
     if score <= 0.0:
         return False  # never left its band
-    share = share_out(m or {})
+    share = _share_out(m or {})
     return (
         score >= threshold
         or rule.metric in cued
@@ -695,7 +695,7 @@ def slightly_off(
         # of the time: pick up the pace" after a pause, on readings of 135-137 against 140 by
         # a module accurate to 8 %). Out for half the time or more (:func:`needs_work`), the
         # best estimate itself is out: told, however close
-        share = share_out(m, beyond_error=True)
+        share = _share_out(m, beyond_error=True)
         d = dev_s.get(rule.metric) or {}
         if rule.metric in listed or share is None or not judged(m):
             continue
@@ -780,7 +780,7 @@ def near_range(
         near = m.get("within_error_s")
         rec = METRICS.get(rule.metric)
         if isinstance(near, int | float) and near > 0.0 and rec is not None:
-            # how much of it the module could not tell from in range (:func:`share_out`)
+            # how much of it the module could not tell from in range (:func:`_share_out`)
             row["within_error_s"] = round(min(float(near), out_s), 1)
             row["error"] = error_words(rec)
         rows.append(row)
