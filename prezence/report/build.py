@@ -402,16 +402,25 @@ def untimed_seconds(
         >>> ss = [Sample("v", float(t), 150.0) for t in range(30, 60)]
         >>> untimed_seconds(r, ss, 60.0, 6.0, first_after_s=10.0)
         [{'code': 2, 's': 16.0}, {'code': 5, 's': 14.0}]
+
+        The module died at 20 s: its last reason (at 19 s) does not hold into the 40 s after.
+
+        >>> untimed_seconds(r[:10], [], 60.0, 60.0, [20.0], first_after_s=10.0)
+        [{'code': 2, 's': 16.0}, {'code': 5, 's': 4.0}]
     """
     gaps = no_data_spans(samples, talk_s, stale_s, cuts)
     if not gaps or not reasons:
         return []
     ts = [s.t for s in reasons]
+    # a reason holds no further than a value would: not past its module's death
+    ends = hold_ends(ts, cuts) if cuts else None
     per: dict[int, float] = {}
     g = 0
     for i, s in enumerate(reasons):
         start = 0.0 if i == 0 and s.t <= first_after_s + 1e-6 else s.t
         nxt = ts[i + 1] if i + 1 < len(ts) else talk_s
+        if ends is not None:
+            nxt = min(nxt, float(ends[i]))
         end = min(nxt, s.t + stale_s, talk_s)
         while g < len(gaps) and gaps[g][1] <= start:
             g += 1

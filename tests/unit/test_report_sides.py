@@ -510,3 +510,16 @@ def test_a_pace_measured_over_part_of_the_talk_says_why_where_the_module_did(
     )
     report = build_report(clean.root)
     assert "too little" not in format_text(report) and "only part" not in summary_phrase(report)
+
+
+def test_a_reason_for_no_pace_does_not_hold_past_its_modules_death() -> None:
+    # session 24's review: the last reason line held up to the stale time into the no-data span
+    # its module's death made, so a crash read as "music or noise next to the words"
+    from prezence.report.build import untimed_seconds
+    from prezence.samples import Sample
+
+    reasons = [
+        Sample("speech_untimed_reason", float(t), 2.0 if t < 16 else 5.0) for t in range(10, 20)
+    ]
+    got = untimed_seconds(reasons, [], 60.0, 60.0, [20.0], first_after_s=10.0)
+    assert got == [{"code": 2, "s": 16.0}, {"code": 5, "s": 4.0}]
