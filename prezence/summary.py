@@ -44,11 +44,14 @@ _DECILES = np.true_divide([10, 50, 90], 100)
 
 
 def _percentiles(a: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``np.percentile(a, 100 * q)`` (its default, linear method), bit for bit.
+    """``np.percentile(a, 100 * q)`` (its default, linear method), equal to it but for the
+    sign of a zero: a zero is always written 0.0.
 
     numpy's own looks its bounds up with ``np.unique``, whose first call imports ``numpy.ma``
     (about 10 ms of a replay's start); this takes the same steps on a sorted copy: virtual
-    index ``(n - 1)·q``, its floor and the next, and numpy's two-sided interpolation.
+    index ``(n - 1)·q``, its floor and the next, and numpy's two-sided interpolation. A sort
+    and numpy's partition order 0.0 and -0.0 differently, so either may come out of numpy
+    where the values hold both (session 24's review); "-0.0" in a summary only puzzles.
     """
     n = len(a)
     s = np.sort(a)
@@ -69,7 +72,7 @@ def _percentiles(a: np.ndarray, q: np.ndarray) -> np.ndarray:
     np.subtract(nxt, diff * (1 - gamma), out=out, where=gamma >= 0.5)
     if np.isnan(s[-1]):  # numpy's answer for values with a NaN (sorted last)
         out[:] = s[-1]
-    return out
+    return out + 0.0  # -0.0 + 0.0 is 0.0
 
 
 def _in_range_time(
