@@ -212,13 +212,17 @@ def native_stacks(pid: int) -> str:
     gdb = shutil.which("gdb")
     if gdb is None:
         return "(no gdb: no native stacks)"
-    got = subprocess.run(
-        [gdb, "-p", str(pid), "-batch", "-ex", "thread apply all bt 30"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    try:
+        got = subprocess.run(
+            [gdb, "-p", str(pid), "-batch", "-ex", "thread apply all bt 30"],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+    except (OSError, subprocess.TimeoutExpired) as e:  # the failure must still be said
+        return f"(gdb gave no stacks: {e})"
+    # where ptrace is not allowed (a non-root user, ptrace_scope 1) gdb says so on stderr
     return got.stdout[-20000:] + got.stderr[-2000:]
 
 
@@ -238,8 +242,10 @@ def test_plain_naoqi_client_runs_unchanged(server: tuple[subprocess.Popen[str], 
     except subprocess.TimeoutExpired:
         # seen once in a whole-suite run (README, "Not done"): the client printed every line,
         # then did not exit. Keep its threads' stacks, which name where it waits, then fail.
-        stacks = native_stacks(client.pid)
-        client.kill()
+        try:
+            stacks = native_stacks(client.pid)
+        finally:
+            client.kill()
         out, err = client.communicate()
         pytest.fail(f"the client did not exit within 60 s\n{out}{err}\n{stacks}")
     assert client.returncode == 0, out + err
