@@ -568,14 +568,23 @@ def near_words(report: Mapping[str, Any]) -> str:
     return "; ".join(said)
 
 
+def _error_share(row: Mapping[str, Any]) -> tuple[float, bool]:
+    """A ``near_range`` row's seconds out by less than the measurement's error, and whether
+    that is all of its time out."""
+    near = row.get("within_error_s")
+    if not isinstance(near, int | float) or near <= 0.0:
+        return 0.0, False
+    out = sum(float(x.get("out_s") or 0.0) for x in _sides(row))
+    return float(near), near >= out - 0.05
+
+
 def _within_error(row: Mapping[str, Any]) -> str:
     """ ", all of it by less than the measurement's error (8%)" for a ``near_range`` row whose
     time out was partly or wholly within it ("" otherwise)."""
-    near = row.get("within_error_s")
-    if not isinstance(near, int | float) or near <= 0.0:
+    near, whole = _error_share(row)
+    if not near:
         return ""
-    out = sum(float(x.get("out_s") or 0.0) for x in _sides(row))
-    much = "all of it" if near >= out - 0.05 else f"{_out_for(float(near))} of it"
+    much = "all of it" if whole else f"{_out_for(near)} of it"
     return f", {much} by less than the measurement's error ({row.get('error')})"
 
 
@@ -1149,9 +1158,7 @@ def _near_spoken(report: Mapping[str, Any]) -> str:
         )
         for i, x in enumerate(_sides(row))
     ]
-    near = row.get("within_error_s")
-    out = sum(float(x.get("out_s") or 0.0) for x in _sides(row))
-    if isinstance(near, int | float) and near > 0.0 and near >= out - 0.05:
+    if _error_share(row)[1]:  # after every side: it is said of them all
         said[-1] += ", by less than my measuring error"
     return f"Your {label} {was(label)} {' and '.join(said)}."
 

@@ -523,3 +523,17 @@ def test_a_reason_for_no_pace_does_not_hold_past_its_modules_death() -> None:
     ]
     got = untimed_seconds(reasons, [], 60.0, 60.0, [20.0], first_after_s=10.0)
     assert got == [{"code": 2, "s": 16.0}, {"code": 5, "s": 4.0}]
+
+
+def test_a_cues_worth_of_deviation_is_advised_on_even_within_the_measuring_error(
+    tmp_path: Path,
+) -> None:
+    # the README's claim for session 24's rule: out for under half the time and by less than
+    # the error, but the deviation adds up to a cue's worth (600 %.s): head pitch 3 degrees
+    # under -15 (30 % of its 10 degree scale) for 30 s of 100 is 900 %.s
+    gaze = (range(100), lambda t: -18.0 if 60 <= t < 90 else 0.0)
+    session = talk(tmp_path / "t", 100, {"cv_headGaze": gaze})
+    report = build_report(session.root)
+    assert report["metrics"]["cv_headGaze"]["within_error_s"] == pytest.approx(30.0)
+    [pri] = report["priorities"]
+    assert pri["metric"] == "cv_headGaze" and "look up" in pri["advice"]
