@@ -84,6 +84,22 @@ class Untimed(enum.IntEnum):
     LANGUAGE = 10
 
 
+#: The report's words for each reason the speech module gives for a window it could not time
+#: (``speech_untimed_reason``, :class:`Untimed`; issue 11), in the words a
+#: presenter understands. The two kinds of pause are one to a presenter: silence (before the
+#: first words too, where "pauses" was wrong).
+UNTIMED_WORDS: Mapping[int, str] = {
+    Untimed.PAUSE: "silence",
+    Untimed.NO_VOICE: "no voice",
+    Untimed.TOO_LITTLE_TALK: "too little speech yet to time",
+    Untimed.AFTER_PAUSE: "silence",
+    Untimed.NOISE_NEAR: "music or noise next to the words",
+    Untimed.CLIPPED: "a clipped recording",
+    Untimed.NOISY: "too much background noise",
+    Untimed.NARROWBAND: "telephone-quality audio",
+    Untimed.UNSURE: "words the recogniser was unsure of",
+    Untimed.LANGUAGE: "a talk not in English",
+}
 #: The codes decided over the word window, once a count could be chosen (the others, over the
 #: level window): for a talk not in English each such window is :attr:`Untimed.LANGUAGE`.
 WORD_WINDOW_REASONS = frozenset(

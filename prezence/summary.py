@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from prezence.config.model import Config, Rule
-from prezence.metrics import METRICS, UNTIMED_METRIC, WORD_WINDOW_REASONS
+from prezence.metrics import METRICS, UNTIMED_METRIC, UNTIMED_WORDS, WORD_WINDOW_REASONS
 from prezence.samples import Sample
 from prezence.session import CUE_KEYS, SessionDir, read_jsonl, write_json
 
@@ -203,8 +203,6 @@ def untimed_labels(codes: Sequence[float]) -> str:
         >>> untimed_labels([7.0, 7.0, 3.0, 5.0])
         'too much background noise, music or noise next to the words'
     """
-    from prezence.report.speech import UNTIMED_WORDS
-
     counts: dict[str, int] = {}
     for c in codes:
         if c in WORD_WINDOW_REASONS and int(c) in UNTIMED_WORDS:

@@ -6,7 +6,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-from prezence.metrics import Untimed
+from prezence.metrics import UNTIMED_WORDS, Untimed
 
 #: The spoken summary stays under this many words (the robot speaks at ~150 wpm: ~16 s).
 MAX_SPOKEN_WORDS = 40
@@ -439,27 +439,11 @@ def _gap_rows(report: Mapping[str, Any]) -> list[tuple[Mapping[str, Any], str, f
     return out
 
 
-#: The report's words for each reason the speech module gives for a window it could not time
-#: (``speech_untimed_reason``, :class:`prezence.metrics.Untimed`; issue 11), in the words a
-#: presenter understands. The two kinds of pause are one to a presenter: silence (before the
-#: first words too, where "pauses" was wrong).
-UNTIMED_WORDS: Mapping[int, str] = {
-    Untimed.PAUSE: "silence",
-    Untimed.NO_VOICE: "no voice",
-    Untimed.TOO_LITTLE_TALK: "too little speech yet to time",
-    Untimed.AFTER_PAUSE: "silence",
-    Untimed.NOISE_NEAR: "music or noise next to the words",
-    Untimed.CLIPPED: "a clipped recording",
-    Untimed.NOISY: "too much background noise",
-    Untimed.NARROWBAND: "telephone-quality audio",
-    Untimed.UNSURE: "words the recogniser was unsure of",
-    Untimed.LANGUAGE: "a talk not in English",
-}
 #: The robot's sentence for a reason, when it is the largest (:func:`untimed_sentence`).
 UNTIMED_SPOKEN: Mapping[int, str] = {
     Untimed.PAUSE: "There were long silences.",
     Untimed.NO_VOICE: "At times I heard no voice.",
-    Untimed.TOO_LITTLE_TALK: "There was too little speech to time.",
+    Untimed.TOO_LITTLE_TALK: "At times there were too few words yet to time.",
     Untimed.AFTER_PAUSE: "There were long silences.",
     Untimed.NOISE_NEAR: "Music or noise was near your words.",
     Untimed.CLIPPED: "Your recording is clipped.",
