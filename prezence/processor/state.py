@@ -118,6 +118,9 @@ class MetricState:
             self.base_t = t
 
     def _reach(self) -> None:
+        """When W reaches the threshold at the present deviation (``reach_t``): -inf once it
+        has, inf when it cannot. :meth:`ingest` writes this out for speed; keep the two alike
+        (a test compares them)."""
         rate = self.rule.gain * self.dev
         if self.base_weight >= self.threshold:
             self.reach_t = -math.inf
@@ -162,7 +165,7 @@ class MetricState:
         rate = self.rule.gain * dev
         if self.base_weight >= self.threshold:
             self.reach_t = -math.inf
-        elif rate > 0.0:
+        elif rate > 0.0:  # a little early, as in _reach
             reach = self.base_t + (self.threshold - self.base_weight) / rate
             self.reach_t = reach - 1e-6 * (1.0 + abs(reach))
         else:

@@ -463,3 +463,23 @@ def test_a_strict_warning_pending_over_a_gap_without_samples_dates_from_after_it
             ds.append(d)
     assert ds and ds[0].cue.command == "articulate"
     assert ds[0].cue.onset == pytest.approx(30.0), ds[0].reason
+
+
+def test_a_samples_own_reach_time_is_the_one_the_rule_gives() -> None:
+    # session 24 wrote MetricState._reach out inside ingest for speed; the copy must stay the
+    # same as the method, or a cue would come at another time after a sample than after a cue
+    import random
+
+    from prezence.processor.state import MetricState
+
+    rule = Rule("speech_speed", Check.IN_RANGE, low=140.0, high=180.0)
+    rng = random.Random(7)
+    for threshold in (600.0, 50.0):
+        st = MetricState(rule=rule, stale_after_s=6.0, half_life_s=30.0, threshold=threshold)
+        t = 0.0
+        for _ in range(300):
+            t += rng.choice((0.5, 1.0, 2.0, 9.0))
+            st.ingest(t, rng.uniform(100.0, 220.0))
+            got = st.reach_t
+            st._reach()
+            assert got == st.reach_t
