@@ -356,28 +356,27 @@ def voice_times(session: SessionDir, limit: float | None = None) -> list[float] 
     return sorted(s.t for s in samples if s.value > 0.0)
 
 
+def _module_stream(session: SessionDir, metric: str, limit: float | None) -> list[Sample] | None:
+    """A module's stream of the session folder, in time order; None without the file."""
+    from prezence.streams.tail import read_stream
+
+    path = session.stream(f"{metric}.txt")
+    if not path.is_file():
+        return None
+    samples, _ = read_stream(path, metric, max_t=limit, problems=[])
+    return sorted(samples, key=lambda s: s.t)
+
+
 def room_snr(session: SessionDir, limit: float | None = None) -> list[Sample] | None:
     """The speech module's estimated SNR per word window (``speech_snr``), in time order;
     None without that stream (a recording made before session 21, a synthetic talk)."""
-    from prezence.streams.tail import read_stream
-
-    path = session.stream(f"{SNR_METRIC}.txt")
-    if not path.is_file():
-        return None
-    samples, _ = read_stream(path, SNR_METRIC, max_t=limit, problems=[])
-    return sorted(samples, key=lambda s: s.t)
+    return _module_stream(session, SNR_METRIC, limit)
 
 
 def untimed_reasons(session: SessionDir, limit: float | None = None) -> list[Sample] | None:
     """The speech module's reason codes (``speech_untimed_reason``), in time order; None
     without that stream (a folder written before issue 11, a synthetic talk)."""
-    from prezence.streams.tail import read_stream
-
-    path = session.stream(f"{UNTIMED_METRIC}.txt")
-    if not path.is_file():
-        return None
-    samples, _ = read_stream(path, UNTIMED_METRIC, max_t=limit, problems=[])
-    return sorted(samples, key=lambda s: s.t)
+    return _module_stream(session, UNTIMED_METRIC, limit)
 
 
 def untimed_seconds(
