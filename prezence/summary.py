@@ -16,7 +16,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from prezence.config.model import Config, Rule
-from prezence.metrics import METRICS, UNTIMED_METRIC, UNTIMED_WORDS, WORD_WINDOW_REASONS
+from prezence.metrics import (
+    METRICS,
+    UNTIMED_METRIC,
+    UNTIMED_WORDS,
+    WORD_WINDOW_REASONS,
+    Untimed,
+)
 from prezence.samples import Sample
 from prezence.session import CUE_KEYS, SessionDir, read_jsonl, write_json
 
@@ -320,13 +326,19 @@ def measurement_notes(
         )
     activity = _stream_values(root, "speech_activity")
     if activity and not any(activity):  # no voice in any window
+        # which, where the module wrote its reasons (issue 11): sound or silence
+        codes = set(_stream_values(root, UNTIMED_METRIC))
+        heard = (
+            "noise, a hum, music or a whisper without a voice"
+            if Untimed.NO_VOICE in codes
+            else "silence, or sound too faint to be a voice"
+            if codes == {Untimed.PAUSE}
+            else "silence, or noise, a hum, music or a whisper without a voice: speech.log "
+            "says which"
+        )
         for name, rec in METRICS.items():
             if rec.module == "speech":
-                unmeasured.setdefault(
-                    name,
-                    "the speech module heard no voice (silence, or noise, a hum, music or a "
-                    "whisper without a voice: speech.log says which)",
-                )
+                unmeasured.setdefault(name, f"the speech module heard no voice ({heard})")
     # the speech module's log says the recording is clipped (session 23: only the log said
     # "record with less input gain"; the report praised the clipped recording's volume)
     clipped = clipped_detail(root)

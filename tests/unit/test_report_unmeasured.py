@@ -359,6 +359,18 @@ def test_a_recording_with_no_voice_is_said_so_not_praised(tmp_path: Path) -> Non
     # session 19: a whispered rehearsal has no pitch and lands here too; the robot says so
     # rather than blaming the recording alone
     assert "whisper" in said and "speak aloud" in said
+    # issue 11: with the module's reasons, which of the two it heard, not "speech.log says"
+    for code, heard in (
+        (2.0, "(noise, a hum, music or a whisper without a voice)"),
+        (1.0, "(silence, or sound too faint to be a voice)"),
+    ):
+        coded = {
+            **streams,
+            "speech_untimed_reason": [(t, code) for t, _ in streams["speech_activity"]],
+        }
+        s = rehearsal(tmp_path / f"c{code:g}", coded, talk_s=61.0, recording="noise.wav")
+        why = build_report(s.root)["metrics"]["speech_speed"]["not_measured_why"]
+        assert why == f"the speech module heard no voice {heard}"
     # a voice heard in one window: the talk is not said to have none
     streams["speech_activity"][20] = (30.0, 0.4)
     again = rehearsal(tmp_path / "t", streams, talk_s=61.0, recording="noise.wav")
