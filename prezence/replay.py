@@ -448,13 +448,8 @@ def _without_fallback_gestures(
     for folder in folders:
         path = folder / f"{GESTURES_SOURCE}.txt"
         if path.is_file():
-            for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
-                fields = line.split()
-                try:
-                    if len(fields) == 2 and float(fields[1]) == GESTURES_FROM_MOTION:
-                        fallback.add(float(fields[0]))
-                except ValueError:
-                    continue
+            marks, _ = read_stream(path, GESTURES_SOURCE, problems=[])
+            fallback = {x.t for x in marks if x.value == GESTURES_FROM_MOTION}
             break
     if not fallback:
         return readings

@@ -390,6 +390,11 @@ def builtin_record() -> dict[str, Any]:
 _BUILTIN_CHECKED: dict[tuple[str, ...], float] = {}
 
 
+def _checked_key(hashes: Mapping[str, str], limits: JointLimits) -> tuple[str, ...]:
+    """The key of :data:`_BUILTIN_CHECKED`: the files' hashes and the URDF's path."""
+    return (*hashes.values(), str(limits.source))
+
+
 def check_builtin_clearance(limits: JointLimits) -> bool:
     """Whether the self-collision of the built-in gestures is checked: True when the built-in
     ``gestures.toml`` and the URDF are the ones the shipped record names (the test suite
@@ -405,7 +410,7 @@ def check_builtin_clearance(limits: JointLimits) -> bool:
         return True
     if not pybullet_available():
         return False
-    key = (*hashes.values(), str(limits.source))
+    key = _checked_key(hashes, limits)
     if key not in _BUILTIN_CHECKED:
         library = load_library(limits)
         least = _least_clearance(library, library.names, limits=limits)
@@ -449,7 +454,7 @@ def builtin_edits(limits: JointLimits) -> dict[str, Any]:
         **hashes,
         "differs_from_record": differs,
     }
-    least = _BUILTIN_CHECKED.get((*hashes.values(), str(limits.source)))
+    least = _BUILTIN_CHECKED.get(_checked_key(hashes, limits))
     if least is not None:
         out["least_clearance_mm"] = round(1000 * least, 1)
     return out

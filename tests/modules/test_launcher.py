@@ -603,13 +603,24 @@ def test_a_module_that_exits_0_while_the_others_go_on_ended_and_is_not_restarted
 def _played_file(allocated_s: float, tmp_path: Path, grace_s: float = 10.0) -> dict:
     """``up`` of one "file" (speech_speed 0.5 … 3.0 s, then 2 s of decoding before its
     exit 0) with ``allocated_s`` and ``grace_s``: the summary."""
-    script = tmp_path / "play.py"
-    script.write_text(_PLAYS_A_FILE)
+    args = ["6", "speech_speed", "2.0"]
+    return _up_of_a_file(tmp_path, _PLAYS_A_FILE, args, ("speech_speed",), allocated_s, grace_s)
+
+
+def _up_of_a_file(
+    tmp_path: Path,
+    script_text: str,
+    args: list[str],
+    metrics: tuple[str, ...],
+    allocated_s: float,
+    grace_s: float,
+) -> dict:
+    """``up`` of one finite speech module, ``script_text`` run with ``{session}`` and
+    ``args``: the summary."""
+    script = tmp_path / "module.py"
+    script.write_text(script_text)
     spec = ModuleSpec(
-        "speech",
-        [sys.executable, str(script), "{session}", "6", "speech_speed", "2.0"],
-        metrics=("speech_speed",),
-        finite=True,
+        "speech", [sys.executable, str(script), "{session}", *args], metrics=metrics, finite=True
     )
     result = up(
         CONFIG.with_allocated(allocated_s),
@@ -683,23 +694,8 @@ time.sleep(0.5)
 def _played_file_ending_in_silence(allocated_s: float, tmp_path: Path) -> dict:
     """``up`` of one "file": spoken to 3.0 s, silent to 6.0 s, with ``allocated_s``: the
     summary."""
-    script = tmp_path / "silence.py"
-    script.write_text(_ENDS_IN_SILENCE)
-    spec = ModuleSpec(
-        "speech",
-        [sys.executable, str(script), "{session}", "12", "3.0"],
-        metrics=("speech_speed", "speech_activity"),
-        finite=True,
-    )
-    result = up(
-        CONFIG.with_allocated(allocated_s),
-        session_dir=tmp_path / "s",
-        modules=[spec],
-        backend=FakeBackend(time_scale=0.01),
-        grace_s=10.0,
-        options=RunOptions.default(report=True),
-    )
-    return result.summary
+    metrics = ("speech_speed", "speech_activity")
+    return _up_of_a_file(tmp_path, _ENDS_IN_SILENCE, ["12", "3.0"], metrics, allocated_s, 10.0)
 
 
 @pytest.mark.slow
