@@ -132,6 +132,8 @@ class Metric:
             no error is stated (the reading is taken as exact).
         error_abs: the same in the metric's unit (head pitch: degrees); the larger of the two
             holds.
+        felt: how the speaker would feel the metric on each side of its band ("slow" for a
+            pace under it), for advice given only if they felt so; "low"/"high" without one.
     """
 
     name: str
@@ -146,6 +148,7 @@ class Metric:
     first_after_s: float = 0.0
     error_pct: float | None = None
     error_abs: float | None = None
+    felt: Mapping[str, str] = field(default_factory=dict)
 
     def margin(self, bound: float) -> float:
         """How far outside ``bound`` a reading may be and still lie within the measurement's
@@ -241,6 +244,7 @@ METRICS: Mapping[str, Metric] = {
             "speech",
             _SPEECH,
             advice={"above": "slow down", "below": "pick up the pace"},
+            felt={"above": "fast", "below": "slow"},
             physical_range=(0.0, 400.0),
             band=("inRange", 140.0, 180.0),
             first_after_s=10.0,  # the speech module's --window: 10 s of talk

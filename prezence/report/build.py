@@ -98,6 +98,8 @@ def deviation_seconds(
     talk_s: float,
     stale_s: float,
     cuts: Sequence[float] = (),
+    *,
+    margins: tuple[float, float] | None = None,
 ) -> dict[str, float]:
     """Deviation integrated over time (%·s) on each side of the band, sample-and-hold.
 
@@ -107,7 +109,10 @@ def deviation_seconds(
     count twice as much, and a dead module's last value is not counted as measured.
 
     Returns:
-        ``{"below": %·s, "above": %·s}``.
+        ``{"below": %·s, "above": %·s}``; with ``margins`` (how far under the low bound and
+        over the high one a reading may lie within the measurement's error:
+        :meth:`prezence.metrics.Metric.margin`) also ``below_beyond`` and ``above_beyond``,
+        the part of each from readings out by more than that (:func:`at_edge`).
 
     Example:
         >>> from prezence.config.model import Check
@@ -115,8 +120,12 @@ def deviation_seconds(
         >>> ss = [Sample("speech_speed", 0.0, 198.0), Sample("speech_speed", 10.0, 160.0)]
         >>> deviation_seconds(r, ss, talk_s=20.0, stale_s=60.0)
         {'below': 0.0, 'above': 100.0}
+        >>> deviation_seconds(r, ss, talk_s=20.0, stale_s=60.0, margins=(11.2, 14.4))
+        {'below': 0.0, 'above': 100.0, 'below_beyond': 0.0, 'above_beyond': 100.0}
     """
     out = {"below": 0.0, "above": 0.0}
+    if margins is not None:
+        out.update(below_beyond=0.0, above_beyond=0.0)
     ends = hold_ends([s.t for s in samples], cuts) if cuts else None
     for i, s in enumerate(samples):
         if s.t >= talk_s:
@@ -125,10 +134,32 @@ def deviation_seconds(
         if ends is not None:
             nxt = min(nxt, float(ends[i]))
         dt = max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
-        side = rule.side(s.value)
+        dev, side = rule.judge(s.value)
         if side is not None and dt > 0:
-            out[side] += rule.deviation(s.value) * dt
+            out[side] += dev * dt
+            if margins is not None and _beyond(rule, s.value, side, margins):
+                out[f"{side}_beyond"] += dev * dt
     return {k: round(v, 3) for k, v in out.items()}
+
+
+def _beyond(rule: Rule, value: float, side: str, margins: tuple[float, float]) -> bool:
+    """Whether ``value``, out of ``rule``'s band on ``side``, is out by more than the
+    measurement's error (``margins``: under the low bound, over the high one)."""
+    v = value + rule.offset
+    if side == "below":
+        return rule.low is not None and v < rule.low - margins[0]
+    return rule.high is not None and v > rule.high + margins[1]
+
+
+def error_margins(rule: Rule) -> tuple[float, float] | None:
+    """How far under its low bound and over its high one ``rule``'s metric may read within
+    its module's stated measurement error; None when its record states none."""
+    rec = METRICS.get(rule.metric)
+    if rec is None or (rec.error_pct is None and rec.error_abs is None):
+        return None
+    lo = rec.margin(rule.low) if rule.low is not None else 0.0
+    hi = rec.margin(rule.high) if rule.high is not None else 0.0
+    return lo, hi
 
 
 def mean_deviation(rule: Rule, samples: Sequence[Sample], start: float, end: float) -> float | None:
@@ -581,13 +612,57 @@ def needs_work(
     score = float(d.get("below", 0.0)) + float(d.get("above", 0.0))
     if score <= 0.0:
         return False  # never left its band
+    if rule.metric in cued or rule.strict:
+        return True
     share = _share_out(m or {})
-    return (
-        score >= threshold
-        or rule.metric in cued
-        or rule.strict
-        or (share is not None and share >= FAR_OFF_SHARE)
-    )
+    if edge_reading(rule, m or {}) is not None and "below_beyond" in d:
+        # its median reading is out by less than the measurement's error: only the readings
+        # out by more than it are known to be out (issue 11: a true 143 wpm read 138.5, 53 %
+        # of the time under 140, and was told "Work first on this: pick up the pace")
+        score = float(d.get("below_beyond", 0.0)) + float(d.get("above_beyond", 0.0))
+        share = _share_out(m or {}, beyond_error=True)
+    return score >= threshold or (share is not None and share >= FAR_OFF_SHARE)
+
+
+def edge_reading(rule: Rule, m: Mapping[str, Any]) -> dict[str, Any] | None:
+    """Where a metric's median reading (``p50``, as judged: the rule's offset added) lies out
+    of its band by no more than its module's stated measurement error
+    (:meth:`prezence.metrics.Metric.margin`): the module cannot tell whether the talk was
+    typically in range or out. ``side``, ``bound``, ``median``, ``off`` (how far out, in the
+    metric's unit) and ``off_pct`` (that in percent of the bound, for an error stated in
+    percent); None when the median is in range or out by more, when no error is stated or
+    the median is not recorded (a figure made before it was), and for a strict rule (out
+    once is out).
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
+        >>> edge_reading(r, {"p50": 138.5})
+        {'side': 'below', 'bound': 140.0, 'median': 138.5, 'off': 1.5, 'off_pct': 1.1}
+        >>> edge_reading(r, {"p50": 128.0}), edge_reading(r, {"p50": 150.0})  # 8.6 % under
+        (None, None)
+    """
+    rec = METRICS.get(rule.metric)
+    med = m.get("p50")
+    if rule.strict or rec is None or not isinstance(med, int | float) or isinstance(med, bool):
+        return None
+    if (rec.error_pct is None and rec.error_abs is None) or not math.isfinite(med):
+        return None
+    for side, bound in (("below", rule.low), ("above", rule.high)):
+        if bound is None:
+            continue
+        off = float(bound) - float(med) if side == "below" else float(med) - float(bound)
+        if 0.0 < off <= rec.margin(float(bound)):
+            row: dict[str, Any] = {
+                "side": side,
+                "bound": float(bound),
+                "median": float(med),
+                "off": round(off, 3),
+            }
+            if rec.error_pct is not None and bound:
+                row["off_pct"] = round(100.0 * off / abs(float(bound)), 1)
+            return row
+    return None
 
 
 def rank_priorities(
@@ -608,10 +683,20 @@ def rank_priorities(
       over the talk (%·s) adds up to one cue's worth (the processor's ``threshold``, 600 %·s
       by default: 20 % off for 30 s); the coach cued it; it was out of its band for at least
       :data:`FAR_OFF_SHARE` of the time it was measured (a pace 5 % under the band for half
-      the talk is not "a little off", however small each miss); its rule is strict.
+      the talk is not "a little off", however small each miss); its rule is strict. For a
+      metric at the edge (below), the first and third count its readings out by more than
+      its measurement's error only.
     - **a little off** (:func:`slightly_off`): none of these, but out of its band, by more
       than its measurement's error, for at least :data:`SLIGHTLY_OFF_SHARE` of its measured
       time: not praised as in range either.
+    - **at the edge** (:func:`at_edge`): its median reading out of its band by no more than
+      its measurement's error (:func:`edge_reading`: a true 143 wpm read 138.5 against 140
+      by a module accurate to 8 %), not cued, not strict, and neither of the first two
+      classes on its readings out by *more* than the error alone (their deviation, their
+      share of the time: the time within the error is not known to be out). The module
+      cannot tell whether it was in range: said so, with advice only "if it felt slow".
+      Listed after every metric to work on and every one a little off, never first: a metric
+      known to be out comes before one that may not have been.
     - **in or near range**: the rest (a glance down for a second is not worth advice). Those
       out of their band at all (:func:`near_range`) are named with their seconds out when the
       report praises: "stayed in or near its ideal range", never "stayed in its ideal range".
@@ -792,6 +877,61 @@ def near_range(
             row["within_error_s"] = round(min(float(near), out_s), 1)
             row["error"] = error_words(rec)
         rows.append(row)
+    rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
+    return rows
+
+
+def at_edge(
+    config: Config, metrics: Mapping[str, Mapping[str, Any]], *, listed: Collection[str] = ()
+) -> list[dict[str, Any]]:
+    """The judged metrics whose median reading lay out of their band by less than the
+    measurement's error (:func:`edge_reading`) and in no list before: the module cannot tell
+    whether they were in range, so the report says so and advises only if the speaker thinks
+    so too ("if it felt slow, pick up the pace a little"), after every metric that needs work
+    and every one a little off (:func:`rank_priorities` states the order). Each row has the
+    median and how far out it read (``median``, ``off``, ``off_pct``), the error
+    (``error``), the time out on each side (``sides``, as :func:`near_range`'s) and the
+    ``advice``; the most out first.
+
+    Args:
+        config: the rules.
+        metrics: the report's per-metric figures (``p50``, ``below_s``, ``above_s``).
+        listed: the metrics already listed to work on or as a little off.
+    """
+    rows: list[dict[str, Any]] = []
+    for rule in config.rules:
+        m = metrics.get(rule.metric) or {}
+        rec = METRICS.get(rule.metric)
+        edge = edge_reading(rule, m)
+        if rule.metric in listed or not judged(m) or edge is None or rec is None:
+            continue
+        total = measured_s(m)
+        sides: list[dict[str, Any]] = []
+        out = 0.0
+        for side in (edge["side"], "above" if edge["side"] == "below" else "below"):
+            secs = m.get(f"{side}_s")
+            if isinstance(secs, int | float) and secs >= NEAR_RANGE_MIN_S and total > 0:
+                out += float(secs)
+                sides.append(
+                    {
+                        "side": side,
+                        "bound": rule.high if side == "above" else rule.low,
+                        "out_s": round(float(secs), 1),
+                        "share_out": round(float(secs) / total, 3),
+                    }
+                )
+        rows.append(
+            {
+                **_off_side(rule, str(edge["side"])),
+                **{k: v for k, v in edge.items() if k not in ("side", "bound")},
+                "error": error_words(rec),
+                "share_out": round(out / total, 3) if total > 0 else 0.0,
+                "sides": sides,
+                "advice": advice(rule, str(edge["side"])),
+                "felt": rec.felt.get(str(edge["side"]))
+                or ("low" if edge["side"] == "below" else "high"),
+            }
+        )
     rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
     return rows
 
@@ -1147,7 +1287,9 @@ def _rebuild(
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         m = dict(summary["metrics"][rule.metric])
         cuts = [float(sp["from"]) for sp in m.get("lost") or ()]
-        dev_s[rule.metric] = deviation_seconds(rule, streams[rule.metric], end_s, stale_s, cuts)
+        dev_s[rule.metric] = deviation_seconds(
+            rule, streams[rule.metric], end_s, stale_s, cuts, margins=error_margins(rule)
+        )
         # "not measured": no module wrote this metric's file at all; "no data": the file is
         # there but holds no sample of the talk
         measured = rule.metric in paths
@@ -1265,7 +1407,9 @@ def _rebuild(
         cfg, judged_dev, talk_s=talk_s, cued=cued, metrics=metrics, top=None
     )
     a_little_off = slightly_off(cfg, judged_dev, metrics, listed=[p["metric"] for p in priorities])
-    near = near_range(cfg, metrics, listed=[r["metric"] for r in [*priorities, *a_little_off]])
+    edge = at_edge(cfg, metrics, listed=[r["metric"] for r in [*priorities, *a_little_off]])
+    listed = [r["metric"] for r in [*priorities, *a_little_off, *edge]]
+    near = near_range(cfg, metrics, listed=listed)
     snr = room_snr(session, limit) or []
     for row in [*priorities, *a_little_off] if snr else ():
         if row["metric"] != NOISY_METRIC:
@@ -1312,6 +1456,7 @@ def _rebuild(
         "cues": cue_rows,
         "priorities": priorities,
         "slightly_off": a_little_off,
+        "at_edge": edge,
         "near_range": near,
         "counts": counts,
         "has_truth": truth is not None,

@@ -8,8 +8,10 @@ from collections.abc import Mapping
 from typing import Any
 
 from prezence.report.speech import (
+    EDGE_HEAD,
     cue_count_parts,
     cue_mark,
+    edge_text,
     heard_none,
     measured_s,
     measured_share,
@@ -213,7 +215,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             "more, or out of its ideal range for half the time it was measured or more. First "
             "come those out of their ideal range the longest and the farthest.</p>"
         )
-    elif not report.get("slightly_off"):
+    elif not report.get("slightly_off") and not report.get("at_edge"):
         out.append(
             {
                 "none": (
@@ -242,6 +244,15 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         for o in off:
             noise = f" {_e(o['noise'][0].upper() + o['noise'][1:])}." if o.get("noise") else ""
             out.append(f"<li>{_e(off_sides_text(o))} (<b>{_e(o['advice'])}</b>){noise}</li>")
+        out.append("</ul>")
+    edge = [o for o in report.get("at_edge") or [] if isinstance(o, dict)]
+    if edge:
+        head = f"{EDGE_HEAD}:" if pri or off else "Nothing was clearly off, but:"
+        out.append(f"<p>{_e(head)}</p>")
+        out.append('<ul class="work">')
+        for o in edge:
+            text = edge_text(o)
+            out.append(f"<li>{_e(text[0].upper() + text[1:])}.</li>")
         out.append("</ul>")
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, dict)]
     if stopped:

@@ -8,6 +8,9 @@ from typing import Any
 
 from prezence.metrics import UNTIMED_WORDS, Untimed
 
+#: The heading of the metrics whose median read within the measurement's error of their band
+#: (``at_edge``) after things to work on or a little off.
+EDGE_HEAD = "Out by less than the measuring error: may have been in range"
 #: The spoken summary stays under this many words (the robot speaks at ~150 wpm: ~16 s).
 MAX_SPOKEN_WORDS = 40
 
@@ -572,6 +575,74 @@ def _within_error(row: Mapping[str, Any]) -> str:
     return f", {much} by less than the measurement's error ({row.get('error')})"
 
 
+def _edge_value(row: Mapping[str, Any]) -> str:
+    """An ``at_edge`` row's median reading, to as many places as keep it apart from its bound
+    (139.6 against 140 is "139.6", not "140")."""
+    med, bound = float(row.get("median") or 0.0), float(row.get("bound") or 0.0)
+    said = _num(med)
+    return f"{med:.1f}" if said == _num(bound) else said
+
+
+def _edge_off(row: Mapping[str, Any]) -> str:
+    """How far out an ``at_edge`` row's median read: "1%", "under 1%", "2 degrees"."""
+    pct = row.get("off_pct")
+    if isinstance(pct, int | float):
+        return _share_words(float(pct) / 100.0)
+    return f"{_num(float(row.get('off') or 0.0))}{_unit(row)}"
+
+
+def edge_text(row: Mapping[str, Any]) -> str:
+    """A metric whose median reading lay out of its band by less than the measurement's
+    error (``at_edge``: :func:`prezence.report.build.at_edge`), for the written report.
+
+    Example:
+        >>> edge_text({"label": "pace", "unit": "wpm", "side": "below", "bound": 140.0,
+        ...     "median": 138.5, "off": 1.5, "off_pct": 1.1, "error": "8%", "felt": "slow",
+        ...     "advice": "pick up the pace", "sides": [{"side": "below", "bound": 140.0,
+        ...     "out_s": 53.0, "share_out": 0.53}]})
+        "your pace read 138 wpm at its median, 1% under the lowest good value, 140 wpm: less than the measurement's error (8%), so it may well have been in range (it read under 140 wpm for 53% of the time it was measured); if it felt slow, pick up the pace a little"
+    """  # noqa: E501 - a doctest output line
+    below = row.get("side") == "below"
+    limit = "lowest" if below else "highest"
+    felt = row.get("felt") or ("low" if below else "high")
+    unit = f" {row['unit']}" if row.get("unit") else ""
+    times = [
+        f"{'under' if x.get('side') == 'below' else 'over'} {_num(x.get('bound'))}{unit} for "
+        f"{_share_words(float(x.get('share_out') or 0.0))}"
+        for x in _sides(row)
+        if isinstance(x.get("share_out"), int | float)
+    ]
+    when = f" (it read {' and '.join(times)} of the time it was measured)" if times else ""
+    return (
+        f"your {row['label']} read {_edge_value(row)}{unit} at its median, {_edge_off(row)} "
+        f"{'under' if below else 'over'} the {limit} good value, {_num(row.get('bound'))}"
+        f"{_unit(row)}: less than the measurement's error ({row.get('error')}), so it may "
+        f"well have been in range{when}; if it felt {felt}, "
+        f"{row.get('advice')} a little"
+    )
+
+
+def edge_spoken(row: Mapping[str, Any], *, short: bool = False) -> str:
+    """The robot's words for an ``at_edge`` row: what it could not tell and the advice if the
+    speaker felt so; ``short``: only that it was within the error (after other advice).
+
+    Example:
+        >>> row = {"label": "pace", "side": "below", "felt": "slow", "advice": "pick up the pace"}
+        >>> edge_spoken(row)
+        'Your pace read just under its ideal range, within my measuring error: it may have been fine. If it felt slow, pick up the pace a little.'
+    """  # noqa: E501 - a doctest output line
+    below = row.get("side") == "below"
+    label = str(row.get("label") or row.get("metric"))
+    where = f"Your {label} read just {'under' if below else 'over'} its ideal range"
+    if short:
+        return f"{where}, within my measuring error."
+    felt = row.get("felt") or ("low" if below else "high")
+    return (
+        f"{where}, within my measuring error: it may have been fine. "
+        f"If it felt {felt}, {row.get('advice')} a little."
+    )
+
+
 def praise_line(report: Mapping[str, Any], share: str) -> str:
     """The report's written praise when nothing was off: ``share`` is :func:`measured_share`
     (``"all"`` or ``"some"``); qualified by what was measured over only part of the talk, and
@@ -987,8 +1058,9 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         droppable.append(parts[-1])
     pri = list(report.get("priorities") or [])
     off = [o for o in report.get("slightly_off") or [] if isinstance(o, Mapping)]
+    edge = [o for o in report.get("at_edge") or [] if isinstance(o, Mapping)]
     none = unmeasured_labels(report)
-    if none and (pri or off):  # the praise names them itself; here, before the advice
+    if none and (pri or off or edge):  # the praise names them itself; here, before the advice
         parts.append(f"I could not measure your {_and(none)}.")
     if not pri and off:  # too little to work on first, too much to call in range
         o = off[0]
@@ -1005,6 +1077,11 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
             f"{lead} {o['label']} {was(o['label'])} a little {' and '.join(said)} "
             f"of the {of_time(o, 'I could measure it')}: {o['advice']}."
         )
+    elif not pri and edge:  # nothing known to be out: what it could not tell, and why
+        if not lost:
+            parts.append("Nothing was clearly off.")
+            droppable.append(parts[-1])
+        parts.append(edge_spoken(edge[0]))
     elif not pri:
         share = measured_share(report)
         if share == "none":
@@ -1026,6 +1103,9 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         if len(pri) > 1:
             parts.append(f"Then: {pri[1]['advice']}.")
             droppable.append(parts[-1])
+    if edge and (pri or off):  # after what is known to be out, and the first left out
+        parts.append(edge_spoken(edge[0], short=True))
+        droppable.insert(0, parts[-1])
     if late:
         parts.append(late)
         droppable.append(late)  # last in: the first dropped
@@ -1187,7 +1267,7 @@ def format_text(report: Mapping[str, Any]) -> str:
             lines.append(f"    {i}. {p['advice']} ({priority_sides(p, m)} in all)")
             if p.get("noise"):
                 lines.append(f"       {p['noise']}")
-    elif not report.get("slightly_off"):
+    elif not report.get("slightly_off") and not report.get("at_edge"):
         lines.append(
             {
                 "none": (
@@ -1210,6 +1290,10 @@ def format_text(report: Mapping[str, Any]) -> str:
             lines.append(f"    - {off_sides_text(o)} ({o['advice']})")
             if o.get("noise"):
                 lines.append(f"      {o['noise']}")
+    edge = report.get("at_edge") or []
+    if edge:
+        lines.append(f"  {EDGE_HEAD}:" if pri or off else "  Nothing was clearly off, but:")
+        lines += [f"    - {edge_text(o)}" for o in edge]
     lines.append("")
     lines.append(
         f"  {'metric':<12} {'measured':>13} {'in range':>12} {'mean':>7} {'p10':>7} {'p90':>7} "

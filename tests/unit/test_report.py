@@ -260,7 +260,8 @@ def test_a_pace_a_little_under_all_talk_is_not_praised_as_in_range(tmp_path: Pat
     # A real reader at ~133 wpm for a 50 s clip: 5 % under the band nearly all the time adds
     # up to less than one cue's worth, but "everything stayed in the ideal range, well done"
     # was false; and out of its band for most of the talk, it is no "a little off" either
-    # (session 20): it is a thing to work on.
+    # (session 20). 5 % is within the pace's 8 % measurement error, so since session 25 it is
+    # said as that, with the advice if it felt slow: neither praise nor a fact.
     session = _fifty_second_talk(
         tmp_path,
         speech_speed=lambda t: 150.0 if t < 10 else 133.0,
@@ -268,17 +269,17 @@ def test_a_pace_a_little_under_all_talk_is_not_praised_as_in_range(tmp_path: Pat
         cv_headGaze=lambda t: 0.0,
     )
     report = build_report(session.root, ended=True)
-    assert report["slightly_off"] == []
-    [pri] = report["priorities"]
-    assert pri["metric"] == "speech_speed" and pri["side"] == "below"
+    assert report["slightly_off"] == [] and report["priorities"] == []
+    [edge] = report["at_edge"]
+    assert edge["metric"] == "speech_speed" and edge["side"] == "below"
     phrase = summary_phrase(report)
     assert "Well done" not in phrase and "stayed in the ideal range" not in phrase
-    assert "pick up the pace" in phrase
+    assert "pick up the pace a little" in phrase
     text = format_text(report)
     assert "stayed in its ideal range" not in text and "far off" not in text
-    assert "your pace was below the lowest good value, 140 wpm" in text
+    assert "your pace read 133 wpm at its median, 5% under the lowest good value, 140 wpm" in text
     html = write_report(session.root).read_text()
-    assert "Well done" not in html and "our pace was below the lowest good value, 140 wpm" in html
+    assert "Well done" not in html and "our pace read 133 wpm at its median, 5% under" in html
 
 
 def test_a_pace_a_little_under_for_a_while_is_a_little_off(tmp_path: Path) -> None:
