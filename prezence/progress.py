@@ -298,9 +298,9 @@ def _trend(values: Sequence[float | None], sides: Sequence[str | None] | None = 
     return text
 
 
-def _bands(s: SessionDir) -> dict[str, str] | None:
-    """Each metric's band as ``config.toml`` judged the talk (``"140–180 wpm"``), None when
-    the file is missing or cannot be read (the band is then unknown)."""
+def _rules(s: SessionDir) -> dict[str, Rule] | None:
+    """Each metric's rule as ``config.toml`` judged the talk, None when the file is missing
+    or cannot be read (the bands are then unknown)."""
     if not s.config.is_file():
         return None
     from prezence.config.load import load_config
@@ -310,7 +310,23 @@ def _bands(s: SessionDir) -> dict[str, str] | None:
     except PrezenceError as e:
         log.warning("%s; its bands are unknown", e)
         return None
-    return {r.metric: _band_text(r) for r in cfg.rules}
+    return {r.metric: r for r in cfg.rules}
+
+
+def at_edge(rule: Rule | None, entry: Any) -> bool:
+    """Whether a metric's ``summary.json`` figures put its median reading (``p50``) out of its
+    band by less than its module's measurement error (the report's "at the edge": it may have
+    been in range; :func:`prezence.report.build.edge_reading`); False without the rule.
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
+        >>> at_edge(r, {"p50": 138.5}), at_edge(r, {"p50": 120.0}), at_edge(None, {"p50": 1})
+        (True, False, False)
+    """
+    from prezence.report.build import edge_reading
+
+    return rule is not None and isinstance(entry, dict) and edge_reading(rule, entry) is not None
 
 
 def _band_text(rule: Rule) -> str:
@@ -374,6 +390,7 @@ def _table(
     unjudged: list[dict[str, str]] = []  # per rehearsal, metric -> why it was not judged
     sides: list[dict[str, str]] = []  # per rehearsal, metric -> the side it was mostly out on
     bands: list[dict[str, str] | None] = []
+    edges: list[set[str]] = []  # per rehearsal, the metrics whose median read at the edge
     recordings: set[str] = set()
     notes: list[str] = []  # the rehearsals rebuilt from their streams first
     for when, s, meta in sessions:
@@ -391,7 +408,10 @@ def _table(
         per.append({str(k): time_in_range(s.summary, str(k), v) for k, v in metrics.items()})
         unjudged.append({str(k): w for k, v in metrics.items() if (w := not_judged_why(v))})
         sides.append({str(k): side for k, v in metrics.items() if (side := off_side(v))})
-        bands.append(_bands(s))
+        rules = _rules(s)
+        bands.append(None if rules is None else {k: _band_text(r) for k, r in rules.items()})
+        # marked low / high, but its median read within the measurement's error of the band
+        edges.append({str(k) for k, v in metrics.items() if at_edge((rules or {}).get(k), v)})
         # to the second, with the folder: talks a minute apart are told apart
         label = time.strftime("%d %b %Y %H:%M:%S", time.localtime(when))
         rec = meta.get("recording")
@@ -421,6 +441,7 @@ def _table(
         why = [u.get(name) for u in unjudged]
         values = [None if w else m.get(name) for m, w in zip(per, why, strict=True)]
         out_on = [None if w else x.get(name) for x, w in zip(sides, why, strict=True)]
+        edge = [bool(o) and name in e for o, e in zip(out_on, edges, strict=True)]
         # a time in range holds only under its band: compare with the newest rehearsal's
         newest = bands[-1].get(name) if bands and bands[-1] is not None else None
         judged = [None if b is None else b.get(name) for b in bands]
@@ -457,12 +478,27 @@ def _table(
                 "other_band": other,
                 "not_judged": [bool(w) for w in why],
                 "sides": out_on,
+                "at_edge": edge,
             }
         )
     if any(any(row["sides"]) for row in rows):
         notes.append(
             "low / high: out of its ideal range, mostly below / above it, for "
             f"{100 * _slightly_off():.0f}% or more of the time it was measured"
+        )
+    edged = [row for row in rows if any(row["at_edge"])]
+    if edged:
+        from prezence.metrics import METRICS
+        from prezence.report.build import error_words
+
+        errors = ", ".join(
+            f"{row['label']} {error_words(METRICS[str(row['metric'])])}"
+            for row in edged
+            if row["metric"] in METRICS
+        )
+        notes.append(
+            "~: its median reading was out of its ideal range by less than the measurement's "
+            f"error ({errors}): it may have been in range (the report says so)"
         )
     named = any(isinstance(m.get("speaker"), str) and m.get("speaker") for _, _, m in sessions)
     if len(recordings) > 1 and not named:
@@ -557,6 +593,8 @@ def cell(row: dict[str, Any], i: int) -> str:
     else:
         side = (row.get("sides") or [None] * len(row["values"]))[i]
         text = f"{100 * v:.0f}%" + (f" {side}" if side else "")
+        if side and (row.get("at_edge") or [False] * len(row["values"]))[i]:
+            text += "~"
     return text + ("†" if (row.get("other_band") or [False] * len(row["values"]))[i] else "")
 
 

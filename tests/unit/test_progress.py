@@ -350,3 +350,33 @@ def test_a_rehearsal_whose_summary_is_torn_is_rebuilt_from_its_streams_and_said_
         f"rehearsal 1 (a): figures rebuilt from its streams, as `prezence report` does: "
         f"{torn}:{line}:"
     ) in out
+
+
+def test_a_rehearsal_whose_median_pace_read_within_the_error_of_the_band_is_marked_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 25: the report no longer tells a pace whose median read 138.5 (1 % under 140,
+    # the pace is measured to 8 %) as a fact, but progress marked it "12% low" beside a pace
+    # read at 120, "0% low", with nothing to tell the two apart
+    talks = tmp_path / "talks"
+    for i, (name, median) in enumerate((("r1", 138.5), ("r2", 120.0))):
+        streams = tmp_path / f"src_{name}" / "streams"
+        streams.mkdir(parents=True)
+        scatter = (0.97, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.03)
+        (streams / "speech_speed.txt").write_text(
+            "".join(f"{t} {median * scatter[t % 8]:.1f}\n" for t in range(10, 300))
+        )
+        assert main(["replay", str(streams), "--out", str(talks / name), "-q"]) == 0
+        # the coach's own summary.json and config.toml, as a live talk's (progress leaves
+        # replays out: the same talk coached again)
+        meta = {"format": 1, "kind": "live", "t0_epoch": 1e9 + 60 * i}
+        (talks / name / "session.json").write_text(json.dumps(meta))
+    capsys.readouterr()
+    assert main(["progress", str(talks)]) == 0
+    out = capsys.readouterr().out
+    pace = next(ln for ln in out.splitlines() if ln.startswith("pace"))
+    assert pace.split()[1:5] == ["12%", "low~", "0%", "low"]
+    assert (
+        "~: its median reading was out of its ideal range by less than the measurement's error "
+        "(pace 8%): it may have been in range"
+    ) in out
