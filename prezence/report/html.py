@@ -212,8 +212,10 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         out.append("</ol>")
         out.append(
             '<p class="sub">Listed: every metric cued by the robot, off by a cue\'s worth or '
-            "more, or out of its ideal range for half the time it was measured or more. First "
-            "come those out of their ideal range the longest and the farthest.</p>"
+            "more, or out of its ideal range for half the time it was measured or more; where "
+            "its median read within the measuring error of its range, only its readings beyond "
+            "that error count. First come those out of their ideal range the longest and the "
+            "farthest.</p>"
         )
     elif not report.get("slightly_off") and not report.get("at_edge"):
         out.append(
