@@ -1,6 +1,6 @@
 """Whole-process speed of the one talk loop: ``prezence demo`` and ``prezence replay``.
 
-    python bench/bench_loop.py [--repeat 3] [--load DIR]
+    python bench/bench_loop.py [--repeat 3] [--load DIR [--replay-only]]
 
 Prints, on one core (``taskset -c 0``), the median wall time of ``prezence demo --backend fake``
 and ``--backend sim`` (with the report, as a user runs it, and with ``--no-report``) as times
@@ -68,10 +68,13 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--load", type=Path)
+    ap.add_argument(
+        "--replay-only", action="store_true", help="only the replay against the peers' (--load)"
+    )
     args = ap.parse_args()
     py = sys.executable
     with tempfile.TemporaryDirectory() as d:
-        for backend in ("fake", "sim"):
+        for backend in () if args.replay_only else ("fake", "sim"):
             for extra in ([], ["--no-report"]):
                 argv = [py, "-m", "prezence", "demo", "--backend", backend, "-q"]
                 wall, _, cpu = median_of([*argv, "--out", f"{d}/demo", *extra], args.repeat)
@@ -114,7 +117,7 @@ def main() -> None:
             w1, m1, c1 = median_of(ours, args.repeat)
             w2, m2, c2 = median_of(peer, args.repeat)
             print(
-                f"prezence replay (200k)   wall {w1:5.2f} s  CPU {c1:5.2f} s  {m1 / 1024:4.0f} MB"
+                f"prezence replay          wall {w1:5.2f} s  CPU {c1:5.2f} s  {m1 / 1024:4.0f} MB"
             )
             print(
                 f"peers/replay.py seed     wall {w2:5.2f} s  CPU {c2:5.2f} s  {m2 / 1024:4.0f} MB"
