@@ -7,9 +7,10 @@ paths (so that the paths a file records are the same), it runs: ``prezence repla
 ``--load`` folder (the peers' workloads, with their ``rules.conf`` and ``room.toml``, without
 the report), also under every policy the command line offers; ``prezence demo --backend
 fake``; ``prezence run SCENARIO --backend fake`` for every scenario in ``scenarios/`` and a
-``prezence replay`` of each of those folders; and, for two scenarios, a replay under every
-policy. Each command's folder is moved aside, then every file the two checkouts wrote is
-compared byte for byte, and the command's stdout too.
+``prezence replay`` of each of those folders; and, for three scenarios (the first two by
+name and note_reader), a replay under every policy. Each command's folder is moved aside,
+then every file the two checkouts wrote is compared byte for byte, and the command's stdout
+too.
 
 Excluded, as wall-clock times: in any JSON file the keys ``wall_s`` (and any ending in it),
 ``realtime_factor``, ``started_at`` and ``label`` (the report's progress table names each
