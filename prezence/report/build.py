@@ -621,7 +621,22 @@ def needs_work(
         # of the time under 140, and was told "Work first on this: pick up the pace")
         score = float(d.get("below_beyond", 0.0)) + float(d.get("above_beyond", 0.0))
         share = _share_out(m or {}, beyond_error=True)
+    elif _median_in_band(rule, m or {}):
+        # out half the time with its median reading in the band: out on both sides, and half
+        # the time out says nothing of either; only the readings beyond the error count
+        # towards it (session 25's review: 130 and 185 wpm, a third of the talk each, each
+        # within the pace's 8 %, were "pick up the pace, but at times slow down")
+        share = _share_out(m or {}, beyond_error=True)
     return score >= threshold or (share is not None and share >= FAR_OFF_SHARE)
+
+
+def _median_in_band(rule: Rule, m: Mapping[str, Any]) -> bool:
+    """Whether a metric's median reading (``p50``, as judged) lies in its band; False when
+    it is not recorded."""
+    med = m.get("p50")
+    if not isinstance(med, int | float) or isinstance(med, bool) or not math.isfinite(med):
+        return False
+    return rule.side(float(med) - rule.offset) is None
 
 
 def edge_reading(rule: Rule, m: Mapping[str, Any]) -> dict[str, Any] | None:
@@ -685,7 +700,8 @@ def rank_priorities(
       :data:`FAR_OFF_SHARE` of the time it was measured (a pace 5 % under the band for half
       the talk is not "a little off", however small each miss); its rule is strict. For a
       metric at the edge (below), the first and third count its readings out by more than
-      its measurement's error only.
+      its measurement's error only; for one whose median reading is in its band (out on both
+      sides), the third does.
     - **a little off** (:func:`slightly_off`): none of these, but out of its band, by more
       than its measurement's error, for at least :data:`SLIGHTLY_OFF_SHARE` of its measured
       time: not praised as in range either.

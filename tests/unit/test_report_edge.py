@@ -231,3 +231,23 @@ def test_a_folder_with_an_old_summary_json_gets_the_same_report(
     assert "If it felt slow, pick up the pace a little." in spoken
     saved = json.loads((session.root / "report" / "report.json").read_text())
     assert saved["at_edge"][0]["metric"] == "speech_speed"
+
+
+def test_readings_on_both_sides_each_within_the_error_are_not_told_as_fact(
+    tmp_path: Path,
+) -> None:
+    # session 25's review: the median reads 160, in the band, but a third of the talk read
+    # 130 and a third 185, each within the pace's 8 % of its bound (128.8, 194.4). Out for
+    # two thirds of the time, it was "Work first on this: pick up the pace, but at times slow
+    # down": out half the time says the median is out only when it is out on one side
+    report, text, page, phrase = said(talk(tmp_path / "t", 120, lambda t: (130, 185, 160)[t % 3]))
+    assert report["metrics"]["speech_speed"]["p50"] == pytest.approx(160.0)
+    assert report["priorities"] == [] and report["slightly_off"] == []
+    assert "Work first" not in phrase and "Work on, first" not in text
+    [near] = report["near_range"]
+    assert near["metric"] == "speech_speed" and near["within_error_s"] == pytest.approx(80.0, 1)
+    assert "in or near the ideal range" in phrase and "by less than my measuring error" in phrase
+    assert "pick up the pace" not in page
+    # readings beyond the error on both sides for over half the talk are still worked on
+    report, _text, _page, phrase = said(talk(tmp_path / "u", 120, lambda t: (120, 200, 160)[t % 3]))
+    assert [p["metric"] for p in report["priorities"]] == ["speech_speed"]
