@@ -27,7 +27,7 @@ import contextvars
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -329,6 +329,29 @@ def at_edge(rule: Rule | None, entry: Any) -> bool:
     return rule is not None and isinstance(entry, dict) and edge_reading(rule, entry) is not None
 
 
+def _edges(s: SessionDir, metrics: Mapping[str, Any], rules: Mapping[str, Rule] | None) -> set[str]:
+    """The metrics a rehearsal's report says may have been in range (its ``at_edge``): of
+    those whose median reading :func:`at_edge` puts within the error of the band, the ones
+    the report did not list to work on or as a little off (cued, strict, or out by more than
+    the error for long enough: session 25's review found one marked "0% low~" beside "Work
+    first on this: pick up the pace"). The report's own code decides (rebuilt from the
+    streams, as ``prezence report`` does), for such a rehearsal only; none when it fails."""
+    near = {str(k) for k, v in metrics.items() if at_edge((rules or {}).get(str(k)), v)}
+    if not near:
+        return set()
+    from prezence.report.build import build_report
+
+    token = _QUIET.set(True)  # what the rebuild finds is the report's to say, not the table's
+    try:
+        said = build_report(s.root).get("at_edge") or []
+    except (PrezenceError, OSError) as e:
+        log.warning("%s: its report could not be rebuilt (%s); no metric marked ~", s.root, e)
+        return set()
+    finally:
+        _QUIET.reset(token)
+    return near & {str(r.get("metric")) for r in said if isinstance(r, Mapping)}
+
+
 def _band_text(rule: Rule) -> str:
     """``"140–180 wpm"``, ``"≥ 60 dB"``; an offset is part of the band (``+3``)."""
     unit = f" {rule.unit}" if rule.unit else ""
@@ -411,7 +434,8 @@ def _table(
         rules = _rules(s)
         bands.append(None if rules is None else {k: _band_text(r) for k, r in rules.items()})
         # marked low / high, but its median read within the measurement's error of the band
-        edges.append({str(k) for k, v in metrics.items() if at_edge((rules or {}).get(k), v)})
+        # and its report says it may have been in range
+        edges.append(_edges(s, metrics, rules))
         # to the second, with the folder: talks a minute apart are told apart
         label = time.strftime("%d %b %Y %H:%M:%S", time.localtime(when))
         rec = meta.get("recording")

@@ -380,3 +380,33 @@ def test_a_rehearsal_whose_median_pace_read_within_the_error_of_the_band_is_mark
         "~: its median reading was out of its ideal range by less than the measurement's error "
         "(pace 8%): it may have been in range"
     ) in out
+
+
+def test_a_rehearsal_the_report_lists_to_work_on_is_not_marked_as_maybe_in_range(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 25's review: a pace whose median read 139 (within the error of 140) but 110
+    # for two fifths of the talk, beyond the error: its report says "Work first on this: pick
+    # up the pace" (the coach cued it, and the readings beyond the error add up), while
+    # progress marked it "0% low~" with "it may have been in range (the report says so)"
+    talks = tmp_path / "talks"
+    for i, name in enumerate(("r1", "r2")):
+        streams = tmp_path / f"src_{name}" / "streams"
+        streams.mkdir(parents=True)
+        (streams / "speech_speed.txt").write_text(
+            "".join(f"{t} {110.0 if t % 10 < 4 else 139.0}\n" for t in range(10, 600))
+        )
+        assert main(["replay", str(streams), "--out", str(talks / name), "-q"]) == 0
+        meta = {"format": 1, "kind": "live", "t0_epoch": 1e9 + 60 * i}
+        (talks / name / "session.json").write_text(json.dumps(meta))
+    assert json.loads((talks / "r2" / "summary.json").read_text())["metrics"]["speech_speed"][
+        "p50"
+    ] == pytest.approx(139.0)
+    assert main(["report", str(talks / "r2")]) == 0
+    assert "Work first on this: pick up the pace." in (talks / "r2/report/spoken.txt").read_text()
+    capsys.readouterr()
+    assert main(["progress", str(talks)]) == 0
+    out = capsys.readouterr().out
+    pace = next(ln for ln in out.splitlines() if ln.startswith("pace"))
+    assert pace.split()[1:5] == ["0%", "low", "0%", "low"]
+    assert "may have been in range" not in out
