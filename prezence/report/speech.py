@@ -584,11 +584,25 @@ def _edge_value(row: Mapping[str, Any]) -> str:
 
 
 def _edge_off(row: Mapping[str, Any]) -> str:
-    """How far out an ``at_edge`` row's median read: "1%", "under 1%", "2 degrees"."""
+    """How far out an ``at_edge`` row's median read: "1%", "less than 1%", "7.9%" (not "8%"
+    beside an error of 8%), "2 degrees" (the unit alone: where an offset moves the band is
+    said after the bound).
+
+    Example:
+        >>> _edge_off({"off_pct": 7.9, "error": "8%"}), _edge_off({"off_pct": 0.3})
+        ('7.9%', 'less than 1%')
+        >>> _edge_off({"off": 3.0, "unit": "degrees", "where": "after the rule's offset of +3"})
+        '3 degrees'
+    """
     pct = row.get("off_pct")
     if isinstance(pct, int | float):
-        return _share_words(float(pct) / 100.0)
-    return f"{_num(float(row.get('off') or 0.0))}{_unit(row)}"
+        if float(pct) < 0.5:
+            return "less than 1%"
+        said = f"{float(pct):.0f}%"
+        # rounded to the error's own figure, it would read as out by the error, not within it
+        return f"{float(pct):.1f}%" if said in str(row.get("error")).split(" or ") else said
+    unit = f" {row['unit']}" if row.get("unit") else ""
+    return f"{_num(float(row.get('off') or 0.0))}{unit}"
 
 
 def edge_text(row: Mapping[str, Any]) -> str:
@@ -600,7 +614,7 @@ def edge_text(row: Mapping[str, Any]) -> str:
         ...     "median": 138.5, "off": 1.5, "off_pct": 1.1, "error": "8%", "felt": "slow",
         ...     "advice": "pick up the pace", "sides": [{"side": "below", "bound": 140.0,
         ...     "out_s": 53.0, "share_out": 0.53}]})
-        "your pace read 138 wpm at its median, 1% under the lowest good value, 140 wpm: less than the measurement's error (8%), so it may well have been in range (it read under 140 wpm for 53% of the time it was measured); if it felt slow, pick up the pace a little"
+        "your pace read 138 wpm at its median, 1% under the lowest good value, 140 wpm: within the measurement's error (8%), so it may well have been in range (it read under 140 wpm for 53% of the time it was measured); if it felt slow, pick up the pace a little"
     """  # noqa: E501 - a doctest output line
     below = row.get("side") == "below"
     limit = "lowest" if below else "highest"
@@ -616,7 +630,7 @@ def edge_text(row: Mapping[str, Any]) -> str:
     return (
         f"your {row['label']} read {_edge_value(row)}{unit} at its median, {_edge_off(row)} "
         f"{'under' if below else 'over'} the {limit} good value, {_num(row.get('bound'))}"
-        f"{_unit(row)}: less than the measurement's error ({row.get('error')}), so it may "
+        f"{_unit(row)}: within the measurement's error ({row.get('error')}), so it may "
         f"well have been in range{when}; if it felt {felt}, "
         f"{row.get('advice')} a little"
     )
