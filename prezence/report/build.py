@@ -847,6 +847,34 @@ def error_words(rec: Any) -> str:
     return " or ".join(said)
 
 
+def _time_out(rule: Rule, m: Mapping[str, Any], *, first: str = "below") -> list[dict[str, Any]]:
+    """Each side of its band a judged metric was out on for :data:`NEAR_RANGE_MIN_S` or more,
+    ``first`` first: ``side``, ``bound``, its seconds out (``out_s``) and share of the
+    measured time (``share_out``), from the report's figures (``below_s``, ``above_s``).
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180)
+        >>> m = {"in_range_s": 80.0, "out_of_range_s": 20.0, "below_s": 15.0, "above_s": 5.0}
+        >>> [(x["side"], x["out_s"], x["share_out"]) for x in _time_out(r, m, first="above")]
+        [('above', 5.0, 0.05), ('below', 15.0, 0.15)]
+    """
+    total = measured_s(m)
+    rows: list[dict[str, Any]] = []
+    for side in (first, "above" if first == "below" else "below"):
+        secs = m.get(f"{side}_s")
+        if isinstance(secs, int | float) and secs >= NEAR_RANGE_MIN_S and total > 0:
+            rows.append(
+                {
+                    "side": side,
+                    "bound": rule.high if side == "above" else rule.low,
+                    "out_s": round(float(secs), 1),
+                    "share_out": round(float(secs) / total, 3),
+                }
+            )
+    return rows
+
+
 def near_range(
     config: Config, metrics: Mapping[str, Mapping[str, Any]], *, listed: Collection[str] = ()
 ) -> list[dict[str, Any]]:
@@ -866,24 +894,12 @@ def near_range(
         m = metrics.get(rule.metric) or {}
         if rule.metric in listed or not judged(m):
             continue
-        total = measured_s(m)
-        sides: list[dict[str, Any]] = []
-        for side in ("below", "above"):
-            secs = m.get(f"{side}_s")
-            if isinstance(secs, int | float) and secs >= NEAR_RANGE_MIN_S and total > 0:
-                sides.append(
-                    {
-                        "side": side,
-                        "bound": rule.high if side == "above" else rule.low,
-                        "out_s": round(float(secs), 1),
-                        "share_out": round(float(secs) / total, 3),
-                    }
-                )
+        sides = _time_out(rule, m)
         if not sides:
             continue
         sides.sort(key=lambda x: -float(x["out_s"]))
         out_s = sum(float(m.get(f"{x['side']}_s") or 0.0) for x in sides)
-        share = out_s / total
+        share = out_s / measured_s(m)
         row = {**_off_side(rule, str(sides[0]["side"])), "share_out": round(share, 3)}
         row["sides"] = sides
         near = m.get("within_error_s")
@@ -922,20 +938,8 @@ def at_edge(
         if rule.metric in listed or not judged(m) or edge is None or rec is None:
             continue
         total = measured_s(m)
-        sides: list[dict[str, Any]] = []
-        out = 0.0
-        for side in (edge["side"], "above" if edge["side"] == "below" else "below"):
-            secs = m.get(f"{side}_s")
-            if isinstance(secs, int | float) and secs >= NEAR_RANGE_MIN_S and total > 0:
-                out += float(secs)
-                sides.append(
-                    {
-                        "side": side,
-                        "bound": rule.high if side == "above" else rule.low,
-                        "out_s": round(float(secs), 1),
-                        "share_out": round(float(secs) / total, 3),
-                    }
-                )
+        sides = _time_out(rule, m, first=str(edge["side"]))
+        out = sum(float(m.get(f"{x['side']}_s") or 0.0) for x in sides)
         rows.append(
             {
                 **_off_side(rule, str(edge["side"])),
