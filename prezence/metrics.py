@@ -306,6 +306,8 @@ METRICS: Mapping[str, Metric] = {
                 "below": "look up at your audience",
                 "above": "lower your gaze to the audience",
             },
+            # "if it felt low" says nothing a speaker feels of their head
+            felt={"below": "like you were looking down", "above": "like you were looking up"},
             physical_range=(-90.0, 90.0),
             band=("min", -15.0, None),
             scale=10.0,

@@ -143,8 +143,12 @@ def test_head_pitch_whose_median_reads_under_its_band_by_less_than_the_error(
         "your head pitch read -18 degrees at its median, 3 degrees under the lowest good value, "
         "-15 degrees: within the measurement's error (5 degrees)"
     ) in text
-    assert "if it felt low, look up at your audience a little" in text
-    assert "Work first" not in phrase
+    assert "if it felt like you were looking down, look up at your audience a little" in text
+    assert "Work first" not in phrase and "if it felt low" not in text
+    assert phrase.endswith(
+        "it may have been fine. If it felt like you were looking down, look up at your "
+        "audience a little."
+    )
     # 21 degrees under the level is 6 under -15: beyond the error, worked on as before
     report, _text, _page, phrase = said(talk(tmp_path / "u", 600, around(160.0), lambda t: -21.0))
     assert [p["metric"] for p in report["priorities"]] == ["cv_headGaze"]
