@@ -335,11 +335,23 @@ def _edges(s: SessionDir, metrics: Mapping[str, Any], rules: Mapping[str, Rule] 
     the report did not list to work on or as a little off (cued, strict, or out by more than
     the error for long enough: session 25's review found one marked "0% low~" beside "Work
     first on this: pick up the pace"). The report's own code decides (rebuilt from the
-    streams, as ``prezence report`` does), for such a rehearsal only; none when it fails."""
+    streams, as ``prezence report`` does), for such a rehearsal only, and for one whose
+    ``summary.json`` was written before it recorded the median (``p50``), of a metric marked
+    low or high whose module states an error; none when it fails."""
+    from prezence.report.build import build_report, error_margins
+
     near = {str(k) for k, v in metrics.items() if at_edge((rules or {}).get(str(k)), v)}
+    near |= {  # an old summary.json: the report rebuilds the median from the streams
+        str(k)
+        for k, v in metrics.items()
+        if isinstance(v, dict)
+        and "p50" not in v
+        and off_side(v)
+        and (rule := (rules or {}).get(str(k))) is not None
+        and error_margins(rule) is not None
+    }
     if not near:
         return set()
-    from prezence.report.build import build_report
 
     token = _QUIET.set(True)  # what the rebuild finds is the report's to say, not the table's
     try:
