@@ -813,6 +813,7 @@ def slightly_off(
         sides = off_sides(rule, d, m)
         if not sides:
             continue
+        out_s = sum(float(m.get(f"{x['side']}_s") or 0.0) for x in sides)
         rows.append(
             {
                 **_off_side(rule, str(sides[0]["side"])),
@@ -821,6 +822,9 @@ def slightly_off(
                 "sides": sides,
                 # its module died mid-talk: the share is of the time it was measured
                 **({"measured_s": round(measured_s(m), 1)} if m.get("lost") else {}),
+                # the part of its time out the module could not tell from in range (its
+                # share_out leaves it out; its sides' shares do not)
+                **_within_error_part(rule, m, out_s),
             }
         )
     rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
@@ -875,6 +879,17 @@ def _time_out(rule: Rule, m: Mapping[str, Any], *, first: str = "below") -> list
     return rows
 
 
+def _within_error_part(rule: Rule, m: Mapping[str, Any], out_s: float) -> dict[str, Any]:
+    """How much of a metric's ``out_s`` seconds out of its band the module could not tell from
+    in range (``within_error_s``, :func:`_share_out`) and its error (``error``), for a
+    ``near_range`` or ``slightly_off`` row; {} when none was or no error is stated."""
+    near = m.get("within_error_s")
+    rec = METRICS.get(rule.metric)
+    if not isinstance(near, int | float) or near <= 0.0 or rec is None:
+        return {}
+    return {"within_error_s": round(min(float(near), out_s), 1), "error": error_words(rec)}
+
+
 def near_range(
     config: Config, metrics: Mapping[str, Mapping[str, Any]], *, listed: Collection[str] = ()
 ) -> list[dict[str, Any]]:
@@ -902,12 +917,7 @@ def near_range(
         share = out_s / measured_s(m)
         row = {**_off_side(rule, str(sides[0]["side"])), "share_out": round(share, 3)}
         row["sides"] = sides
-        near = m.get("within_error_s")
-        rec = METRICS.get(rule.metric)
-        if isinstance(near, int | float) and near > 0.0 and rec is not None:
-            # how much of it the module could not tell from in range (:func:`_share_out`)
-            row["within_error_s"] = round(min(float(near), out_s), 1)
-            row["error"] = error_words(rec)
+        row.update(_within_error_part(rule, m, out_s))
         rows.append(row)
     rows.sort(key=lambda r: (-r["share_out"], r["metric"]))
     return rows

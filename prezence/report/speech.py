@@ -400,6 +400,7 @@ def off_sides_text(row: Mapping[str, Any]) -> str:
         )
     return (
         f"your {row['label']} {was(str(row['label']))} {' and '.join(parts)} of the {of_time(row)}"
+        f"{_within_error(row)}"
     )
 
 
@@ -1080,7 +1081,11 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         o = off[0]
         lead = "Your" if lost else "Nothing was far off, but your"  # room for what was lost
         said = []
-        for i, x in enumerate(_sides(o)):
+        if _error_share(o)[0]:  # part of it within the error: the part beyond it, said so
+            side = "under" if o.get("side") == "below" else "over"
+            beyond = float(o.get("share_out") or 0.0)
+            said = [f"{side} the ideal range by more than my measuring error for {beyond:.0%}"]
+        for i, x in enumerate(_sides(o) if not said else ()):
             share = x.get("share_out")
             share = float(o["share_out"]) if not isinstance(share, int | float) else share
             where = ("under" if x.get("side") == "below" else "over") + (
