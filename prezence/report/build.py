@@ -546,7 +546,7 @@ def _share_out(m: Mapping[str, Any], *, beyond_error: bool = False) -> float | N
 
 
 def off_sides(
-    rule: Rule, d: Mapping[str, float], m: Mapping[str, Any] | None = None
+    rule: Rule, d: Mapping[str, float], m: Mapping[str, Any] | None = None, *, hedge: bool = False
 ) -> list[dict[str, Any]]:
     """Each side of its band a metric was out on, the side with the larger deviation first:
     ``side``, ``bound``, its own seconds out (``out_s``) and share of the measured time
@@ -554,9 +554,16 @@ def off_sides(
     side out for at least :data:`prezence.summary.MIN_JUDGED_S` (a 3 s burst of speed in a
     slow talk is said, not advised on).
 
+    With ``hedge`` (a metric neither cued nor strict) and ``d``'s deviation beyond the
+    measurement's error (``below_beyond``, ``above_beyond``), the side with more of that comes
+    first, and a side none of whose readings were out by more than the error is listed with
+    no advice (``within_error``): a pace read 132 for most of a talk and 200 for a fifth of it
+    is "slow down", not "pick up the pace, but at times slow down".
+
     Args:
         d: the metric's :func:`deviation_seconds`.
         m: the metric's figures (``below_s``, ``above_s``: :func:`prezence.summary.build_summary`).
+        hedge: the measurement's error decides as above.
 
     Example:
         >>> from prezence.config.model import Check
@@ -572,6 +579,9 @@ def off_sides(
     total = measured_s(m)
     below, above = float(d.get("below", 0.0)), float(d.get("above", 0.0))
     order = ["above", "below"] if above > below else ["below", "above"]
+    beyond = hedge and "below_beyond" in d and "above_beyond" in d
+    if beyond and d["below_beyond"] != d["above_beyond"]:
+        order = ["above", "below"] if d["above_beyond"] > d["below_beyond"] else ["below", "above"]
     rows: list[dict[str, Any]] = []
     for side in order:
         got = m.get(f"{side}_s")
@@ -588,7 +598,10 @@ def off_sides(
             row["out_s"] = round(secs, 1)
             if total > 0:
                 row["share_out"] = round(secs / total, 3)
-        if not rows or not known or secs >= MIN_JUDGED_S:
+        within = beyond and rows and float(d.get(f"{side}_beyond", 0.0)) <= 0.0
+        if within:  # the other side was out beyond the error, this one only within it
+            row.update(within_error=True, error=error_words(METRICS[rule.metric]))
+        elif not rows or not known or secs >= MIN_JUDGED_S:
             row["advice"] = advice(rule, side)
         rows.append(row)
     return rows
@@ -742,7 +755,7 @@ def rank_priorities(
         if not needs_work(rule, d, m, threshold=threshold, cued=cued):
             continue
         score = float(d.get("below", 0.0)) + float(d.get("above", 0.0))
-        sides = off_sides(rule, d, m)
+        sides = off_sides(rule, d, m, hedge=rule.metric not in cued and not rule.strict)
         if not sides:
             continue
         rows.append(
@@ -810,7 +823,7 @@ def slightly_off(
             continue
         if share < SLIGHTLY_OFF_SHARE:
             continue
-        sides = off_sides(rule, d, m)
+        sides = off_sides(rule, d, m, hedge=True)
         if not sides:
             continue
         out_s = sum(float(m.get(f"{x['side']}_s") or 0.0) for x in sides)

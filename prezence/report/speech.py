@@ -375,7 +375,7 @@ def priority_sides(row: Mapping[str, Any], m: Mapping[str, Any]) -> str:
             secs = float(m.get("out_of_range_s") or 0.0)
         parts.append(
             f"{x.get('side')} the {limit} good value, {_num(x.get('bound'))}{_unit(row)}, "
-            f"for {float(secs):.0f} s"
+            f"for {float(secs):.0f} s{_side_within(x)}"
         )
     return f"your {row['label']} {was(str(row['label']))} {' and '.join(parts)}"
 
@@ -397,11 +397,23 @@ def off_sides_text(row: Mapping[str, Any]) -> str:
             share = float(row.get("share_out") or 0.0)
         parts.append(
             f"{x.get('side')} {_num(x.get('bound'))}{_unit(row)} {100.0 * float(share):.0f}%"
+            f"{_side_within(x)}"
         )
+    # the time within the error, where no side says it is all of one side's
+    said = any(x.get("within_error") for x in _sides(row))
     return (
         f"your {row['label']} {was(str(row['label']))} {' and '.join(parts)} of the {of_time(row)}"
-        f"{_within_error(row)}"
+        f"{'' if said else _within_error(row)}"
     )
+
+
+def _side_within(side: Mapping[str, Any]) -> str:
+    """ " (all by less than the measurement's error, 8%)" for a side of a row to work on or a
+    little off none of whose readings were out by more than the error, while the other side's
+    were (:func:`prezence.report.build.off_sides`); "" otherwise."""
+    if not side.get("within_error"):
+        return ""
+    return f" (all by less than the measurement's error, {side.get('error')})"
 
 
 #: A judged metric measured over less of the talk than this share is named when the report
