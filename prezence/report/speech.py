@@ -1134,9 +1134,9 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         if len(pri) > 1:
             parts.append(f"Then: {pri[1]['advice']}.")
             droppable.append(parts[-1])
-    if edge and (pri or off):  # after what is known to be out, and the first left out
+    if edge and (pri or off):  # after what is known to be out; the first left out for length
         parts.append(edge_spoken(edge[0], short=True))
-        droppable.insert(0, parts[-1])
+        droppable.append(parts[-1])
     if late:
         parts.append(late)
         droppable.append(late)  # last in: the first dropped

@@ -345,3 +345,21 @@ def test_a_side_out_only_within_the_error_is_not_advised_beside_one_beyond_it(
         "error, 8%)"
     ) in text
     assert phrase.endswith("Work first on this: slow down.")
+
+
+def test_a_second_thing_to_work_on_is_said_before_a_median_at_the_edge(tmp_path: Path) -> None:
+    # session 25's review: with two things to work on, one the coach stopped reminding of, and
+    # a pace at the edge, the robot's 40 words kept "Your pace read just under its ideal
+    # range, within my measuring error." and left out "Then: speak louder." and "I stopped
+    # reminding you about your head pitch", things known to be out
+    volume = Rule("speech_volume", Check.MIN, low=60, scale=6, below="speakLouder", unit="dB SPL")
+    rules = Config(rules=(SPEED, GAZE, volume), time=TimeSettings(allocated_s=600.0))
+    session = talk(tmp_path / "t", 600, around(138.5), lambda t: -30.0, rules=rules)
+    session.stream("speech_volume.txt").write_text("".join(f"{t} 57.0\n" for t in range(600)))
+    stopped = [{"metric": "cv_headGaze", "command": "lookUp", "t": 300.0}]
+    session.summary.write_text(json.dumps({"ended_at_s": 600.0, "stopped_repeating": stopped}))
+    report, _text, _page, phrase = said(session)
+    assert [p["metric"] for p in report["priorities"]] == ["cv_headGaze", "speech_volume"]
+    assert [e["metric"] for e in report["at_edge"]] == ["speech_speed"]
+    assert "Work first on this: look up at your audience. Then: speak louder." in phrase
+    assert "within my measuring error" not in phrase and len(phrase.split()) <= 40
