@@ -214,7 +214,8 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
             '<p class="sub">Listed: every metric cued by the robot, off by a cue\'s worth or '
             "more, or out of its ideal range for half the time it was measured or more; where "
             "its median read within the measuring error of its range, only its readings beyond "
-            "that error count. First come those out of their ideal range the longest and the "
+            "that error count, and where it read in its range, only those count towards half "
+            "the time. First come those out of their ideal range the longest and the "
             "farthest.</p>"
         )
     elif not report.get("slightly_off") and not report.get("at_edge"):

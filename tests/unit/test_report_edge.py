@@ -253,8 +253,9 @@ def test_readings_on_both_sides_each_within_the_error_are_not_told_as_fact(
     assert "in or near the ideal range" in phrase and "by less than my measuring error" in phrase
     assert "pick up the pace" not in page
     # readings beyond the error on both sides for over half the talk are still worked on
-    report, _text, _page, phrase = said(talk(tmp_path / "u", 120, lambda t: (120, 200, 160)[t % 3]))
+    report, _text, page, phrase = said(talk(tmp_path / "u", 120, lambda t: (120, 200, 160)[t % 3]))
     assert [p["metric"] for p in report["priorities"]] == ["speech_speed"]
+    assert "where it read in its range, only those count towards half the time" in page
 
 
 @pytest.mark.parametrize(
