@@ -10,7 +10,7 @@ from prezence.metrics import UNTIMED_WORDS, Untimed
 
 #: The heading of the metrics whose median read within the measurement's error of their band
 #: (``at_edge``) after things to work on or a little off.
-EDGE_HEAD = "Out by less than the measuring error: may have been in range"
+EDGE_HEAD = "May have been in range (out by no more than the measuring error)"
 #: The spoken summary stays under this many words (the robot speaks at ~150 wpm: ~16 s).
 MAX_SPOKEN_WORDS = 40
 

@@ -170,7 +170,7 @@ def test_a_metric_clearly_out_comes_first_and_the_edge_is_said_after_it(tmp_path
         )
         in phrase
     )
-    assert "Out by less than the measuring error: may have been in range:" in text
+    assert "May have been in range (out by no more than the measuring error):" in text
     assert text.index("look up at your audience") < text.index("your pace read 138 wpm")
     assert page.index("Look up at your audience") < page.index("Your pace read 138 wpm")
 
