@@ -396,7 +396,7 @@ def off_sides_text(row: Mapping[str, Any]) -> str:
         if not isinstance(share, int | float):
             share = float(row.get("share_out") or 0.0)
         parts.append(
-            f"{x.get('side')} {_num(x.get('bound'))}{_unit(row)} {100.0 * float(share):.0f}%"
+            f"{x.get('side')} {_num(x.get('bound'))}{_unit(row)} {_share_words(float(share))}"
             f"{_side_within(x)}"
         )
     # the time within the error, where no side says it is all of one side's
@@ -539,7 +539,8 @@ def _out_for(secs: float) -> str:
 
 
 def _share_words(share: float) -> str:
-    return "under 1%" if 100.0 * share < 0.5 else f"{100.0 * share:.0f}%"
+    """``"30%"``, ``"less than 1%"`` (never "0%" of a time that was out)."""
+    return "less than 1%" if 100.0 * share < 0.5 else f"{100.0 * share:.0f}%"
 
 
 def near_words(report: Mapping[str, Any]) -> str:
@@ -609,9 +610,7 @@ def _edge_off(row: Mapping[str, Any]) -> str:
     """
     pct = row.get("off_pct")
     if isinstance(pct, int | float):
-        if float(pct) < 0.5:
-            return "less than 1%"
-        said = f"{float(pct):.0f}%"
+        said = _share_words(float(pct) / 100.0)
         # rounded to the error's own figure, it would read as out by the error, not within it
         return f"{float(pct):.1f}%" if said in str(row.get("error")).split(" or ") else said
     unit = f" {row['unit']}" if row.get("unit") else ""
@@ -1103,7 +1102,7 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
             where = ("under" if x.get("side") == "below" else "over") + (
                 " the ideal range" if i == 0 else " it"
             )
-            said.append(f"{where} {100.0 * float(share):.0f}%")
+            said.append(f"{where} {_share_words(float(share))}")
         parts.append(
             f"{lead} {o['label']} {was(o['label'])} a little {' and '.join(said)} "
             f"of the {of_time(o, 'I could measure it')}: {o['advice']}."

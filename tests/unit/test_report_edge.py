@@ -364,3 +364,19 @@ def test_a_second_thing_to_work_on_is_said_before_a_median_at_the_edge(tmp_path:
     assert [e["metric"] for e in report["at_edge"]] == ["speech_speed"]
     assert "Work first on this: look up at your audience. Then: speak louder." in phrase
     assert "within my measuring error" not in phrase and len(phrase.split()) <= 40
+
+
+def test_a_side_out_for_a_moment_is_not_said_as_zero_percent(tmp_path: Path) -> None:
+    # session 25's review: a pace under 140 for 30 s of 100 (a little off) and over 180 for
+    # 0.3 s read "your pace was below 140 wpm 30% and above 180 wpm 0% of the time", and the
+    # robot "a little under the ideal range 30% and over it 0% of the time"
+    session = talk(tmp_path / "t", 100, lambda t: 120.0 if t < 30 else 160.0)
+    lines = session.stream("speech_speed.txt").read_text().splitlines()
+    lines.insert(60, "59.7 200.0")
+    session.stream("speech_speed.txt").write_text("\n".join(lines) + "\n")
+    report, text, page, phrase = said(session)
+    [off] = report["slightly_off"]
+    assert off["sides"][1]["out_s"] == pytest.approx(0.3)
+    assert "below 140 wpm 30% and above 180 wpm less than 1% of the time" in text
+    assert "above 180 wpm less than 1% of the time" in page and " 0%" not in text
+    assert "a little under the ideal range 30% and over it less than 1% of the time" in phrase
