@@ -373,9 +373,10 @@ def priority_sides(row: Mapping[str, Any], m: Mapping[str, Any]) -> str:
         secs = x.get("out_s")
         if not isinstance(secs, int | float):  # one side only: all the time out was on it
             secs = float(m.get("out_of_range_s") or 0.0)
+        took = f"{float(secs):.0f} s" if float(secs) >= 0.5 else "under 1 s"  # never "0 s"
         parts.append(
             f"{x.get('side')} the {limit} good value, {_num(x.get('bound'))}{_unit(row)}, "
-            f"for {float(secs):.0f} s{_side_within(x)}"
+            f"for {took}{_side_within(x)}"
         )
     return f"your {row['label']} {was(str(row['label']))} {' and '.join(parts)}"
 

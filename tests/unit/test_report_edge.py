@@ -380,3 +380,19 @@ def test_a_side_out_for_a_moment_is_not_said_as_zero_percent(tmp_path: Path) -> 
     assert "below 140 wpm 30% and above 180 wpm less than 1% of the time" in text
     assert "above 180 wpm less than 1% of the time" in page and " 0%" not in text
     assert "a little under the ideal range 30% and over it less than 1% of the time" in phrase
+
+
+def test_a_side_of_a_thing_to_work_on_out_for_a_moment_is_not_said_as_zero_seconds(
+    tmp_path: Path,
+) -> None:
+    # "your pace was below the lowest good value, 140 wpm, for 600 s and above the highest
+    # good value, 180 wpm, for 0 s in all"
+    session = talk(tmp_path / "t", 600, lambda t: 120.0)
+    lines = session.stream("speech_speed.txt").read_text().splitlines()
+    lines[300:301] = ["299.7 200.0", "300 120.0"]
+    session.stream("speech_speed.txt").write_text("\n".join(lines) + "\n")
+    report, text, page, _phrase = said(session)
+    [pri] = report["priorities"]
+    assert [x["side"] for x in pri["sides"]] == ["below", "above"]
+    assert "above the highest good value, 180 wpm, for under 1 s in all" in text
+    assert "for 0 s" not in text and "for 0 s" not in page
