@@ -24,8 +24,13 @@ from typing import Any
 from prezence.config.model import Config, Rule, signed
 from prezence.errors import ConfigError, PrezenceError
 from prezence.metrics import METRICS, NOISY_METRIC, NOISY_SNR_DB, SNR_METRIC, UNTIMED_METRIC
+from prezence.modules.speech import (
+    SOURCE_SYLLABLES,
+    SPEECH_ARTICULATION,
+    SPEECH_SPEED_SOURCE,
+)
 from prezence.report.speech import measured_s, mmss, was
-from prezence.samples import Sample
+from prezence.samples import SPEECH_SPEED, Sample
 from prezence.session import (
     CUE_KEYS,
     TRUTH_KEYS,
@@ -404,6 +409,11 @@ def room_snr(session: SessionDir, limit: float | None = None) -> list[Sample] | 
     return _module_stream(session, SNR_METRIC, limit)
 
 
+#: The metrics whose value at a time came from the count ``speech_speed_source`` names then
+#: (the speech module's pace and articulation rate).
+SOURCED = frozenset({SPEECH_SPEED, SPEECH_ARTICULATION})
+
+
 def untimed_reasons(session: SessionDir, limit: float | None = None) -> list[Sample] | None:
     """The speech module's reason codes (``speech_untimed_reason``), in time order; None
     without that stream (a folder written before issue 11, a synthetic talk)."""
@@ -439,6 +449,48 @@ def untimed_seconds(
         [{'code': 2, 's': 16.0}, {'code': 5, 's': 4.0}]
     """
     gaps = no_data_spans(samples, talk_s, stale_s, cuts)
+    return untimed_in(reasons, gaps, talk_s, stale_s, cuts, first_after_s=first_after_s)
+
+
+def _stale_why(
+    span: Mapping[str, Any],
+    reasons: Sequence[Sample],
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float],
+    first_after_s: float,
+) -> Mapping[str, Any]:
+    """A stale span (``stale_spans``' row) with the speech module's reasons for its stretch
+    (``untimed``, as :func:`untimed_in` gives them) where it wrote any."""
+    rows = untimed_in(
+        reasons,
+        [(float(span["from"]), float(span["to"]))],
+        talk_s,
+        stale_s,
+        cuts,
+        first_after_s=first_after_s,
+    )
+    return {**span, "untimed": rows} if rows else span
+
+
+def untimed_in(
+    reasons: Sequence[Sample],
+    gaps: Sequence[tuple[float, float]],
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float] = (),
+    *,
+    first_after_s: float = 0.0,
+) -> list[dict[str, Any]]:
+    """:func:`untimed_seconds` inside the stretches ``gaps`` (``(from, to)``, in time order):
+    per reason code, the seconds its lines held there, largest first. A stale span's own
+    stretch gives its reasons (issue 11: "not measured from 1:09 to 2:02" said no why).
+
+    Example:
+        >>> r = [Sample("r", float(t), 1.0 if t < 40 else 3.0) for t in range(30, 60)]
+        >>> untimed_in(r, [(36.0, 50.0)], 60.0, 6.0)
+        [{'code': 3, 's': 10.0}, {'code': 1, 's': 4.0}]
+    """
     if not gaps or not reasons:
         return []
     ts = [s.t for s in reasons]
@@ -462,6 +514,53 @@ def untimed_seconds(
             j += 1
     rows = [{"code": c, "s": round(v, 1)} for c, v in per.items() if v > 0]
     return sorted(rows, key=lambda r: (-r["s"], r["code"]))
+
+
+def syllable_seconds(
+    samples: Sequence[Sample],
+    sources: Sequence[Sample],
+    reasons: Sequence[Sample],
+    talk_s: float,
+    stale_s: float,
+    cuts: Sequence[float] = (),
+    *,
+    syllables: float,
+) -> dict[str, Any] | None:
+    """Of the time a speech metric's values held (each as in :func:`deviation_seconds`), the
+    seconds of those the speech module took from its syllable count (``speech_speed_source``
+    ``syllables`` at the value's time), with the reasons it wrote at those times
+    (``speech_untimed_reason``: a narrowband recording, a recogniser it was unsure of) and
+    their seconds, largest first; None when no value came from it.
+
+    Example:
+        >>> v = [Sample("v", float(t), 150.0) for t in range(10, 20)]
+        >>> src = [Sample("s", float(t), 2.0 if t >= 16 else 1.0) for t in range(10, 20)]
+        >>> why = [Sample("r", float(t), 8.0) for t in range(16, 20)]
+        >>> syllable_seconds(v, src, why, 20.0, 6.0, syllables=2.0)
+        {'s': 4.0, 'untimed': [{'code': 8, 's': 4.0}]}
+    """
+    source = {round(s.t, 3): s.value for s in sources}
+    code = {round(s.t, 3): int(s.value) for s in reasons}
+    ends = hold_ends([s.t for s in samples], cuts) if cuts else None
+    total = 0.0
+    per: dict[int, float] = {}
+    for i, s in enumerate(samples):
+        if s.t >= talk_s:
+            break
+        if source.get(round(s.t, 3)) != syllables:
+            continue
+        nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
+        if ends is not None:
+            nxt = min(nxt, float(ends[i]))
+        held = max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
+        total += held
+        c = code.get(round(s.t, 3))
+        if c is not None:
+            per[c] = per.get(c, 0.0) + held
+    if not total > 0.0:
+        return None
+    rows = [{"code": c, "s": round(v, 1)} for c, v in per.items() if v > 0]
+    return {"s": round(total, 1), "untimed": sorted(rows, key=lambda r: (-r["s"], r["code"]))}
 
 
 def noisy_low_seconds(
@@ -1326,6 +1425,7 @@ def _rebuild(
     dev_s: dict[str, dict[str, float]] = {}
     metrics: dict[str, Any] = {}
     reasons: list[Sample] | None = None  # the speech module's, read when first needed
+    sources: list[Sample] | None = None  # its speech_speed_source, likewise
     for rule in cfg.rules:
         stale_s = rule.stale_after_s if rule.stale_after_s is not None else stale_default
         m = dict(summary["metrics"][rule.metric])
@@ -1370,6 +1470,25 @@ def _rebuild(
                 )
                 if why:  # where and why the speech module could not measure it (issue 11)
                     m["untimed"] = why
+                if reasons and m.get("stale_spans"):  # and why it went stale, span by span
+                    m["stale_spans"] = [
+                        _stale_why(sp, reasons, end_s, stale_s, cuts, record.first_after_s)
+                        for sp in m["stale_spans"]
+                    ]
+                if rule.metric in SOURCED:  # a value from the syllable count is less sure
+                    if sources is None:
+                        sources = _module_stream(session, SPEECH_SPEED_SOURCE, limit) or []
+                    held = syllable_seconds(
+                        streams[rule.metric],
+                        sources,
+                        reasons,
+                        end_s,
+                        stale_s,
+                        cuts,
+                        syllables=SOURCE_SYLLABLES,
+                    )
+                    if held is not None:
+                        m["syllables"] = held
         metrics[rule.metric] = m
 
     rules = {r.metric: r for r in cfg.rules}

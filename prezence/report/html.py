@@ -13,6 +13,7 @@ from prezence.report.speech import (
     cue_mark,
     edge_text,
     heard_none,
+    listed_coverage,
     measured_s,
     measured_share,
     metric_notes,
@@ -207,6 +208,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
                 f'({_e(p["label"])}). <span class="why">{_e(why[0].upper() + why[1:])} in all; '
                 f"the longest stretch lasted {m.get('longest_out_of_range_s', 0.0):.0f} s.</span>"
                 + (f" {_e(p['noise'][0].upper() + p['noise'][1:])}." if p.get("noise") else "")
+                + _coverage(report, p)
                 + "</li>"
             )
         out.append("</ol>")
@@ -246,7 +248,10 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         out.append('<ul class="work">')
         for o in off:
             noise = f" {_e(o['noise'][0].upper() + o['noise'][1:])}." if o.get("noise") else ""
-            out.append(f"<li>{_e(off_sides_text(o))} (<b>{_e(o['advice'])}</b>){noise}</li>")
+            out.append(
+                f"<li>{_e(off_sides_text(o))} (<b>{_e(o['advice'])}</b>){noise}"
+                f"{_coverage(report, o)}</li>"
+            )
         out.append("</ul>")
     edge = [o for o in report.get("at_edge") or [] if isinstance(o, dict)]
     if edge:
@@ -255,7 +260,7 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
         out.append('<ul class="work">')
         for o in edge:
             text = edge_text(o)
-            out.append(f"<li>{_e(text[0].upper() + text[1:])}.</li>")
+            out.append(f"<li>{_e(text[0].upper() + text[1:])}.{_coverage(report, o)}</li>")
         out.append("</ul>")
     stopped = [n for n in report.get("stopped_repeating") or [] if isinstance(n, dict)]
     if stopped:
@@ -417,6 +422,13 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     )
     out.append("</main></body></html>")
     return "\n".join(out) + "\n"
+
+
+def _coverage(report: Mapping[str, Any], row: Mapping[str, Any]) -> str:
+    """`` " Pace measured over 0:49 of 2:03 (silence for 0:40)."`` for a listed row
+    (:func:`prezence.report.speech.listed_coverage`; "" where it says nothing)."""
+    cov = listed_coverage(report, str(row.get("metric")))
+    return f" {_e(cov[0].upper() + cov[1:])}." if cov else ""
 
 
 def _praised(report: Mapping[str, Any], share: str) -> str:

@@ -236,6 +236,13 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
     """
 
     out = []
+    # said beside the advice where the metric is listed (:func:`listed_coverage`)
+    listed = {
+        r.get("metric")
+        for key in ("priorities", "slightly_off", "at_edge")
+        for r in report.get(key) or ()
+        if isinstance(r, Mapping)
+    }
     for k, m in (report.get("metrics") or {}).items():
         if not isinstance(m, Mapping):
             continue
@@ -250,6 +257,8 @@ def metric_notes(report: Mapping[str, Any]) -> list[str]:
             out.append(offset_note(label, m))
         if m.get("samples") and m.get("too_brief") and not m.get("less_reliable"):
             out.append(f"{label}: {too_brief_words(measured_s(m))}: no advice on it")
+        elif m.get("samples") and k not in listed and syllable_words(m):  # from syllables
+            out.append(f"{label}: {syllable_words(m)}")
     return out
 
 
@@ -492,11 +501,11 @@ def untimed_words(m: Mapping[str, Any]) -> str:
     return ", ".join(f"{w} for {mmss(s)}" for s, w in said)
 
 
-def untimed_sentence(report: Mapping[str, Any]) -> str:
-    """The robot's one sentence on why pace or clarity was measured over only part of the
-    talk: the reason that held longest in any of them ("" when none is known, or the only
-    ones are said otherwise). Too little speech to time is named only alone: it follows
-    from the others (after music, the module waits for 10 s of words).
+def untimed_sentence(report: Mapping[str, Any], metric: str | None = None) -> str:
+    """The robot's one sentence on why pace or clarity (or only ``metric``) was measured over
+    only part of the talk: the reason that held longest in any of them ("" when none is known,
+    or the only ones are said otherwise). Too little speech to time is named only alone: it
+    follows from the others (after music, the module waits for 10 s of words).
 
     Example:
         >>> m = {"label": "pace", "in_range_s": 69.0, "out_of_range_s": 0.0, "check": "min",
@@ -505,7 +514,10 @@ def untimed_sentence(report: Mapping[str, Any]) -> str:
         'Music or noise was near your words.'
     """
     longest: dict[str, float] = {}
+    only = (report.get("metrics") or {}).get(metric) if metric is not None else None
     for m, _, _ in _gap_rows(report):
+        if metric is not None and m is not only:
+            continue
         per: dict[str, float] = {}
         for row in m.get("untimed") or ():
             code = row.get("code") if isinstance(row, Mapping) else None
@@ -527,12 +539,78 @@ def coverage_words(report: Mapping[str, Any]) -> str:
     """``"gestures measured over 0:15 of 0:54, head pitch measured over 0:26 of 0:54"`` (""
     when every judged metric covered the talk), each with why where the module said
     (``"pace measured over 1:09 of 2:03 (music or noise next to the words for 0:31, …)"``)."""
-    talk = mmss(_talk_s(report))
-    out = []
-    for m, label, secs in _gap_rows(report):
-        why = untimed_words(m)
-        out.append(f"{label} measured over {mmss(secs)} of {talk}" + (f" ({why})" if why else ""))
-    return ", ".join(out)
+    return ", ".join(
+        _coverage_phrase(report, m, label, secs) for m, label, secs in _gap_rows(report)
+    )
+
+
+def _coverage_phrase(
+    report: Mapping[str, Any], m: Mapping[str, Any], label: str, secs: float
+) -> str:
+    """``"pace measured over 1:09 of 2:03 (music or noise next to the words for 0:31)"``."""
+    why = untimed_words(m)
+    return f"{label} measured over {mmss(secs)} of {mmss(_talk_s(report))}" + (
+        f" ({why})" if why else ""
+    )
+
+
+def listed_coverage(report: Mapping[str, Any], metric: str) -> str:
+    """For a metric the report lists to work on (or a little off, or at its edge): over how
+    much of the talk it was measured and why, where the speech module said why it measured
+    only part (issue 11: the praise said it, a list of advice did not), and how much of it came
+    from the syllable count (:func:`syllable_words`); "" otherwise, as before the module's
+    reasons were written.
+
+    Example:
+        >>> m = {"label": "pace", "in_range_s": 0.0, "out_of_range_s": 49.0, "check": "min",
+        ...      "samples": 49, "untimed": [{"code": 1, "s": 40.0}, {"code": 3, "s": 13.0}]}
+        >>> listed_coverage({"talk_s": 123.0, "metrics": {"speech_speed": m}}, "speech_speed")
+        'pace measured over 0:49 of 2:03 (silence for 0:40, too little speech yet to time for 0:13)'
+    """  # noqa: E501 - a doctest output line
+    m = (report.get("metrics") or {}).get(metric)
+    if not isinstance(m, Mapping):
+        return ""
+    said = [
+        _coverage_phrase(report, g, label, secs)
+        for g, label, secs in _gap_rows(report)
+        if g is m and untimed_words(g)
+    ]
+    syllables = syllable_words(m)
+    if syllables:
+        said.append(syllables if said else f"{m.get('label') or metric}: {syllables}")
+    return "; ".join(said)
+
+
+#: The share of a metric's measured time from the syllable count (``syllables``: the speech
+#: module's ``speech_speed_source``) at which the report says so: a fifth. Its pace is
+#: calibrated on the speaker's own recognised windows, but where the recogniser was not
+#: trusted at all it is the corpus's average (8 % error against the recogniser's 5 %).
+SYLLABLE_SHARE = 0.2
+
+
+def syllable_words(m: Mapping[str, Any]) -> str:
+    """ "40% of it from the syllable count, not the recogniser's words (telephone-quality audio
+    for 0:41): less sure" for a metric a notable share (:data:`SYLLABLE_SHARE`) of whose
+    measured time came from the speech module's syllable count ("" otherwise).
+
+    Example:
+        >>> syllable_words({"in_range_s": 60.0, "out_of_range_s": 40.0, "syllables":
+        ...     {"s": 41.0, "untimed": [{"code": 8, "s": 41.0}]}})
+        "41% of it from the syllable count, not the recogniser's words (telephone-quality audio for 0:41): less sure"
+    """  # noqa: E501 - a doctest output line
+    held = m.get("syllables")
+    secs = measured_s(m)
+    if not isinstance(held, Mapping) or not isinstance(held.get("s"), int | float) or secs <= 0:
+        return ""
+    share = min(1.0, float(held["s"]) / secs)
+    if share < SYLLABLE_SHARE or float(held["s"]) < MIN_UNTIMED_S:
+        return ""
+    why = untimed_words(held)
+    return (
+        f"{_share_words(share)} of it from the syllable count, not the recogniser's words"
+        + (f" ({why})" if why else "")
+        + ": less sure"
+    )
 
 
 def _out_for(secs: float) -> str:
@@ -816,7 +894,13 @@ def stale_sentences(
         parts = []
         for sp in spans:
             to = float(sp["to"])
-            end = f"the end ({mmss(to)})" if to >= talk_s - 0.5 else mmss(to)
+            # the speech module's reasons for the stretch (issue 11), in the end's brackets
+            why = untimed_words(sp)
+            end = (
+                f"the end ({mmss(to)}{'; ' + why if why else ''})"
+                if to >= talk_s - 0.5
+                else mmss(to) + (f" ({why})" if why else "")
+            )
             parts.append(f"from {mmss(float(sp['from']))} to {end}")
         after = [mmss(float(sp["after"])) for sp in spans if sp.get("after") is not None]
         if not after:  # no value at all: the table's "no data", said with its span
@@ -1131,9 +1215,15 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
             droppable.append(parts[-1])
     else:
         parts.append(f"Work first on this: {pri[0]['advice']}.")
+        # over how little of the talk the advice was measured, and why (issue 11): dropped
+        # after the second advice, which goes with its own
+        parts += advice_caveat(report, pri[0])
+        droppable += advice_caveat(report, pri[0])
         if len(pri) > 1:
             parts.append(f"Then: {pri[1]['advice']}.")
             droppable.append(parts[-1])
+            parts += advice_caveat(report, pri[1])
+            droppable += advice_caveat(report, pri[1])
     if edge and (pri or off):  # after what is known to be out; the first left out for length
         parts.append(edge_spoken(edge[0], short=True))
         droppable.append(parts[-1])
@@ -1153,6 +1243,50 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         kept = kept[: ends[-1] + 1] if ends else kept
         text = " ".join(kept).rstrip(",.;:") + ("" if kept[-1].endswith(("!", "?")) else ".")
     return text
+
+
+#: A thing to work on measured over less of the talk than this share is said so by the robot
+#: with the reason the speech module gave (issue 11: advice on pace from 40 % of the talk);
+#: likewise one taken from the syllable count for this share of its measured time or more.
+SPOKEN_SHARE = 0.5
+
+
+def advice_caveat(report: Mapping[str, Any], row: Mapping[str, Any]) -> list[str]:
+    """The robot's sentences after a thing to work on (``row``, a priority) measured over
+    under :data:`SPOKEN_SHARE` of the talk where the speech module said why, or taken from
+    its syllable count for that share of its time or more ([] otherwise; and in a folder
+    without the module's reasons, as before them).
+
+    Example:
+        >>> m = {"label": "pace", "in_range_s": 0.0, "out_of_range_s": 49.0, "check": "min",
+        ...      "samples": 49, "untimed": [{"code": 1, "s": 60.0}, {"code": 3, "s": 13.0}]}
+        >>> report = {"talk_s": 123.0, "metrics": {"speech_speed": m}}
+        >>> advice_caveat(report, {"metric": "speech_speed"})
+        ['I measured your pace over only 40% of the talk.', 'There were long silences.']
+    """
+    metric = str(row.get("metric"))
+    m = (report.get("metrics") or {}).get(metric)
+    talk = _talk_s(report)
+    if not isinstance(m, Mapping) or talk <= 0:
+        return []
+    label = str(m.get("label") or metric)
+    out = []
+    secs = measured_s(m)
+    gap = any(g is m for g, _, _ in _gap_rows(report))
+    if gap and untimed_words(m) and secs < SPOKEN_SHARE * talk:
+        out.append(f"I measured your {label} over only {_share_words(secs / talk)} of the talk.")
+        why = untimed_sentence(report, metric)
+        if why:
+            out.append(why)
+    held = m.get("syllables")
+    if isinstance(held, Mapping) and isinstance(held.get("s"), int | float) and secs > 0:
+        share = min(1.0, float(held["s"]) / secs)
+        if share >= SPOKEN_SHARE:
+            out.append(
+                f"I timed {_share_words(share)} of your {label} from syllables, not words, "
+                "so I am less sure of it."
+            )
+    return out
 
 
 def clipped(report: Mapping[str, Any]) -> bool:
@@ -1298,6 +1432,8 @@ def format_text(report: Mapping[str, Any]) -> str:
             lines.append(f"    {i}. {p['advice']} ({priority_sides(p, m)} in all)")
             if p.get("noise"):
                 lines.append(f"       {p['noise']}")
+            if cov := listed_coverage(report, str(p["metric"])):
+                lines.append(f"       {cov}")
     elif not report.get("slightly_off") and not report.get("at_edge"):
         lines.append(
             {
@@ -1321,10 +1457,15 @@ def format_text(report: Mapping[str, Any]) -> str:
             lines.append(f"    - {off_sides_text(o)} ({o['advice']})")
             if o.get("noise"):
                 lines.append(f"      {o['noise']}")
+            if cov := listed_coverage(report, str(o.get("metric"))):
+                lines.append(f"      {cov}")
     edge = report.get("at_edge") or []
     if edge:
         lines.append(f"  {EDGE_HEAD}:" if pri or off else "  Nothing was clearly off, but:")
-        lines += [f"    - {edge_text(o)}" for o in edge]
+        for o in edge:
+            lines.append(f"    - {edge_text(o)}")
+            if cov := listed_coverage(report, str(o.get("metric"))):
+                lines.append(f"      {cov}")
     lines.append("")
     lines.append(
         f"  {'metric':<12} {'measured':>13} {'in range':>12} {'mean':>7} {'p10':>7} {'p90':>7} "
