@@ -779,7 +779,10 @@ def edge_reading(rule: Rule, m: Mapping[str, Any]) -> dict[str, Any] | None:
         if bound is None:
             continue
         off = float(bound) - float(med) if side == "below" else float(med) - float(bound)
-        if 0.0 < off <= rec.margin(float(bound)):
+        # compared as the summary's within_error_s and _beyond compare a reading, not by
+        # ``off``: 194.4 - 180 is 14.400000000000006, over the 14.4 that 194.4 is within
+        edge = float(bound) + rec.margin(float(bound)) * (-1.0 if side == "below" else 1.0)
+        if off > 0.0 and (float(med) >= edge if side == "below" else float(med) <= edge):
             row: dict[str, Any] = {
                 "side": side,
                 "bound": float(bound),

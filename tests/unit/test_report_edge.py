@@ -396,3 +396,20 @@ def test_a_side_of_a_thing_to_work_on_out_for_a_moment_is_not_said_as_zero_secon
     assert [x["side"] for x in pri["sides"]] == ["below", "above"]
     assert "above the highest good value, 180 wpm, for under 1 s in all" in text
     assert "for 0 s" not in text and "for 0 s" not in page
+
+
+@pytest.mark.parametrize(("median", "side"), [(128.8, "below"), (194.4, "above")])
+def test_a_median_exactly_at_the_error_is_at_the_edge_on_either_side(
+    tmp_path: Path, median: float, side: str
+) -> None:
+    # 8 % of 140 is 128.8 and of 180 is 194.4: both within the error, as the summary counts
+    # them (within_error_s). 194.4 all talk was "Work first on this: slow down", since
+    # 194.4 - 180 is 14.400000000000006 in floating point, over the 14.4 margin
+    report, text, _page, phrase = said(talk(tmp_path / "t", 600, lambda t: median))
+    assert report["metrics"]["speech_speed"]["within_error_s"] == pytest.approx(600.0)
+    assert report["priorities"] == []
+    [edge] = report["at_edge"]
+    assert edge["side"] == side and edge["off_pct"] == pytest.approx(8.0)
+    assert "Work first" not in phrase and "Work on, first" not in text
+    assert "8.0% " + ("under" if side == "below" else "over") in text
+    assert "within the measurement's error (8%)" in text
