@@ -413,3 +413,21 @@ def test_a_median_exactly_at_the_error_is_at_the_edge_on_either_side(
     assert "Work first" not in phrase and "Work on, first" not in text
     assert "8.0% " + ("under" if side == "below" else "over") in text
     assert "within the measurement's error (8%)" in text
+
+
+def test_a_median_at_the_edge_is_said_to_the_tenth_when_how_far_out_is(tmp_path: Path) -> None:
+    # "your pace read 129 wpm at its median, 8.0% under ... 140 wpm" (129 is 7.9 % under);
+    # "your head pitch read -20 degrees at its median, 4.8 degrees under ... -15 degrees"
+    _report, text, page, _phrase = said(talk(tmp_path / "p", 600, lambda t: 128.8))
+    assert "your pace read 128.8 wpm at its median, 8.0% under the lowest good value" in text
+    assert "our pace read 128.8 wpm at its median, 8.0% under" in page
+    gaze = Rule("cv_headGaze", Check.MIN, low=-15, scale=10, unit="degrees", offset=-3.3)
+    rules = Config(rules=(SPEED, gaze), time=TimeSettings(allocated_s=None))
+    session = talk(tmp_path / "g", 600, around(160.0), lambda t: -16.5, rules=rules)
+    _report, text, _page, _phrase = said(session)
+    assert "your head pitch read -19.8 degrees at its median, 4.8 degrees under" in text
+    # a whole median, or one said beside a whole figure, reads as before
+    _report, text, _page, _phrase = said(talk(tmp_path / "w", 600, lambda t: 129.0))
+    assert "your pace read 129 wpm at its median, 7.9% under" in text
+    _report, text, _page, _phrase = said(talk(tmp_path / "a", 600, around(136.0)))
+    assert "your pace read 136 wpm at its median, 3% under" in text
