@@ -697,7 +697,12 @@ def off_sides(
             row["out_s"] = round(secs, 1)
             if total > 0:
                 row["share_out"] = round(secs / total, 3)
-        within = beyond and rows and float(d.get(f"{side}_beyond", 0.0)) <= 0.0
+        within = (
+            beyond
+            and rows
+            and float(d.get(f"{side}_beyond", 0.0)) <= 0.0
+            and float(d.get(f"{rows[0]['side']}_beyond", 0.0)) > 0.0
+        )
         if within:  # the other side was out beyond the error, this one only within it
             row.update(within_error=True, error=error_words(METRICS[rule.metric]))
         elif not rows or not known or secs >= MIN_JUDGED_S:

@@ -431,3 +431,23 @@ def test_a_median_at_the_edge_is_said_to_the_tenth_when_how_far_out_is(tmp_path:
     assert "your pace read 129 wpm at its median, 7.9% under" in text
     _report, text, _page, _phrase = said(talk(tmp_path / "a", 600, around(136.0)))
     assert "your pace read 136 wpm at its median, 3% under" in text
+
+
+def test_of_two_sides_both_within_the_error_neither_is_said_to_be_the_only_one(
+    tmp_path: Path,
+) -> None:
+    # 136 and 184 wpm by turns for 10 minutes: every reading within the error of its bound, the
+    # median (160) in range, a cue's worth of deviation on each side (listed to work on, the
+    # cue's-worth rule). It read "pick up the pace (your pace was below ... 140 wpm, for 300 s
+    # and above ... 180 wpm, for 300 s (all by less than the measurement's error, 8%) in all)":
+    # the under side, no more out than the over one, read as if it were beyond the error
+    report, text, page, _phrase = said(talk(tmp_path / "t", 600, lambda t: 136.0 + 48 * (t % 2)))
+    [pri] = report["priorities"]
+    assert not any(x.get("within_error") for x in pri["sides"])
+    assert "all by less than" not in text and "all by less than" not in page
+    # one side beyond the error, the other within it: said as before
+    report, text, _page, _phrase = said(
+        talk(tmp_path / "u", 600, lambda t: 200.0 if t % 8 in (3, 6) else 132.0)
+    )
+    [pri] = report["priorities"]
+    assert [x.get("within_error", False) for x in pri["sides"]] == [False, True]
