@@ -188,9 +188,12 @@ def render_html(report: Mapping[str, Any], images: Mapping[str, bytes] | None = 
     tirs = [m.get("time_in_range") for m in report["metrics"].values()]
     tirs_ok = [x for x in tirs if x is not None]
     overall = sum(tirs_ok) / len(tirs_ok) if tirs_ok else None
+    measured = (
+        f"{len(tirs_ok)} metric{'' if len(tirs_ok) == 1 else 's'} measured"  # not "1 metrics"
+    )
     out.append(
         f'<div class="card"><div class="lbl">time in the ideal range (mean of metrics)</div>'
-        f'<div class="big">{_pct(overall)}</div><div>{len(tirs_ok)} metrics measured</div></div>'
+        f'<div class="big">{_pct(overall)}</div><div>{measured}</div></div>'
     )
     out.append("</div>")
 

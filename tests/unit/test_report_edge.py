@@ -451,3 +451,11 @@ def test_of_two_sides_both_within_the_error_neither_is_said_to_be_the_only_one(
     )
     [pri] = report["priorities"]
     assert [x.get("within_error", False) for x in pri["sides"]] == [False, True]
+
+
+def test_the_page_counts_one_metric_measured_in_the_singular(tmp_path: Path) -> None:
+    # a head pitch alone (no pace stream): the page's card read "1 metrics measured"
+    _report, _text, page, _phrase = said(talk(tmp_path / "t", 600, None, lambda t: -18.0))
+    assert "1 metric measured" in page and "1 metrics" not in page
+    _report, _text, page, _phrase = said(talk(tmp_path / "u", 600, around(160.0)))
+    assert "2 metrics measured" in page
