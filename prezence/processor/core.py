@@ -353,15 +353,17 @@ class Processor:
         return out
 
     def _all_well_since(self, now: float, window_s: float) -> bool:
-        """Some metric is fresh at ``now`` and no fresh one was out of range in the last
-        ``window_s`` (praise is due); worked out only when the rest of the praise is due."""
+        """Some metric is fresh at ``now`` and none was out of range in the last ``window_s``
+        (praise is due); worked out only when the rest of the praise is due. A metric gone
+        stale counts by its last readings: a pace out at 1:40 and not measured through a
+        pause was left out, and "Good, keep it up!" came at 3:13 as the volume came back."""
         any_fresh = False
         for st in self._states.values():
-            if st.value is None or now - st.last_sample_t > st.stale_after_s:
-                continue  # no value, or stale
-            any_fresh = True
+            if st.value is None:
+                continue  # never measured
             if now - st.last_problem_t < window_s:
                 return False
+            any_fresh = any_fresh or now - st.last_sample_t <= st.stale_after_s
         return any_fresh
 
     def _time_candidates(self, now: float) -> list[Candidate]:

@@ -483,3 +483,22 @@ def test_a_samples_own_reach_time_is_the_one_the_rule_gives() -> None:
             got = st.reach_t
             st._reach()
             assert got == st.reach_t
+
+
+def test_praise_waits_for_a_metric_out_of_range_before_it_went_silent() -> None:
+    # a rehearsal read 125 wpm, then paused for a minute and a half: only the volume came back
+    # first, and the robot said "Good, keep it up!" (every metric in range for a while) though
+    # the pace had been out 93 s before and was not measured since
+    volume = Rule("speech_volume", Check.MIN, low=60, scale=6, below="louder")
+    p = make(SPEED, volume, praise_after_s=60.0)
+    got = []
+    t = 0.0
+    while t < 150:
+        t = round(t + 0.5, 9)
+        batch = [Sample("speech_volume", t, 66.0)]
+        if t <= 20:
+            batch.append(Sample("speech_speed", t, 125.0))
+        d = p.step(t, batch, free_since=0.0)
+        got += [(d.t, d.cue.command)] if d.cue else []
+    # not at 60 s, while its last reading (20 s) was out 40 s before
+    assert got == [(80.0, "encourage"), (140.0, "encourage")]
