@@ -283,27 +283,6 @@ WORD_WINDOW_S = 30.0
 MAX_PAUSE_S = 2.0
 #: The word window looks back at most this many word windows of input time.
 MAX_LOOKBACK = 3.0
-#: A recognised word whose loudest 30 ms frame lies more than this many dB under the speaker's
-#: level (the 95th percentile of the word window's frames of voice activity) is someone
-#: else's and is not counted (issue 11: people talking behind the presenter; the recogniser
-#: gives their words in the presenter's pauses). Chosen on the dev files of
-#: bench/bench_talkers.py (windows from 30 s, median per file; tuned with the percentile over
-#: all the window's frames): three talkers 30 dB under from -5..+8 % to -1..+4 %, 20 dB under
-#: from +9..+38 % to +4..+24 %; clean files moved -1.2..+1.1 %; 16 and 18 dB left more of the
-#: talkers' words in. Cost: a real reader's quiet words can lie as far under (LibriVox: 2 of
-#: 68 words, 15 and 18 dB; its pace read 150 for 155 before, truth 159).
-OTHER_VOICE_GAP_DB = 12.0
-#: A dropped word up to this many dB under the speaker's level, and voiced (at least
-#: OTHER_VOICE_VOICED of its frames), is another voice near the presenter's; fainter ones are
-#: only left out (talkers 30 dB under: without their words the pace read within 4 %).
-OTHER_VOICE_FLOOR_DB = 26.0
-OTHER_VOICE_VOICED = 0.3
-#: This many such words in the word window: other voices near the presenter's, and the pace is
-#: not written (Untimed.OTHER_VOICES): with their words left out, the count still held words
-#: the recogniser made of the talkers over the presenter's speech (dev: one talker 15-20 dB
-#: under read up to +24 %). Dev: 1 clean window of 249 flagged; windows from 10 s flagged with
-#: talkers 15 dB under: all, 20 dB: 86-88 %, 25 dB: 54 %, 30 dB: 19 %.
-MIN_OTHER_VOICE_WORDS = 2
 #: An utterance is cut here even without a pause (bounds the live lag).
 MAX_UTTERANCE_S = 10.0
 #: Normalised autocorrelation (window-corrected) a syllable nucleus needs to count as voiced.
@@ -635,10 +614,6 @@ class Word:
     end: float
     text: str
     prob: float
-    #: level of its loudest 30 ms frame, dB (10 log10 of the mean square, int16 scale)
-    peak_db: float = 0.0
-    #: share of its frames that are voiced
-    voiced: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -829,8 +804,6 @@ class SpeechAnalyser:
         self._cal_syl = 0.0
         #: Set to a list to collect each window's counts (bench and tests).
         self.window_log: list[dict[str, float]] | None = None
-        #: Set to a list to collect every recognised word (bench).
-        self.word_log: list[Word] | None = None
         # Totals over the whole input.
         self._n_words = 0
         self._n_syl = 0
@@ -1076,17 +1049,7 @@ class SpeechAnalyser:
                 continue
             # Segment.prob is already a linear posterior (do not exp() it).
             prob = float(min(1.0, max(0.0, seg.prob)))
-            start, stop = t0 + seg.start_frame / frate, t0 + _seg_end(seg, frate)
-            word = Word(
-                start,
-                stop,
-                w,
-                prob,
-                self._peak_db(start, stop),
-                self._utterance_voiced(start, stop),
-            )
-            if self.word_log is not None:
-                self.word_log.append(word)
+            word = Word(t0 + seg.start_frame / frate, t0 + _seg_end(seg, frate), w, prob)
             self._words.append(word)
             self._n_words += 1
             self._p_sum += prob
@@ -1322,28 +1285,13 @@ class SpeechAnalyser:
         voiced_s = sum(_overlap(a, b, lo, t) for a, b in spans)
         n_asr = 0.0
         p_sum = 0.0
-        covered = 0.0
-        # Words far under the speaker's level are someone else's (people talking behind the
-        # presenter; the recogniser gives their words in the presenter's pauses): not counted,
-        # and where there are many of them the pace is not written (see OTHER_VOICE_GAP_DB).
-        ref = self._ref_db(lo, t, spans)
-        others = 0
         for w in self._words:
             if w.start >= t:
                 break
-            inside = _overlap(w.start, w.end, lo, t)
-            if inside <= 0.0:
-                continue
-            gap = ref - w.peak_db
-            if gap > OTHER_VOICE_GAP_DB:
-                if gap <= OTHER_VOICE_FLOOR_DB and w.voiced >= OTHER_VOICE_VOICED:
-                    others += 1
-                continue
-            f = inside / max(w.end - w.start, 1e-3)
+            f = _overlap(w.start, w.end, lo, t) / max(w.end - w.start, 1e-3)
             n_asr += f
             p_sum += f * w.prob
-            covered += inside
-        other_voices = others >= MIN_OTHER_VOICE_WORDS
+        covered = sum(_overlap(w.start, w.end, lo, t) for w in self._words if w.start < t)
         n_syl = sum(1 for s in self._syllables if lo <= s < t)
         mean_post = p_sum / n_asr if n_asr > 0 else 0.0
         spoken = max(n_asr, n_syl / opt.syllables_per_word)
@@ -1365,8 +1313,6 @@ class SpeechAnalyser:
         if clipped > MAX_CLIPPED_SHARE:
             source = SOURCE_NONE
             self.clipped_windows.append((t_out, clipped))
-        if other_voices:
-            source = SOURCE_NONE
         # Noise without a voice in or just before the word window: the utterances that join
         # it to the speech (up to max_utterance_s each) hold noise counted as talk time, so a
         # 175 wpm talk read 88-114 wpm just after 25 s of noise. No speed until it is out.
@@ -1391,8 +1337,6 @@ class SpeechAnalyser:
                     "edge_db": edge if edge is not None else math.nan,
                     "clipped": clipped,
                     "source": source,
-                    "ref_db": ref,
-                    "other_words": others,
                 }
             )
         if source != self._last_source:
@@ -1412,19 +1356,6 @@ class SpeechAnalyser:
                     "speech_articulation are not written until it can",
                     t_out,
                     100 * clipped,
-                )
-            elif source == SOURCE_NONE and other_voices:
-                log.warning(
-                    "t=%.0f s: speech speed cannot be measured (other voices near yours: %d "
-                    "recognised words in the last %.0f s of talk lie %g-%g dB under your "
-                    "speech, someone else talking; the count cannot be told apart from theirs): "
-                    "speech_speed and speech_articulation are not written until they are out of "
-                    "the window",
-                    t_out,
-                    others,
-                    opt.word_window_s,
-                    OTHER_VOICE_GAP_DB,
-                    OTHER_VOICE_FLOOR_DB,
                 )
             elif source == SOURCE_NONE:
                 # only the checks that failed: a posterior of 0.80 is no reason to say unsure
@@ -1479,8 +1410,6 @@ class SpeechAnalyser:
             if near_noise
             else Untimed.CLIPPED
             if clipped > MAX_CLIPPED_SHARE
-            else Untimed.OTHER_VOICES
-            if other_voices
             else Untimed.NOISY
             if source == SOURCE_NONE
             else Untimed.NARROWBAND
@@ -1573,18 +1502,6 @@ class SpeechAnalyser:
         p10, p90 = np.percentile(ms, [10, 90])
         return float(10.0 * np.log10(p90 / p10))
 
-    def _ref_db(self, lo: float, t: float, spans: list[tuple[float, float]]) -> float:
-        """The speaker's level over ``[lo, t)``: the 95th percentile of the levels of its 30 ms
-        frames of voice activity (so silence in the window does not move it), dB (int16
-        scale; 0 without such frames)."""
-        i0, i1 = self._frames(lo, t)
-        if i1 <= i0:
-            return 0.0
-        ms = np.asarray(self._frame_ms[i0:i1])[_in_spans(i0, i1, spans)]
-        if len(ms) == 0:
-            return 0.0
-        return float(np.percentile(10.0 * np.log10(ms + 1.0), 95))
-
     def _band_db(self, lo: float, t: float) -> float | None:
         """Energy in 1.5-4 kHz over that in 0.1-1 kHz (dB) of the loud frames of ``[lo, t)``
         (within 30 dB of the 95th percentile, as for the volume); None without frames."""
@@ -1611,15 +1528,6 @@ class SpeechAnalyser:
         if i1 - i0 < 10:
             return 0.0
         return float(np.mean(np.asarray(self._frame_clipped[i0:i1])[self._loud(i0, i1)]))
-
-    def _peak_db(self, t0: float, t1: float) -> float:
-        """Level of the loudest 30 ms frame of ``[t0, t1)``, dB (int16 scale)."""
-        i0, i1 = self._frames(t0, t1)
-        if i1 <= i0:
-            i1 = min(len(self._frame_ms), i0 + 1)
-        if i1 <= i0:
-            return 0.0
-        return 10.0 * math.log10(max(self._frame_ms[i0:i1]) + 1.0)
 
     def _utterance_voiced(self, t0: float, t1: float) -> float:
         """Share of the frames of ``[t0, t1)`` that are voiced (1.0 when none is known yet)."""
