@@ -146,20 +146,17 @@ def analyse(path: Path) -> dict[str, Any]:
     t = time.process_time()
     an = speech.SpeechAnalyser(speech.SpeechOptions())
     an.window_log = []
-    an.word_log = []
     samples = [s for i in range(0, len(x), 1600) for s in an.feed(x[i : i + 1600])]
     samples += an.finish()
     cpu = time.process_time() - t
     sp = [(s.t, s.value) for s in samples if s.metric == speech.SPEECH_SPEED]
     why = [int(s.value) for s in samples if s.metric == speech.SPEECH_UNTIMED_REASON]
-    words = [(w.start, w.end, w.peak_db) for w in an.word_log]
     return {
         "speed": sp,
         "why": why,
         "cpu": cpu,
         "dur": len(x) / 16000,
         "log": an.window_log,
-        "words": words,
     }
 
 
