@@ -50,6 +50,17 @@ NOISY_METRIC = "speech_accuracy"
 #: syllable count (:class:`Untimed`): the report says why pace or clarity was measured over
 #: only part of the talk ("music or noise next to the words for 0:31"), not only speech.log.
 UNTIMED_METRIC = "speech_untimed_reason"
+#: The speech module's articulation rate (words per minute of speaking time).
+SPEECH_ARTICULATION = "speech_articulation"
+#: Where the ``speech_speed`` and ``speech_articulation`` written at the same ``t`` came from
+#: (a stream line carries one number, so the source is a stream of its own): one of
+#: ``SOURCE_RECOGNISER``, ``SOURCE_SYLLABLES``, ``SOURCE_NONE`` (neither count trusted:
+#: neither metric written). Here, not in the speech module, so the report reads them without
+#: importing an input module.
+SPEECH_SPEED_SOURCE = "speech_speed_source"
+SOURCE_RECOGNISER = 1.0
+SOURCE_SYLLABLES = 2.0
+SOURCE_NONE = 0.0
 
 
 class Untimed(enum.IntEnum):

@@ -160,7 +160,16 @@ from typing import Any
 import numpy as np
 
 from prezence.errors import BackendUnavailable, PrezenceError
-from prezence.metrics import UNTIMED_METRIC, WORD_WINDOW_REASONS, Untimed
+from prezence.metrics import (  # the stream names and source codes the report reads too
+    SOURCE_NONE,
+    SOURCE_RECOGNISER,
+    SOURCE_SYLLABLES,
+    SPEECH_ARTICULATION,
+    SPEECH_SPEED_SOURCE,
+    UNTIMED_METRIC,
+    WORD_WINDOW_REASONS,
+    Untimed,
+)
 from prezence.modules.audio_io import SAMPLE_RATE, AudioSource, FileSource, MicSource
 from prezence.modules.common import (
     Heartbeat,
@@ -177,20 +186,12 @@ from prezence.samples import SPEECH_ACCURACY, SPEECH_SPEED, SPEECH_VOLUME, Sampl
 log = logging.getLogger(__name__)
 
 SPEECH_ACTIVITY = "speech_activity"
-SPEECH_ARTICULATION = "speech_articulation"
 SPEECH_CLARITY = "speech_clarity"
 SPEECH_CONFIDENCE = "speech_confidence"
 SPEECH_LOUDNESS = "speech_loudness"
 SPEECH_SPEED_SYLLABLES = "speech_speed_syllables"
-SPEECH_SPEED_SOURCE = "speech_speed_source"
 #: The word window's estimated SNR (dB), written with the word-based metrics.
 SPEECH_SNR = "speech_snr"
-#: speech_speed_source values: where the speech_speed and speech_articulation written at the
-#: same ``t`` came from (a stream line carries one number, so the source is a stream of its own).
-SOURCE_RECOGNISER = 1.0
-SOURCE_SYLLABLES = 2.0
-#: Neither count can be trusted: speech_speed and speech_articulation are not written.
-SOURCE_NONE = 0.0
 #: Why a window has no speech_speed, or one from the syllable count: a code of
 #: :class:`prezence.metrics.Untimed` (the log says it in words; the report reads this).
 SPEECH_UNTIMED_REASON = UNTIMED_METRIC

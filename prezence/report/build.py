@@ -17,17 +17,21 @@ from __future__ import annotations
 import logging
 import math
 from bisect import bisect_right
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from prezence.config.model import Config, Rule, signed
 from prezence.errors import ConfigError, PrezenceError
-from prezence.metrics import METRICS, NOISY_METRIC, NOISY_SNR_DB, SNR_METRIC, UNTIMED_METRIC
-from prezence.modules.speech import (
+from prezence.metrics import (
+    METRICS,
+    NOISY_METRIC,
+    NOISY_SNR_DB,
+    SNR_METRIC,
     SOURCE_SYLLABLES,
     SPEECH_ARTICULATION,
     SPEECH_SPEED_SOURCE,
+    UNTIMED_METRIC,
 )
 from prezence.report.speech import measured_s, mmss, was
 from prezence.samples import SPEECH_SPEED, Sample
@@ -131,6 +135,27 @@ def deviation_seconds(
     out = {"below": 0.0, "above": 0.0}
     if margins is not None:
         out.update(below_beyond=0.0, above_beyond=0.0)
+    for s, dt in held(samples, talk_s, stale_s, cuts):
+        dev, side = rule.judge(s.value)
+        if side is not None and dt > 0:
+            out[side] += dev * dt
+            if margins is not None and _beyond(rule, s.value, side, margins):
+                out[f"{side}_beyond"] += dev * dt
+    return {k: round(v, 3) for k, v in out.items()}
+
+
+def held(
+    samples: Sequence[Sample], talk_s: float, stale_s: float, cuts: Sequence[float] = ()
+) -> Iterator[tuple[Sample, float]]:
+    """Each sample of the talk (``t < talk_s``) with the seconds its value held, sample and
+    hold: to the next sample, at most ``stale_s``, at most to the talk's end, and not past a
+    ``cuts`` time (its module died there: :func:`prezence.summary.hold_ends`).
+
+    Example:
+        >>> ss = [Sample("m", 0.0, 1.0), Sample("m", 10.0, 2.0), Sample("m", 30.0, 3.0)]
+        >>> [(s.value, dt) for s, dt in held(ss, talk_s=35.0, stale_s=6.0)]
+        [(1.0, 6.0), (2.0, 6.0), (3.0, 5.0)]
+    """
     ends = hold_ends([s.t for s in samples], cuts) if cuts else None
     for i, s in enumerate(samples):
         if s.t >= talk_s:
@@ -138,13 +163,7 @@ def deviation_seconds(
         nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
         if ends is not None:
             nxt = min(nxt, float(ends[i]))
-        dt = max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
-        dev, side = rule.judge(s.value)
-        if side is not None and dt > 0:
-            out[side] += dev * dt
-            if margins is not None and _beyond(rule, s.value, side, margins):
-                out[f"{side}_beyond"] += dev * dt
-    return {k: round(v, 3) for k, v in out.items()}
+        yield s, max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
 
 
 def _beyond(rule: Rule, value: float, side: str, margins: tuple[float, float]) -> bool:
@@ -541,22 +560,15 @@ def syllable_seconds(
     """
     source = {round(s.t, 3): s.value for s in sources}
     code = {round(s.t, 3): int(s.value) for s in reasons}
-    ends = hold_ends([s.t for s in samples], cuts) if cuts else None
     total = 0.0
     per: dict[int, float] = {}
-    for i, s in enumerate(samples):
-        if s.t >= talk_s:
-            break
+    for s, dt in held(samples, talk_s, stale_s, cuts):
         if source.get(round(s.t, 3)) != syllables:
             continue
-        nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
-        if ends is not None:
-            nxt = min(nxt, float(ends[i]))
-        held = max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
-        total += held
+        total += dt
         c = code.get(round(s.t, 3))
         if c is not None:
-            per[c] = per.get(c, 0.0) + held
+            per[c] = per.get(c, 0.0) + dt
     if not total > 0.0:
         return None
     rows = [{"code": c, "s": round(v, 1)} for c, v in per.items() if v > 0]
@@ -584,20 +596,14 @@ def noisy_low_seconds(
         10.0
     """
     ts = [s.t for s in snr]
-    ends = hold_ends([s.t for s in samples], cuts) if cuts else None
     out = 0.0
-    for i, s in enumerate(samples):
-        if s.t >= talk_s:
-            break
+    for s, dt in held(samples, talk_s, stale_s, cuts):
         if rule.side(s.value) != "below":
             continue
         j = bisect_right(ts, s.t)
         if j == 0 or s.t - ts[j - 1] > stale_s or not snr[j - 1].value < NOISY_SNR_DB:
             continue
-        nxt = samples[i + 1].t if i + 1 < len(samples) else talk_s
-        if ends is not None:
-            nxt = min(nxt, float(ends[i]))
-        out += max(0.0, min(nxt, s.t + stale_s, talk_s) - s.t)
+        out += dt
     return round(out, 3)
 
 
