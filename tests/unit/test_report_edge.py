@@ -436,21 +436,38 @@ def test_a_median_at_the_edge_is_said_to_the_tenth_when_how_far_out_is(tmp_path:
 def test_of_two_sides_both_within_the_error_neither_is_said_to_be_the_only_one(
     tmp_path: Path,
 ) -> None:
-    # 136 and 184 wpm by turns for 10 minutes: every reading within the error of its bound, the
-    # median (160) in range, a cue's worth of deviation on each side (listed to work on, the
-    # cue's-worth rule). It read "pick up the pace (your pace was below ... 140 wpm, for 300 s
-    # and above ... 180 wpm, for 300 s (all by less than the measurement's error, 8%) in all)":
-    # the under side, no more out than the over one, read as if it were beyond the error
-    report, text, page, _phrase = said(talk(tmp_path / "t", 600, lambda t: 136.0 + 48 * (t % 2)))
-    [pri] = report["priorities"]
-    assert not any(x.get("within_error") for x in pri["sides"])
-    assert "all by less than" not in text and "all by less than" not in page
-    # one side beyond the error, the other within it: said as before
-    report, text, _page, _phrase = said(
+    # one side beyond the error, the other within it: the side within it is marked so (the
+    # session 25 tester's pair, 136 and 184 by turns, each within the error, is no longer
+    # listed at all: see the next test)
+    report, _text, _page, _phrase = said(
         talk(tmp_path / "u", 600, lambda t: 200.0 if t % 8 in (3, 6) else 132.0)
     )
     [pri] = report["priorities"]
     assert [x.get("within_error", False) for x in pri["sides"]] == [False, True]
+
+
+def test_readings_within_the_error_add_up_to_no_cues_worth_when_the_median_is_in_range(
+    tmp_path: Path,
+) -> None:
+    # session 25's tester: 136 and 184 wpm by turns for 10 minutes (median 160, every reading
+    # within the pace's 8 % of its bound) was "Work first on this: pick up the pace, but at
+    # times slow down": the cue's-worth rule added up readings the module cannot tell from
+    # ones in range
+    report, text, page, phrase = said(talk(tmp_path / "t", 600, lambda t: 136.0 + 48 * (t % 2)))
+    assert report["priorities"] == [] and report["slightly_off"] == []
+    assert "Work first" not in phrase and "Work on, first" not in text
+    assert "pick up the pace" not in page and "slow down" not in page
+    [near] = report["near_range"]
+    assert near["metric"] == "speech_speed" and near["within_error_s"] == pytest.approx(600.0, 1)
+    assert "by less than my measuring error" in phrase
+    # the same deviation-seconds from readings beyond the error (a tenth of the talk 14 %
+    # under 140 against a quarter 5.7 % under it, 857 %·s each, median 160) is still a
+    # thing to work on
+    within = talk(tmp_path / "w", 600, lambda t: 132.0 if t % 4 == 0 else 160.0)
+    beyond = talk(tmp_path / "b", 600, lambda t: 120.0 if t % 10 == 0 else 160.0)
+    assert build_report(within.root)["priorities"] == []
+    [pri] = build_report(beyond.root)["priorities"]
+    assert pri["metric"] == "speech_speed" and pri["side"] == "below"
 
 
 def test_the_page_counts_one_metric_measured_in_the_singular(tmp_path: Path) -> None:
