@@ -84,7 +84,7 @@ def talk_label(summary: dict[str, Any]) -> str:
     return str(name)
 
 
-def format_timeline(summary: dict[str, Any]) -> str:
+def format_timeline(summary: dict[str, Any], root: Path | None = None) -> str:
     """A readable timeline of the cues and a short per-metric table."""
     lines = []
     head = (
@@ -174,7 +174,7 @@ def format_timeline(summary: dict[str, Any]) -> str:
         + f"stale episodes {c['stale_episodes']}, "
         f"joint-limit violations {_violations(summary)}"
     )
-    lines += [f"note: {n}" for n in _trouble_notes(summary)]
+    lines += [f"note: {n}" for n in _trouble_notes(summary, root)]
     if summary.get("analysis_wall_s") is not None:  # a rehearsal: the modules took most of it
         whole = float(summary["analysis_wall_s"]) + float(summary.get("wall_s") or 0.0)
         lines.append(
@@ -323,9 +323,10 @@ def _ended_sentences(modules: Any, end_s: float) -> list[str]:
     return out
 
 
-def _trouble_notes(summary: dict[str, Any]) -> list[str]:
-    """Modules that crashed or hung (and what they left unmeasured), metrics that went stale,
-    unreadable lines and damaged cue and ground-truth lines."""
+def _trouble_notes(summary: dict[str, Any], root: Path | None = None) -> list[str]:
+    """Modules that crashed or hung (and what they left unmeasured), metrics that went stale
+    (with the speech module's reasons, read from the session folder at ``root``), unreadable
+    lines and damaged cue and ground-truth lines."""
     from prezence.report.speech import (
         module_sentences,
         skipped_sentences,
@@ -335,6 +336,11 @@ def _trouble_notes(summary: dict[str, Any]) -> list[str]:
     from prezence.summary import module_notes
 
     metrics = summary.get("metrics") or {}
+    if root is not None and metrics:
+        from prezence.report.build import stale_reasons
+
+        why = stale_reasons(root, summary)
+        metrics = {k: {**m, "stale_spans": why[k]} if k in why else m for k, m in metrics.items()}
     notes = module_notes(summary.get("modules"), metrics)
     talk_s = float(summary.get("talk_s") or 0.0)
     # a talk whose every input ended by itself ended with the recordings (`up` of files)
@@ -837,7 +843,7 @@ def _finish_session(
     if getattr(args, "json", False):
         print(json.dumps(summary, indent=2, sort_keys=True))
         return EXIT_ROBOT if shortfall else 0
-    print(format_timeline(summary))
+    print(format_timeline(summary, root))
     if summary.get("truth_dropped"):
         print(
             f"note: the recording's ground truth is not used ({summary['truth_dropped']}); "

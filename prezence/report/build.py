@@ -492,6 +492,41 @@ def _stale_why(
     return {**span, "untimed": rows} if rows else span
 
 
+def stale_reasons(root: Path, summary: Mapping[str, Any]) -> dict[str, list[dict[str, Any]]]:
+    """Per speech metric of ``summary`` (a ``summary.json``) that went stale, its
+    ``stale_spans`` with the speech module's reasons for each stretch (``untimed``), as the
+    report gives them; {} when the folder at ``root`` holds no reasons (a folder written before
+    issue 11, a synthetic talk). For the notes printed after a talk (session 25's "Not done":
+    ``up`` printed "not measured from 0:50 to the end (2:03)" where its report said why)."""
+    reasons = untimed_reasons(SessionDir(root))
+    if not reasons:
+        return {}
+    talk_s = float(summary.get("talk_s") or 0.0)
+    rec_s = summary.get("recording_s")
+    end_s = measured_end_s(talk_s, float(rec_s) if isinstance(rec_s, int | float) else None)
+    out: dict[str, list[dict[str, Any]]] = {}
+    for metric, m in (summary.get("metrics") or {}).items():
+        record = METRICS.get(str(metric))
+        spans = m.get("stale_spans") if isinstance(m, Mapping) else None
+        if record is None or record.module != "speech" or not spans:
+            continue
+        cuts = [float(sp["from"]) for sp in m.get("lost") or ()]
+        out[str(metric)] = [
+            dict(
+                _stale_why(
+                    sp,
+                    reasons,
+                    end_s,
+                    float(sp.get("stale_after_s") or 0.0),
+                    cuts,
+                    record.first_after_s,
+                )
+            )
+            for sp in spans
+        ]
+    return out
+
+
 def untimed_in(
     reasons: Sequence[Sample],
     gaps: Sequence[tuple[float, float]],

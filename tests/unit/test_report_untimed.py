@@ -11,6 +11,9 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
+import pytest
+
+from prezence.cli import main
 from prezence.config.model import Check, Config, Rule, TimeSettings
 from prezence.config.tomlconf import dumps_config
 from prezence.report import build_report, summary_phrase, write_report
@@ -183,3 +186,23 @@ def test_folders_without_the_streams_read_as_before(tmp_path: Path) -> None:
     assert summary_phrase(old) == (
         "You used 2 minutes 3 seconds of 2 minutes, 2% over. Work first on this: slow down."
     )
+
+
+def test_the_notes_printed_after_a_talk_say_why_the_pace_went_stale(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 25's "Not done": the report said why the pace went stale, but the notes `up`,
+    # `rehearse` and `replay` print on the terminal (from summary.json) said only "not
+    # measured from 0:50 to the end (2:03)". A replay goes through the same closing lines
+    folder = paused(tmp_path / "p", reasons=True)
+    assert main(["replay", str(folder.root), "--out", str(tmp_path / "r"), "--no-report"]) == 0
+    out = capsys.readouterr().out
+    assert (
+        "note: speech_speed went stale (no new value came for over 6 s) after 0:44: not measured "
+        "from 0:50 to the end (2:03; silence for 1:00, too little speech yet to time for 0:13)\n"
+    ) in out, out
+    # an older folder, without the module's reasons, prints as before
+    folder = paused(tmp_path / "q", reasons=False)
+    assert main(["replay", str(folder.root), "--out", str(tmp_path / "s"), "--no-report"]) == 0
+    out = capsys.readouterr().out
+    assert "not measured from 0:50 to the end (2:03)\n" in out, out
