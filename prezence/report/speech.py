@@ -1178,7 +1178,10 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
         parts.append(f"I could not measure your {_and(none)}.")
     if not pri and off:  # too little to work on first, too much to call in range
         o = off[0]
-        lead = "Your" if lost else "Nothing was far off, but your"  # room for what was lost
+        # over how little of the talk, and how surely, it was measured (as for a thing to
+        # work on: session 25 said it only there); room is made for it as for what was lost
+        caveat = advice_caveat(report, o)
+        lead = "Your" if lost or caveat else "Nothing was far off, but your"
         said = []
         if _error_share(o)[0]:  # part of it within the error: the part beyond it, said so
             side = "under" if o.get("side") == "below" else "over"
@@ -1195,6 +1198,8 @@ def summary_phrase(report: Mapping[str, Any]) -> str:
             f"{lead} {o['label']} {was(o['label'])} a little {' and '.join(said)} "
             f"of the {of_time(o, 'I could measure it')}: {o['advice']}."
         )
+        parts += caveat
+        droppable += caveat
     elif not pri and edge:  # nothing known to be out: what it could not tell, and why
         if not lost:
             parts.append("Nothing was clearly off.")
@@ -1255,7 +1260,8 @@ SPOKEN_SHARE = 0.5
 
 
 def advice_caveat(report: Mapping[str, Any], row: Mapping[str, Any]) -> list[str]:
-    """The robot's sentences after a thing to work on (``row``, a priority) measured over
+    """The robot's sentences after a thing to work on (``row``, a priority; or the metric a
+    little off, said when nothing is to be worked on) measured over
     under :data:`SPOKEN_SHARE` of the talk where the speech module said why, or taken from
     its syllable count for that share of its time or more ([] otherwise; and in a folder
     without the module's reasons, as before them).

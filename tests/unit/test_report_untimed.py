@@ -206,3 +206,34 @@ def test_the_notes_printed_after_a_talk_say_why_the_pace_went_stale(
     assert main(["replay", str(folder.root), "--out", str(tmp_path / "s"), "--no-report"]) == 0
     out = capsys.readouterr().out
     assert "not measured from 0:50 to the end (2:03)\n" in out, out
+
+
+def test_the_robot_says_over_how_much_of_the_talk_it_measured_a_pace_a_little_off(
+    tmp_path: Path,
+) -> None:
+    # session 25 gave the robot's caveat only after a thing to work on; a pace "a little off",
+    # said when nothing is to be worked on, went without it (the written lines had it). 120
+    # wpm (beyond the 8 % error) for 10 s of the 40 s measured, then a pause to the end
+    # (measured over 33 % of the talk)
+    values: Values = {
+        "speech_speed": (range(10, 45), lambda t: 120.0 if t < 20 else 160.0),
+        "speech_volume": (range(10, 123), lambda t: 66.0),
+        "speech_untimed_reason": (range(45, 123), lambda t: 1.0),
+    }
+    report = build_report(talk(tmp_path / "o", 123, values).root)
+    assert report["priorities"] == [] and [o["metric"] for o in report["slightly_off"]] == [
+        "speech_speed"
+    ]
+    phrase = summary_phrase(report)
+    assert "a little under the ideal range" in phrase, phrase
+    # "Nothing was far off, but" makes room for it; the reason goes first for length
+    assert phrase.endswith(
+        "Your pace was a little under the ideal range 25% of the time: pick up the pace. "
+        "I measured your pace over only 33% of the talk."
+    ), phrase
+    assert len(phrase.split()) <= MAX_SPOKEN_WORDS
+    # at the edge (132 wpm, within the error, timed from syllables for 65 % of its time) the
+    # robot already says it may have been fine; its 40 words leave no room for more
+    report = build_report(telephone(tmp_path / "e", sources=True, pace=132.0).root)
+    assert [e["metric"] for e in report["at_edge"]] == ["speech_speed"]
+    assert "it may have been fine" in summary_phrase(report)
