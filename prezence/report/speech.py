@@ -24,19 +24,28 @@ def mmss(t: float | None) -> str:
 
 
 def _spoken_minutes(s: float) -> str:
-    """Seconds as a speakable length: ``"9 and a half minutes"``, ``"40 seconds"``."""
-    if s < 60:
-        n = int(round(s))
+    """Seconds as a speakable length: ``"9 and a half minutes"``, ``"40 seconds"``; halves
+    round up, as a listener rounds (Python's ``round`` goes to the even one).
+
+    Example:
+        >>> [_spoken_minutes(x) for x in (40.2, 59.6, 75.0, 105.0)]
+        ['40 seconds', '1 minute', '1 and a half minutes', '2 minutes']
+    """
+    value = _spoken_value(s)
+    if value < 60:
+        n = int(value)
         return f"{n} second{'' if n == 1 else 's'}"
-    half = round(s / 30.0) / 2.0
+    half = value / 60.0
     whole = int(half)
     unit = "minute" if half == 1 else "minutes"
     return f"{whole} and a half {unit}" if half != whole else f"{whole} {unit}"
 
 
 def _spoken_value(s: float) -> float:
-    """The seconds :func:`_spoken_minutes` says: 130 s is said "2 minutes", 120 s."""
-    return float(int(round(s))) if s < 60 else 30.0 * round(s / 30.0)
+    """The seconds :func:`_spoken_minutes` says: 130 s is said "2 minutes", 120 s; 59.6 s
+    "1 minute", not "60 seconds"."""
+    n = math.floor(s + 0.5)
+    return float(n) if n < 60 else 30.0 * math.floor(s / 30.0 + 0.5)
 
 
 def _spoken_exact(s: float) -> str:

@@ -476,3 +476,18 @@ def test_the_page_counts_one_metric_measured_in_the_singular(tmp_path: Path) -> 
     assert "1 metric measured" in page and "1 metrics" not in page
     _report, _text, page, _phrase = said(talk(tmp_path / "u", 600, around(160.0)))
     assert "2 metrics measured" in page
+
+
+@pytest.mark.parametrize(
+    ("used", "said"),
+    [
+        (59.6, "You spoke for 1 minute."),  # was "60 seconds"
+        (75.0, "You spoke for 1 and a half minutes."),  # was "1 minute": round(2.5) is 2
+        (105.0, "You spoke for 2 minutes."),
+        (40.2, "You spoke for 40 seconds."),
+    ],
+)
+def test_a_length_is_spoken_rounded_as_a_listener_rounds(used: float, said: str) -> None:
+    from prezence.report.speech import time_sentence
+
+    assert time_sentence({"time": {"used_s": used, "allocated_s": None}}) == said
