@@ -298,6 +298,48 @@ def _trend(values: Sequence[float | None], sides: Sequence[str | None] | None = 
     return text
 
 
+def median_move(rule: Rule, medians: Sequence[float | None], sides: Sequence[str | None]) -> str:
+    """What a "steady" trend leaves out: the newest rehearsal's median reading (``p50``)
+    against the one before's, when both were out of the band on the same side and the median
+    moved nearer to it or further from it by more than the module's stated measurement error
+    (:func:`prezence.report.build.error_margins`); "" otherwise (no error stated, no median
+    recorded, in range, or a move within the error).
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180, unit="wpm")
+        >>> median_move(r, [232.0, 190.0], ["high", "high"])
+        ', but its median read nearer the range (232 then 190 wpm)'
+        >>> median_move(r, [232.0, 228.0], ["high", "high"])
+        ''
+    """
+    from prezence.report.build import error_margins
+
+    margins = error_margins(rule)
+    known = [(m, side) for m, side in zip(medians, sides, strict=True) if m is not None]
+    if margins is None or len(known) < 2:
+        return ""
+    (before, was_side), (now, now_side) = known[-2], known[-1]
+    if was_side is None or was_side != now_side:
+        return ""
+    side = "below" if now_side == "low" else "above"
+    bound = rule.low if side == "below" else rule.high
+    if bound is None:
+        return ""
+    margin = margins[0] if side == "below" else margins[1]
+
+    def out(m: float) -> float:  # how far out of the band, as judged (the rule's offset added)
+        v = m + rule.offset
+        return max(0.0, bound - v) if side == "below" else max(0.0, v - bound)
+
+    moved = out(now) - out(before)
+    if abs(moved) <= margin:
+        return ""
+    unit = f" {rule.unit}" if rule.unit else ""
+    where = "nearer the range" if moved < 0 else "further from the range"
+    return f", but its median read {where} ({before:.4g} then {now:.4g}{unit})"
+
+
 def _rules(s: SessionDir) -> dict[str, Rule] | None:
     """Each metric's rule as ``config.toml`` judged the talk, None when the file is missing
     or cannot be read (the bands are then unknown)."""
@@ -426,8 +468,10 @@ def _table(
     sides: list[dict[str, str]] = []  # per rehearsal, metric -> the side it was mostly out on
     bands: list[dict[str, str] | None] = []
     edges: list[set[str]] = []  # per rehearsal, the metrics whose median read at the edge
+    medians: list[dict[str, float]] = []  # per rehearsal, metric -> its median reading (p50)
     recordings: set[str] = set()
     notes: list[str] = []  # the rehearsals rebuilt from their streams first
+    newest_rules: dict[str, Rule] | None = None  # the newest rehearsal's (the trend's band)
     for when, s, meta in sessions:
         rebuilt: str | None = None  # why its figures come from its streams
         try:
@@ -444,10 +488,18 @@ def _table(
         unjudged.append({str(k): w for k, v in metrics.items() if (w := not_judged_why(v))})
         sides.append({str(k): side for k, v in metrics.items() if (side := off_side(v))})
         rules = _rules(s)
+        newest_rules = rules
         bands.append(None if rules is None else {k: _band_text(r) for k, r in rules.items()})
         # marked low / high, but its median read within the measurement's error of the band
         # and its report says it may have been in range
         edges.append(_edges(s, metrics, rules))
+        medians.append(
+            {
+                str(k): med
+                for k, v in metrics.items()
+                if isinstance(v, dict) and (med := _number(v.get("p50"))) is not None
+            }
+        )
         # to the second, with the folder: talks a minute apart are told apart
         label = time.strftime("%d %b %Y %H:%M:%S", time.localtime(when))
         rec = meta.get("recording")
@@ -505,12 +557,18 @@ def _table(
                 f"{', '.join(which)} ({'; '.join(whys)}): no figure, left out of the trend"
             )
         kept = [None if o else v for v, o in zip(values, other, strict=True)]
+        trend = _trend(kept, out_on)
+        rule = (newest_rules or {}).get(name)
+        if trend.startswith("steady") and rule is not None:
+            # 0 % in range twice says nothing of 232 wpm then 190 (session 25's tester)
+            meds = [None if v is None else m.get(name) for v, m in zip(kept, medians, strict=True)]
+            trend += median_move(rule, meds, out_on)
         rows.append(
             {
                 "metric": name,
                 "label": label,
                 "values": values,
-                "trend": _trend(kept, out_on),
+                "trend": trend,
                 "other_band": other,
                 "not_judged": [bool(w) for w in why],
                 "sides": out_on,

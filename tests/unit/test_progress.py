@@ -422,3 +422,34 @@ def test_a_rehearsal_the_report_lists_to_work_on_is_not_marked_as_maybe_in_range
     pace = next(ln for ln in out.splitlines() if ln.startswith("pace"))
     assert pace.split()[1:5] == ["0%", "low", "0%", "low"]
     assert "may have been in range" not in out
+
+
+@pytest.mark.parametrize(
+    ("first", "then", "trend"),
+    [
+        (232.0, 190.0, "steady, but its median read nearer the range (232 then 190 wpm)"),
+        (190.0, 232.0, "steady, but its median read further from the range (190 then 232 wpm)"),
+        (232.0, 226.0, "steady"),  # 6 wpm nearer: within the pace's 8 % (14.4 wpm over 180)
+    ],
+)
+def test_a_steady_time_in_range_says_when_the_median_moved_beyond_the_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], first: float, then: float, trend: str
+) -> None:
+    # session 25's tester: a pace read 232 wpm (0 % in range, too fast all talk), then 190
+    # (0 % in range, within the error of 180) was "steady": the time in range cannot move
+    # below nothing, though the speaker slowed by 42 wpm
+    talks = tmp_path / "talks"
+    for i, (name, median) in enumerate((("r1", first), ("r2", then))):
+        streams = tmp_path / f"src_{name}" / "streams"
+        streams.mkdir(parents=True)
+        (streams / "speech_speed.txt").write_text(
+            "".join(f"{t} {median}\n" for t in range(10, 300))
+        )
+        assert main(["replay", str(streams), "--out", str(talks / name), "-q"]) == 0
+        meta = {"format": 1, "kind": "live", "t0_epoch": 1e9 + 60 * i}
+        (talks / name / "session.json").write_text(json.dumps(meta))
+    capsys.readouterr()
+    assert main(["progress", str(talks)]) == 0
+    out = capsys.readouterr().out
+    pace = next(ln for ln in out.splitlines() if ln.startswith("pace"))
+    assert pace.endswith(f"  {trend}"), pace
