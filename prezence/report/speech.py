@@ -20,6 +20,8 @@ def mmss(t: float | None) -> str:
         return "-"
     # halves up: round() takes them to even, so 325.5 s read "5:26" but 522.5 s "8:42"
     total = int(max(0.0, float(t)) + 0.5)
+    if total >= 3600:  # a talk of hours: "6:00:00", not "360:00"
+        return f"{total // 3600}:{total % 3600 // 60:02d}:{total % 60:02d}"
     return f"{total // 60}:{total % 60:02d}"
 
 
@@ -30,11 +32,17 @@ def _spoken_minutes(s: float) -> str:
     Example:
         >>> [_spoken_minutes(x) for x in (40.2, 59.6, 75.0, 105.0)]
         ['40 seconds', '1 minute', '1 and a half minutes', '2 minutes']
+        >>> [_spoken_minutes(x) for x in (3600.0, 5460.0, 21600.0)]
+        ['1 hour', '1 hour 31 minutes', '6 hours']
     """
     value = _spoken_value(s)
     if value < 60:
         n = int(value)
         return f"{n} second{'' if n == 1 else 's'}"
+    if value >= 3600:  # a talk of hours: "6 hours", "1 hour 31 minutes", not "360 minutes"
+        h, m = divmod(int(value) // 60, 60)
+        hours = f"{h} hour{'' if h == 1 else 's'}"
+        return f"{hours} {m} minute{'' if m == 1 else 's'}" if m else hours
     half = value / 60.0
     whole = int(half)
     unit = "minute" if half == 1 else "minutes"
@@ -45,7 +53,10 @@ def _spoken_value(s: float) -> float:
     """The seconds :func:`_spoken_minutes` says: 130 s is said "2 minutes", 120 s; 59.6 s
     "1 minute", not "60 seconds"."""
     n = math.floor(s + 0.5)
-    return float(n) if n < 60 else 30.0 * math.floor(s / 30.0 + 0.5)
+    if n < 60:
+        return float(n)
+    half = 30.0 * math.floor(s / 30.0 + 0.5)
+    return half if half < 3600 else 60.0 * math.floor(s / 60.0 + 0.5)  # hours: whole minutes
 
 
 def _spoken_exact(s: float) -> str:

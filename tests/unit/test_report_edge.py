@@ -485,9 +485,13 @@ def test_the_page_counts_one_metric_measured_in_the_singular(tmp_path: Path) -> 
         (75.0, "You spoke for 1 and a half minutes."),  # was "1 minute": round(2.5) is 2
         (105.0, "You spoke for 2 minutes."),
         (40.2, "You spoke for 40 seconds."),
+        (21600.0, "You spoke for 6 hours."),  # was "360 minutes"
+        (5460.0, "You spoke for 1 hour 31 minutes."),  # was "91 minutes"
     ],
 )
-def test_a_length_is_spoken_rounded_as_a_listener_rounds(used: float, said: str) -> None:
-    from prezence.report.speech import time_sentence
+def test_a_length_is_spoken_rounded_as_a_listener_rounds_and_in_hours_past_one(used: float, said: str) -> None:
+    from prezence.report.speech import mmss, time_sentence
 
     assert time_sentence({"time": {"used_s": used, "allocated_s": None}}) == said
+    # and written: "6:00:00", not "360:00" (which widened the report's table)
+    assert mmss(21600.0) == "6:00:00" and mmss(3599.4) == "59:59"
