@@ -489,7 +489,9 @@ def test_the_page_counts_one_metric_measured_in_the_singular(tmp_path: Path) -> 
         (5460.0, "You spoke for 1 hour 31 minutes."),  # was "91 minutes"
     ],
 )
-def test_a_length_is_spoken_rounded_as_a_listener_rounds_and_in_hours_past_one(used: float, said: str) -> None:
+def test_a_length_is_spoken_rounded_as_a_listener_rounds_and_in_hours_past_one(
+    used: float, said: str
+) -> None:
     from prezence.report.speech import mmss, time_sentence
 
     assert time_sentence({"time": {"used_s": used, "allocated_s": None}}) == said
