@@ -686,7 +686,12 @@ def _share_out(m: Mapping[str, Any], *, beyond_error: bool = False) -> float | N
 
 
 def off_sides(
-    rule: Rule, d: Mapping[str, float], m: Mapping[str, Any] | None = None, *, hedge: bool = False
+    rule: Rule,
+    d: Mapping[str, float],
+    m: Mapping[str, Any] | None = None,
+    *,
+    hedge: bool = False,
+    said: Collection[str] = (),
 ) -> list[dict[str, Any]]:
     """Each side of its band a metric was out on, the side with the larger deviation first:
     ``side``, ``bound``, its own seconds out (``out_s``) and share of the measured time
@@ -698,12 +703,16 @@ def off_sides(
     measurement's error (``below_beyond``, ``above_beyond``), the side with more of that comes
     first, and a side none of whose readings were out by more than the error is listed with
     no advice (``within_error``): a pace read 132 for most of a talk and 200 for a fifth of it
-    is "slow down", not "pick up the pace, but at times slow down".
+    is "slow down", not "pick up the pace, but at times slow down". A side the coach cued
+    (``said``) is advised on as cued, and when the coach cued one side only, it comes first
+    (session 26: a talk cued "slow down" on 200 wpm for a fifth of it, 132 the rest, read
+    "pick up the pace, but at times slow down").
 
     Args:
         d: the metric's :func:`deviation_seconds`.
         m: the metric's figures (``below_s``, ``above_s``: :func:`prezence.summary.build_summary`).
         hedge: the measurement's error decides as above.
+        said: the sides ("below", "above") the coach cued during the talk.
 
     Example:
         >>> from prezence.config.model import Check
@@ -722,6 +731,8 @@ def off_sides(
     beyond = hedge and "below_beyond" in d and "above_beyond" in d
     if beyond and d["below_beyond"] != d["above_beyond"]:
         order = ["above", "below"] if d["above_beyond"] > d["below_beyond"] else ["below", "above"]
+    if len(set(said)) == 1:  # what the robot said comes first
+        order = sorted(order, key=lambda x: x not in said)
     rows: list[dict[str, Any]] = []
     for side in order:
         got = m.get(f"{side}_s")
@@ -741,8 +752,9 @@ def off_sides(
         within = (
             beyond
             and rows
+            and side not in said
             and float(d.get(f"{side}_beyond", 0.0)) <= 0.0
-            and float(d.get(f"{rows[0]['side']}_beyond", 0.0)) > 0.0
+            and (float(d.get(f"{rows[0]['side']}_beyond", 0.0)) > 0.0 or rows[0]["side"] in said)
         )
         if within:  # the other side was out beyond the error, this one only within it
             row.update(within_error=True, error=error_words(METRICS[rule.metric]))
@@ -855,6 +867,7 @@ def rank_priorities(
     top: int | None = 2,
     cued: Collection[str] = (),
     metrics: Mapping[str, Mapping[str, Any]] | None = None,
+    cued_sides: Mapping[str, Collection[str]] | None = None,
 ) -> list[dict[str, Any]]:
     """The things to work on, in order: metrics ranked by deviation × time out of range.
 
@@ -898,6 +911,9 @@ def rank_priorities(
         cued: the metrics the coach cued during the talk.
         metrics: the report's per-metric figures (``time_in_range``, ``below_s``,
             ``above_s``); without them only the score and the cues decide.
+        cued_sides: per metric cued, the sides its cues were on (:func:`cued_sides`): a
+            cued metric's sides are then weighed as an uncued one's, the cued sides first
+            and advised on (:func:`off_sides`); without them, every side as cued.
     """
     rows: list[dict[str, Any]] = []
     for rule in config.rules:
@@ -909,7 +925,10 @@ def rank_priorities(
         if not needs_work(rule, d, m, threshold=threshold, cued=cued):
             continue
         score = float(d.get("below", 0.0)) + float(d.get("above", 0.0))
-        sides = off_sides(rule, d, m, hedge=rule.metric not in cued and not rule.strict)
+        if rule.metric in cued and cued_sides is not None and not rule.strict:
+            sides = off_sides(rule, d, m, hedge=True, said=cued_sides.get(rule.metric, ()))
+        else:
+            sides = off_sides(rule, d, m, hedge=rule.metric not in cued and not rule.strict)
         if not sides:
             continue
         rows.append(
@@ -923,6 +942,32 @@ def rank_priorities(
         )
     rows.sort(key=lambda r: (-r["score"], r["metric"]))
     return rows if top is None else rows[:top]
+
+
+def cued_sides(config: Config, cues: Sequence[Mapping[str, Any]]) -> dict[str, set[str]]:
+    """Per metric cued, the sides of its band ("below", "above") its cues' commands name
+    (a command that is neither side's, such as one of a rule changed since, names none).
+
+    Example:
+        >>> from prezence.config.model import Check
+        >>> r = Rule("speech_speed", Check.IN_RANGE, low=140, high=180, below="speedUp",
+        ...          above="slowDown")
+        >>> cued_sides(Config(rules=(r,)), [{"metric": "speech_speed", "command": "slowDown"}])
+        {'speech_speed': {'above'}}
+    """
+    rules = {r.metric: r for r in config.rules}
+    out: dict[str, set[str]] = {}
+    for c in cues:
+        rule = rules.get(str(c.get("metric")))
+        if rule is None:
+            continue
+        sides = out.setdefault(rule.metric, set())
+        command = c.get("command")
+        if command is not None and command == rule.below:
+            sides.add("below")
+        elif command is not None and command == rule.above:
+            sides.add("above")
+    return out
 
 
 def _off_side(rule: Rule, side: str) -> dict[str, Any]:
@@ -1621,7 +1666,13 @@ def _rebuild(
     judged_dev = {k: v for k, v in dev_s.items() if judged(metrics.get(k) or {})}
     # every metric that needs work is listed, in order: one left out would be read as fine
     priorities = rank_priorities(
-        cfg, judged_dev, talk_s=talk_s, cued=cued, metrics=metrics, top=None
+        cfg,
+        judged_dev,
+        talk_s=talk_s,
+        cued=cued,
+        metrics=metrics,
+        top=None,
+        cued_sides=cued_sides(cfg, cues),
     )
     a_little_off = slightly_off(cfg, judged_dev, metrics, listed=[p["metric"] for p in priorities])
     edge = at_edge(cfg, metrics, listed=[r["metric"] for r in [*priorities, *a_little_off]])

@@ -497,3 +497,31 @@ def test_a_length_is_spoken_rounded_as_a_listener_rounds_and_in_hours_past_one(
     assert time_sentence({"time": {"used_s": used, "allocated_s": None}}) == said
     # and written: "6:00:00", not "360:00" (which widened the report's table)
     assert mmss(21600.0) == "6:00:00" and mmss(3599.4) == "59:59"
+
+
+def test_a_cued_metric_puts_the_side_the_robot_cued_first(tmp_path: Path) -> None:
+    # session 25's "Not done": the coach cued "slow down" on 200 wpm (a fifth of the talk,
+    # beyond the pace's 8 %); the rest read 132 (within the error of 140). The report ordered
+    # a cued metric's sides by their whole deviation and said "Work first on this: pick up
+    # the pace, but at times slow down", the opposite of what the robot had said
+    def pace(t: int) -> float:
+        return 200.0 if t % 10 in (3, 6) else 132.0
+
+    cue = {"t": 40.0, "command": "slowDown", "metric": "speech_speed", "kind": "weighted"}
+    report, text, page, phrase = said(talk(tmp_path / "t", 600, pace, cues=[cue]))
+    [pri] = report["priorities"]
+    assert pri["side"] == "above" and pri["advice"] == "slow down"
+    assert pri["sides"][1]["side"] == "below" and pri["sides"][1].get("within_error") is True
+    assert "Work first on this: slow down." in phrase and "pick up the pace" not in phrase
+    assert "pick up the pace" not in text
+    # cued on the side within the error too: both advised, as the robot said both
+    both = [cue, {**cue, "t": 300.0, "command": "speedUp"}]
+    report, _text, _page, phrase = said(talk(tmp_path / "u", 600, pace, cues=both))
+    [pri] = report["priorities"]
+    assert all(x.get("advice") for x in pri["sides"]), pri["sides"]
+    # cued only "pick up the pace" (the live coach weighs readings within the error too):
+    # said first, and the side beyond the error after it
+    up = [{**cue, "command": "speedUp"}]
+    report, _text, _page, phrase = said(talk(tmp_path / "v", 600, pace, cues=up))
+    [pri] = report["priorities"]
+    assert pri["advice"] == "pick up the pace, but at times slow down"
