@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -352,25 +353,36 @@ def test_a_rehearsal_whose_summary_is_torn_is_rebuilt_from_its_streams_and_said_
     ) in out
 
 
+def _rehearsals(tmp_path: Path, paces: list[Callable[[int], float]], until: int = 300) -> Path:
+    """A folder of rehearsals, one per pace (one reading a second from 10 s to ``until``),
+    each a replay of its stream given the meta of a live talk a minute after the one before
+    (progress leaves replays out: the same talk coached again)."""
+    talks = tmp_path / "talks"
+    for i, pace in enumerate(paces):
+        name = f"r{i + 1}"
+        streams = tmp_path / f"src_{name}" / "streams"
+        streams.mkdir(parents=True)
+        (streams / "speech_speed.txt").write_text(
+            "".join(f"{t} {pace(t)}\n" for t in range(10, until))
+        )
+        assert main(["replay", str(streams), "--out", str(talks / name), "-q"]) == 0
+        meta = {"format": 1, "kind": "live", "t0_epoch": 1e9 + 60 * i}
+        (talks / name / "session.json").write_text(json.dumps(meta))
+    return talks
+
+
 def test_a_rehearsal_whose_median_pace_read_within_the_error_of_the_band_is_marked_so(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # session 25: the report no longer tells a pace whose median read 138.5 (1 % under 140,
     # the pace is measured to 8 %) as a fact, but progress marked it "12% low" beside a pace
     # read at 120, "0% low", with nothing to tell the two apart
-    talks = tmp_path / "talks"
-    for i, (name, median) in enumerate((("r1", 138.5), ("r2", 120.0))):
-        streams = tmp_path / f"src_{name}" / "streams"
-        streams.mkdir(parents=True)
-        scatter = (0.97, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.03)
-        (streams / "speech_speed.txt").write_text(
-            "".join(f"{t} {median * scatter[t % 8]:.1f}\n" for t in range(10, 300))
-        )
-        assert main(["replay", str(streams), "--out", str(talks / name), "-q"]) == 0
-        # the coach's own summary.json and config.toml, as a live talk's (progress leaves
-        # replays out: the same talk coached again)
-        meta = {"format": 1, "kind": "live", "t0_epoch": 1e9 + 60 * i}
-        (talks / name / "session.json").write_text(json.dumps(meta))
+    scatter = (0.97, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.03)
+
+    def around(median: float) -> Callable[[int], float]:
+        return lambda t: round(median * scatter[t % 8], 1)
+
+    talks = _rehearsals(tmp_path, [around(138.5), around(120.0)])
     capsys.readouterr()
     assert main(["progress", str(talks)]) == 0
     out = capsys.readouterr().out
@@ -401,16 +413,10 @@ def test_a_rehearsal_the_report_lists_to_work_on_is_not_marked_as_maybe_in_range
     # for two fifths of the talk, beyond the error: its report says "Work first on this: pick
     # up the pace" (the coach cued it, and the readings beyond the error add up), while
     # progress marked it "0% low~" with "it may have been in range (the report says so)"
-    talks = tmp_path / "talks"
-    for i, name in enumerate(("r1", "r2")):
-        streams = tmp_path / f"src_{name}" / "streams"
-        streams.mkdir(parents=True)
-        (streams / "speech_speed.txt").write_text(
-            "".join(f"{t} {110.0 if t % 10 < 4 else 139.0}\n" for t in range(10, 600))
-        )
-        assert main(["replay", str(streams), "--out", str(talks / name), "-q"]) == 0
-        meta = {"format": 1, "kind": "live", "t0_epoch": 1e9 + 60 * i}
-        (talks / name / "session.json").write_text(json.dumps(meta))
+    def pace(t: int) -> float:
+        return 110.0 if t % 10 < 4 else 139.0
+
+    talks = _rehearsals(tmp_path, [pace, pace], until=600)
     assert json.loads((talks / "r2" / "summary.json").read_text())["metrics"]["speech_speed"][
         "p50"
     ] == pytest.approx(139.0)
@@ -438,16 +444,7 @@ def test_a_steady_time_in_range_says_when_the_median_moved_beyond_the_error(
     # session 25's tester: a pace read 232 wpm (0 % in range, too fast all talk), then 190
     # (0 % in range, within the error of 180) was "steady": the time in range cannot move
     # below nothing, though the speaker slowed by 42 wpm
-    talks = tmp_path / "talks"
-    for i, (name, median) in enumerate((("r1", first), ("r2", then))):
-        streams = tmp_path / f"src_{name}" / "streams"
-        streams.mkdir(parents=True)
-        (streams / "speech_speed.txt").write_text(
-            "".join(f"{t} {median}\n" for t in range(10, 300))
-        )
-        assert main(["replay", str(streams), "--out", str(talks / name), "-q"]) == 0
-        meta = {"format": 1, "kind": "live", "t0_epoch": 1e9 + 60 * i}
-        (talks / name / "session.json").write_text(json.dumps(meta))
+    talks = _rehearsals(tmp_path, [lambda t: first, lambda t: then])
     capsys.readouterr()
     assert main(["progress", str(talks)]) == 0
     out = capsys.readouterr().out
