@@ -293,6 +293,7 @@ def part_corpus(args: argparse.Namespace) -> None:
     # (split, real speaker?, degraded?) -> (speech_accuracy, speech_confidence) per window
     by_group: dict[tuple[str, bool, bool], tuple[list[float], list[float]]] = {}
     per_split: dict[str, list[tuple[float, float]]] = {}
+    untimed: dict[str, list[str]] = {}  # clean files with no speech_speed at all, per split
     tot_cpu = tot_dur = 0.0
     for name, r in zip(names, res, strict=True):
         m = manifest[name]
@@ -322,6 +323,8 @@ def part_corpus(args: argparse.Namespace) -> None:
             clean_scores += acc
             if cond == "clean" and len(vals):
                 per_split.setdefault(str(m["split"]), []).append((med, w12))
+            elif cond == "clean":
+                untimed.setdefault(str(m["split"]), []).append(name)
         elif cond in ("snr10", "snr5", "reverb", "lowpass"):
             bad_scores += acc
         rtf = float(r["cpu"]) / float(r["dur"])  # type: ignore[arg-type]
@@ -332,14 +335,19 @@ def part_corpus(args: argparse.Namespace) -> None:
             f"{truth:>7.1f}{med:>+7.1f}{w10:>6.0f}"
             f"{w12:>6.0f}{asr:>6.0f}{art_err:>+7.1f}{clar:>6.2f}{rtf:>7.3f}"
         )
-    for split, rows in sorted(per_split.items()):
+    for split in sorted(set(per_split) | set(untimed)):
+        rows = per_split.get(split, [])
         meds = np.array([a for a, _ in rows])
         windowed = [w for _, w in rows if not np.isnan(w)]
+        never = untimed.get(split, [])
         print(
-            f"{split}: {len(rows)} clean files, |median error| max {np.max(np.abs(meds)):.1f} %, "
-            f"mean {np.mean(np.abs(meds)):.1f} %; files with >= 90 % of windows within ±12 %: "
+            f"{split}: {len(rows)} clean files, |median error| max "
+            f"{np.max(np.abs(meds)) if len(meds) else float('nan'):.1f} %, "
+            f"mean {np.mean(np.abs(meds)) if len(meds) else float('nan'):.1f} %; "
+            f"files with >= 90 % of windows within ±12 %: "
             f"{sum(1 for w in windowed if w >= 90)}/{len(windowed)}"
             f" ({len(rows) - len(windowed)} too short for a full window)"
+            + (f"; not in these figures, never timed: {', '.join(never)}" if never else "")
         )
     if clean_scores and bad_scores:
         auc = roc_auc(clean_scores, bad_scores)
