@@ -139,18 +139,49 @@ class MetricState:
         the start of its file, a file replaced and read again) must neither overwrite it nor
         re-arm a strict rule.
         """
-        if t < self.last_sample_t:
+        last_t = self.last_sample_t
+        if t < last_t:
             self.late += 1
             return False
-        # _move_base(t), with the value held until now (written out: once per sample)
-        if t > self.base_t:
-            self.base_weight, self.base_persistence = self._integrate(t)
+        rule = self.rule
+        stale_after_s = self.stale_after_s
+        # _move_base(t), with the value held until now: _integrate(t) written out, as it runs
+        # once per sample (a test compares the two); the same operations in the same order
+        t0 = self.base_t
+        w = self.base_weight
+        if t > t0:
+            if self.value is not None:
+                p = self.base_persistence
+                fresh_until = last_t + stale_after_s
+                held = self.dev
+                tau = self.persistence_s
+                t_fresh_end = t if t <= fresh_until else fresh_until
+                if t_fresh_end > t0:
+                    dt = t_fresh_end - t0
+                    if held > 0.0:
+                        if tau > 0.0:
+                            k = math.exp(-dt / tau)
+                            w += rule.gain * held * (dt - (1.0 - p) * tau * (1.0 - k))
+                            p = 1.0 - (1.0 - p) * k
+                        else:
+                            w += rule.gain * held * dt
+                            p = 1.0
+                    else:
+                        w *= 0.5 ** (dt / self.half_life_s)
+                        p = p * math.exp(-dt / tau) if tau > 0.0 else 0.0
+                    t0 = t_fresh_end
+                if t > t0:
+                    if w > 0.0:
+                        w *= 0.5 ** ((t - t0) / self.half_life_s)
+                    p = p * math.exp(-(t - t0) / tau) if tau > 0.0 else 0.0
+                self.base_weight = w
+                self.base_persistence = p
             self.base_t = t
         # After a gap longer than the staleness limit nothing is known of the time between:
         # an out-of-range stretch starts again at this sample (session 20: a 40 s pause, with
         # no speed written, counted in "since 22 s, 65 s after onset", and a report's delay
         # was counted across 28 s without a sample).
-        if t - self.last_sample_t > self.stale_after_s:
+        if t - last_t > stale_after_s:
             self.out_since = None
             self.in_range_since = None  # nor is a stretch back in range known across it
             if self.strict_pending:
@@ -158,15 +189,30 @@ class MetricState:
         self.value = value
         self.last_sample_t = t
         self.samples += 1
-        dev, side = self.rule.judge(value)
+        # rule.judge(value), written out (once per sample; a test compares the two)
+        v = value + rule.offset
+        low = rule.low
+        high = rule.high
+        if low is not None and v < low:
+            ref = rule.scale if rule.scale is not None else low
+            dev = 100.0 * (low - v) / ref
+            side: str | None = "below"
+        elif high is not None and v > high:
+            ref = rule.scale if rule.scale is not None else high
+            dev = 100.0 * (v - high) / ref
+            side = "above"
+        else:
+            dev = 0.0
+            side = None
         self.dev = dev
         self.side = side
         # _reach(), written out (once per sample)
-        rate = self.rule.gain * dev
-        if self.base_weight >= self.threshold:
+        rate = rule.gain * dev
+        threshold = self.threshold
+        if w >= threshold:
             self.reach_t = -math.inf
         elif rate > 0.0:  # a little early, as in _reach
-            reach = self.base_t + (self.threshold - self.base_weight) / rate
+            reach = self.base_t + (threshold - w) / rate
             self.reach_t = reach - 1e-6 * (1.0 + abs(reach))
         else:
             self.reach_t = math.inf
@@ -175,21 +221,17 @@ class MetricState:
                 self.out_since = t
             self.last_problem_t = t
             self.in_range_since = None
-            if (
-                self.rule.strict
-                and not self.strict_armed
-                and t - self.last_fired >= (self.rearm_after_s)
-            ):
+            if rule.strict and not self.strict_armed and t - self.last_fired >= self.rearm_after_s:
                 self.strict_armed = True
-            if self.rule.strict and self.strict_armed:
+            if rule.strict and self.strict_armed:
                 if not self.strict_pending:
                     self.strict_pending = True
                     self.strict_onset = t
                     self.strict_peak = dev
-                    self.strict_side = self.side
+                    self.strict_side = side
                 elif dev > self.strict_peak:
                     self.strict_peak = dev
-                    self.strict_side = self.side
+                    self.strict_side = side
         else:
             self.out_since = None
             self.strict_armed = True

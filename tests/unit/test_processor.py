@@ -485,6 +485,38 @@ def test_a_samples_own_reach_time_is_the_one_the_rule_gives() -> None:
             assert got == st.reach_t
 
 
+def test_a_samples_own_integration_and_judgement_are_the_methods_ones() -> None:
+    # session 26 wrote MetricState._integrate and Rule.judge out inside ingest for speed (once
+    # per sample); the copies must give the same weight, persistence, deviation and side, to
+    # the last bit, or a replay's cues would move
+    import copy
+    import random
+
+    from prezence.processor.state import MetricState
+
+    rules = (
+        Rule("speech_speed", Check.IN_RANGE, low=140.0, high=180.0, gain=1.5),
+        Rule("cv_headGaze", Check.MIN, low=-15.0, scale=10.0, offset=-2.5),
+        Rule("speech_accuracy", Check.MIN, low=0.8, strict=True),
+    )
+    rng = random.Random(11)
+    for rule in rules:
+        lo, hi = {"speech_speed": (100.0, 220.0), "cv_headGaze": (-40.0, 5.0)}.get(
+            rule.metric, (0.5, 1.0)
+        )
+        for tau in (0.0, 5.0):
+            st = MetricState(rule=rule, stale_after_s=6.0, half_life_s=8.0, persistence_s=tau)
+            t = 0.0
+            for _ in range(400):
+                t += rng.choice((0.0, 0.5, 1.0, 2.0, 9.0))
+                value = rng.uniform(lo, hi)
+                ref = copy.copy(st)
+                w, p = ref._integrate(t)
+                assert st.ingest(t, value)
+                assert (st.base_weight, st.base_persistence) == (w, p)
+                assert (st.dev, st.side) == rule.judge(value)
+
+
 def test_praise_waits_for_a_metric_out_of_range_before_it_went_silent() -> None:
     # a rehearsal read 125 wpm, then paused for a minute and a half: only the volume came back
     # first, and the robot said "Good, keep it up!" (every metric in range for a while) though
