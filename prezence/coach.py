@@ -223,6 +223,11 @@ class Coach:
         self._free_since: float | None = 0.0
         self.performed: list[dict[str, Any]] = []
         self.decisions = 0
+        #: Until when a decision point with no new sample would change nothing but
+        #: :attr:`decisions` (the robot moves nothing, the processor decides as at the last
+        #: point, the decision log writes no line): such a point may be counted without a tick
+        #: (:func:`prezence.talk.run_talk`). -inf: every point is ticked.
+        self.quiet_until = -math.inf
 
     def tick(
         self,
@@ -271,6 +276,11 @@ class Coach:
                 self._decisions.write(rec)
         if decision.cue is not None:
             self._perform(decision.cue, now)
+            self.quiet_until = -math.inf
+        elif self.log_mode != "every":
+            idle = self.backend.idle_until()
+            quiet = self.processor.quiet_until(free_since)
+            self.quiet_until = -math.inf if idle is None else idle if idle < quiet else quiet
         return decision
 
     @property
@@ -290,6 +300,7 @@ class Coach:
         self._settle()
         if self.backend.busy or self._current is not None:
             return False
+        self.quiet_until = -math.inf
         if cue.metric is not None:
             self.processor.fired(cue.metric, cue.t)
         if self.log_mode != "off":

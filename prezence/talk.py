@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import shutil
 import time
 from bisect import bisect_right
@@ -324,6 +325,12 @@ class RecordedSource(SourceBase):
         self._i = j
         return ss[i:j]
 
+    def next_t(self) -> float:
+        """The time of the next sample :meth:`poll` will give (inf when none is left)."""
+        ss = self._samples
+        i = self._i
+        return ss[i].t if i < len(ss) else math.inf
+
     def time_used(self, now: float) -> float | None:
         clock = self._clock
         if clock is None:
@@ -470,6 +477,12 @@ class Talk:
         self.last_samples: Sequence[Sample] = ()
         #: The source's clock of the time used, when it has one (optional: see SampleSource).
         self._time_used: Callable[[float], float | None] | None = getattr(source, "time_used", None)
+        #: When the source's next sample comes, when it can say (optional: a recording can).
+        self._next_t: Callable[[], float] | None = getattr(source, "next_t", None)
+        #: Until when a decision point would change nothing but the count of decisions
+        #: (:attr:`Coach.quiet_until`, and no sample before it): :func:`run_talk` counts such
+        #: points without stepping them. -inf: step every point.
+        self.quiet_until = -math.inf
 
     @property
     def paced(self) -> bool:
@@ -546,6 +559,16 @@ class Talk:
         self.last_samples = self.source.poll(now)
         spent = None if self._time_used is None else self._time_used(now)
         d = self.coach.tick(now, self.last_samples, over=over, spent=spent)
+        quiet = self.coach.quiet_until
+        if quiet > now:  # and no sample comes before it
+            next_t = self._next_t
+            if next_t is None:
+                quiet = -math.inf
+            else:
+                t = next_t()
+                if t < quiet:
+                    quiet = t
+        self.quiet_until = quiet
         if self.on_decision is not None:
             self.on_decision(d)
         return d
@@ -553,6 +576,7 @@ class Talk:
     def perform(self, cue: Cue) -> bool:
         """Have the robot give ``cue`` now (an agent's choice); False when it is busy."""
         assert self.coach is not None, "start() first"
+        self.quiet_until = -math.inf
         return self.coach.give(cue)
 
     def pace(self, t: float) -> None:
@@ -779,7 +803,21 @@ def run_talk(
                 pace = talk.pace if talk.paced else None
                 points = clock.points(length)
                 last = points[-1] if points else None
+                # a point that would change nothing is counted, not stepped, when nothing
+                # watches each point (a view, progress, a stop, pacing, on_decision)
+                skip = (
+                    view is None
+                    and progress is None
+                    and stop is None
+                    and pace is None
+                    and on_decision is None
+                )
+                coach = talk.coach
+                assert coach is not None  # noqa: S101 - started above
                 for now in points:
+                    if skip and now < talk.quiet_until and now != last:
+                        coach.decisions += 1
+                        continue
                     clock.set(now)
                     if pace is not None:
                         pace(now)

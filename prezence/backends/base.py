@@ -143,6 +143,12 @@ class Backend(abc.ABC):
         if self._running:
             self._running = [m for m in self._running if not m.done]
 
+    def idle_until(self) -> float | None:
+        """A time before which :meth:`advance` changes nothing (no motion ends), when the
+        backend can tell (a robot that only keeps time); None: it cannot (a simulated or real
+        robot moves at every advance), so every decision point is stepped."""
+        return None
+
     @property
     def busy(self) -> bool:
         """True while any gesture or speech is running."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from prezence.backends.base import Backend, Motion
@@ -40,6 +41,15 @@ class FakeBackend(Backend):
         # nothing to move or finish while nothing runs (most decision points of a talk)
         if self._running:
             super().advance(now)
+
+    def idle_until(self) -> float:
+        """The first time a running motion ends (inf with none): before it, :meth:`advance`
+        changes nothing."""
+        running = self._running
+        if not running:
+            return math.inf
+        scale = self.time_scale
+        return min([m.started_at + m.planned_s * scale for m in running])
 
     def _advance(self, now: float) -> None:
         for m in self._running:

@@ -46,6 +46,11 @@ from prezence.samples import MAX_AHEAD_S, Sample
 _NO_CUE = "all metrics in range or below threshold"
 
 
+def _early(t: float) -> float:
+    """``t`` a little early, so that rounding never makes a time bound late."""
+    return t - 1e-6 * (1.0 + abs(t))
+
+
 class Processor:
     """Keeps the books of the talk and decides.
 
@@ -110,6 +115,13 @@ class Processor:
         # unless a sample or a cue changes it (then it is dropped)
         self._status: tuple[tuple[bool, str | None, bool], ...] = ()
         self._status_until = -math.inf
+        # quiet_until(): the robot's free_since at the last step, and until when a step with
+        # no sample would decide as it did (-inf: it gave a cue, or a candidate); the time
+        # warnings' part of it (-inf: to be worked out again)
+        self._quiet_free: float | None = None
+        self._quiet = -math.inf
+        self._time_quiet = -math.inf
+        self._cand_quiet = -math.inf
 
     # -- input -----------------------------------------------------------------------------
     def ingest(self, samples: Iterable[Sample], *, now: float | None = None) -> None:
@@ -120,6 +132,7 @@ class Processor:
             now: the talk clock; samples stamped after ``now + MAX_AHEAD_S`` are dropped
                 and counted. None takes every sample's time as it is.
         """
+        self._quiet = -math.inf  # quiet_until(): the state moves on
         states = self._states
         index = self._index
         whole = self.policy.whole
@@ -161,6 +174,7 @@ class Processor:
         again from 0, its strict warning is spent, its refractory time begins."""
         self._states[metric].fired(now)
         self._status_until = -math.inf
+        self._quiet = -math.inf
 
     def weight(self, metric: str, now: float) -> float:
         """``metric``'s weight W at ``now`` (%·s; see :mod:`prezence.processor.state`)."""
@@ -203,6 +217,8 @@ class Processor:
         if samples:
             self.ingest(samples, now=now)
         self._spent = now if spent is None else spent
+        self._quiet = -math.inf
+        self._quiet_free = free_since
         views = self.views(now) if with_views else ()
         if over:
             return Decision(now, None, "the talk is over", free_since is None, (), views)
@@ -214,11 +230,14 @@ class Processor:
             cue = self._fire(chosen, [chosen], now)
             return Decision(now, cue, cue.reason, False, (chosen,), views)
         if free_since is None:
+            self._quiet = math.inf  # busy until the robot says otherwise
             return Decision(now, None, "robot busy", True, (), views)
         if self._last_cue is not None and now - free_since < self.settings.min_gap_s:
+            self._quiet = _early(free_since + self.settings.min_gap_s)
             return Decision(now, None, self._min_gap_why, False, (), views)
         cands = self._candidates(now, self._spent)
         if not cands:
+            self._quiet = self._cand_quiet
             return Decision(now, None, self._no_cue_why, False, (), views)
         chosen = self.policy.choose(cands, self._order)
         if chosen is None:
@@ -227,6 +246,49 @@ class Processor:
             )
         cue = self._fire(chosen, cands, now)
         return Decision(now, cue, cue.reason, False, tuple(cands), views)
+
+    def quiet_until(self, free_since: float | None) -> float:
+        """How long a step with no new sample would decide as the last step did.
+
+        For the robot as it is (``free_since``, as :meth:`step` takes it), a time ``T`` such
+        that a step at any time after the last one and before ``T``, with no sample, would
+        return the last decision again (its reason and busy flag, no candidate, no cue),
+        change nothing but the time used, and leave :meth:`status` as it was. Nothing moves
+        in between but time, and ``T`` is the first time at which time alone could bring a
+        candidate (a weight reaching the threshold, a refractory time ending, a time warning,
+        praise), end the minimum gap or change a metric's status; the times are taken a
+        little early, as :meth:`status` takes its own. ``-inf`` when the last step gave a
+        cue or a candidate, ran a whole policy, or had another ``free_since``: the coach then
+        steps as usual (:meth:`prezence.coach.Coach.skip`).
+        """
+        if free_since != self._quiet_free:
+            return -math.inf
+        q = self._quiet
+        return q if q < self._status_until else self._status_until
+
+    def _time_until(self) -> float:
+        """The first time used at which a time warning or an overtime cue could be due, when
+        none is now (the time used never runs ahead of the talk's clock, so it is a time on
+        the talk's clock too); kept until that time or a time cue."""
+        if self._spent < self._time_quiet:
+            return self._time_quiet
+        self._time_quiet = until = self._time_bound()
+        return until
+
+    def _time_bound(self) -> float:
+        ts = self.config.time
+        alloc = ts.allocated_s
+        if alloc is None:
+            return math.inf
+        if alloc - self._spent < 0.0:
+            if ts.overtime_repeat_s > 0 and self._last_overtime > -math.inf:
+                return _early(self._last_overtime + ts.overtime_repeat_s)
+            return math.inf if self._last_overtime > -math.inf else -math.inf
+        until = alloc
+        for m in ts.warn_at_s_left:
+            if m not in self._time_marks_given:
+                until = min(until, _early(alloc - m))
+        return until
 
     def views(self, now: float, only: Iterable[int] | None = None) -> tuple[MetricView, ...]:
         """Every metric's state at ``now`` (the decision log, live views); with ``only``,
@@ -275,12 +337,20 @@ class Processor:
         praise_after_s = s.praise_after_s
         refractory_s = s.refractory_s
         escalated = self._escalated
+        # With no candidate, until when time alone brings none (quiet_until): each metric's
+        # part below; a stale metric stays stale without a sample
+        until = -math.inf if all_out else math.inf
         for st in self._states.values():
             if not st.strict_pending and (st.dev <= 0.0 or (now < st.reach_t and not all_out)):
+                if st.dev > 0.0 and st.reach_t < until:
+                    until = st.reach_t
                 continue  # in range, or its weight cannot have reached the threshold yet
             if st.value is None or now - st.last_sample_t > st.stale_after_s:
                 continue  # no value, or stale
             if now - st.last_fired < refractory_s:
+                end = _early(st.last_fired + refractory_s)
+                if end < until:
+                    until = end
                 continue
             r = st.rule
             if r.metric in escalated:
@@ -297,7 +367,13 @@ class Processor:
             if r.strict and st.strict_pending:
                 strict_side = side or st.strict_side
                 command = r.below if strict_side == "below" else r.above
-                if command is None or self._escalate(st, now, command):
+                if command is None:
+                    # dropped as too old (its status changes) once the stale time has passed
+                    end = _early(st.last_problem_t + st.stale_after_s)
+                    if end < until:
+                        until = end
+                    continue
+                if self._escalate(st, now, command):
                     continue
                 out.append(
                     Candidate(
@@ -318,13 +394,22 @@ class Processor:
             if dev <= 0.0 or side is None:
                 continue
             if now < st.reach_t and not all_out:
+                if st.reach_t < until:
+                    until = st.reach_t
                 continue  # (a strict warning just dropped as too old) cannot have reached it yet
             command = r.below if side == "below" else r.above
             if command is None:
                 continue
             weight = st.weight_at(now)
             eligible = weight >= s.threshold
-            if eligible and self._escalate(st, now, command):
+            if not eligible:
+                # W grows by at most gain x deviation% a second (less while its persistence
+                # builds up), so it cannot reach the threshold sooner than this
+                rate = r.gain * dev
+                end = _early(now + (s.threshold - weight) / rate) if rate > 0.0 else -math.inf
+                if end < until:
+                    until = end
+            elif self._escalate(st, now, command):
                 continue
             if eligible or all_out:
                 out.append(
@@ -342,14 +427,22 @@ class Processor:
                         offset=r.offset,
                     )
                 )
-        if (
-            s.praise_command
-            and praise_after_s > 0
-            and not out
-            and now - max(self._last_cue_t, 0.0) >= praise_after_s
-            and self._all_well_since(now, praise_after_s)
-        ):
-            out.append(Candidate(Kind.PRAISE, s.praise_command, None, eligible=True, recency=now))
+        if s.praise_command and praise_after_s > 0 and not out:
+            if now - max(self._last_cue_t, 0.0) < praise_after_s:
+                end = _early(max(self._last_cue_t, 0.0) + praise_after_s)
+            elif self._all_well_since(now, praise_after_s):
+                out.append(
+                    Candidate(Kind.PRAISE, s.praise_command, None, eligible=True, recency=now)
+                )
+                return out
+            else:  # not all well: no sooner than the newest problem is a window old
+                newest = max(st.last_problem_t for st in self._states.values())
+                end = _early(newest + praise_after_s)
+            if end < until:
+                until = end
+        if not out:
+            tq = self._time_until()
+            self._cand_quiet = tq if tq < until else until
         return out
 
     def _all_well_since(self, now: float, window_s: float) -> bool:
@@ -445,6 +538,7 @@ class Processor:
         if undo is None or undo[0] is not cue:
             return
         _, metric, state, marks, overtime = undo
+        self._quiet = self._time_quiet = -math.inf
         if metric is not None and state is not None:
             self._states[metric] = state
             self._status_until = -math.inf
@@ -485,6 +579,7 @@ class Processor:
         )
         self._last_cue_t = now
         self._last_cue = cue
+        self._time_quiet = -math.inf
         self.cues.append(cue)
         self._undo = (cue, c.metric, saved_state, *saved)
         return cue
