@@ -461,3 +461,24 @@ def test_the_speech_modules_own_rates_carry_their_true_units(tmp_path: Path) -> 
     from prezence.metrics import METRICS
 
     assert METRICS["speech_loudness"].unit == "LUFS"
+
+
+def test_replay_leaves_the_garbage_collector_as_it_found_it(
+    demo_session: Path, tmp_path: Path
+) -> None:
+    # session 26: a replay pauses the collector while it reads and freezes what it read while
+    # it replays; after it, cycles are collected again and nothing stays frozen
+    import gc
+
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    replay(demo_session, out=tmp_path / "a", options=RunOptions.default(), backend="fake")
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    with pytest.raises(ConfigError):  # the recording given as its own output
+        replay(demo_session, out=demo_session, options=RunOptions.default(), backend="fake")
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    gc.freeze()  # a process that froze its own objects keeps them frozen
+    try:
+        replay(demo_session, out=tmp_path / "b", options=RunOptions.default(), backend="fake")
+        assert gc.get_freeze_count() > 0  # not unfrozen by the replay
+    finally:
+        gc.unfreeze()
