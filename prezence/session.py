@@ -389,7 +389,7 @@ def _layout(obj: Any, depth: int) -> str:
     if isinstance(obj, dict) and obj and all(isinstance(k, str) for k in obj):
         rows = [f"{pad}{_ONE_LINE(k)}: {_layout(obj[k], depth + 1)}" for k in sorted(obj)]
         return "{\n" + ",\n".join(rows) + "\n" + "  " * depth + "}"
-    if isinstance(obj, list) and any(isinstance(v, dict | list) for v in obj):
+    if isinstance(obj, list | tuple) and any(isinstance(v, dict | list | tuple) for v in obj):
         return "[\n" + ",\n".join(pad + _ONE_LINE(v) for v in obj) + "\n" + "  " * depth + "]"
     return _ONE_LINE(obj)
 
@@ -399,7 +399,11 @@ def write_json(path: Path, data: Any) -> None:
     list of records one record per line), atomically enough for a summary: to a temp file,
     then rename."""
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(_layout(strict_json(data), 0) + "\n")
+    try:  # json's encoder refuses a non-finite float: only then is every value walked
+        text = _layout(data, 0)
+    except ValueError:
+        text = _layout(strict_json(data), 0)
+    tmp.write_text(text + "\n")
     tmp.replace(path)
 
 

@@ -75,6 +75,27 @@ def test_summary_json_reads_back_as_written_with_one_record_per_line(tmp_path: P
     assert lines[0] == "{" and lines[-1] == "}" and len(lines) > len(data) + len(cues)
 
 
+def test_summary_json_lays_out_tuples_as_lists_whether_or_not_a_value_is_infinite(
+    tmp_path: Path,
+) -> None:
+    # session 26: a summary with only finite values is written without the walk that makes
+    # infinities null (which also made tuples lists); its layout must not change by that
+    import math
+
+    from prezence.session import strict_json, write_json
+
+    def data(mean: float) -> dict[str, Any]:
+        spans = tuple({"from": float(k), "to": k + 0.5} for k in range(3))
+        return {"spans": spans, "pairs": ((0.0, 2.0), (4.0, 6.0)), "mean": mean, "n": (1, 2)}
+
+    for mean in (1.5, math.inf):
+        write_json(tmp_path / "a.json", data(mean))
+        write_json(tmp_path / "b.json", strict_json(data(mean)))
+        a = (tmp_path / "a.json").read_text()
+        assert a == (tmp_path / "b.json").read_text()
+        assert '\n    {"from": 0.0, "to": 0.5},\n' in a  # a record per line, as a list's
+
+
 def test_the_printed_summary_says_a_module_crashed_and_counts_unreadable_lines() -> None:
     # session 13: 'cues 0 ..., stale episodes 1' and nothing about 6 crashes or 246 bad lines
     from prezence.cli import format_timeline
