@@ -258,8 +258,8 @@ class Processor:
         candidate (a weight reaching the threshold, a refractory time ending, a time warning,
         praise), end the minimum gap or change a metric's status; the times are taken a
         little early, as :meth:`status` takes its own. ``-inf`` when the last step gave a
-        cue or a candidate, ran a whole policy, or had another ``free_since``: the coach then
-        steps as usual (:meth:`prezence.coach.Coach.skip`).
+        cue or a candidate, ran a whole policy, or had another ``free_since``: every point is
+        then stepped (:attr:`prezence.coach.Coach.quiet_until`, :func:`prezence.talk.run_talk`).
         """
         if free_since != self._quiet_free:
             return -math.inf
