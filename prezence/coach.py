@@ -255,7 +255,7 @@ class Coach:
                 decision = decision._replace(cue=named, reason=named.reason)
         if self.log_mode == "every":
             rec = decision.to_dict()
-            rec["metrics"] = [m.to_dict() for m in self.processor.views(now)]
+            rec["metrics"] = self.processor.view_dicts(now)
             self._decisions.write(rec)
         elif self.log_mode == "changes":
             status = self.processor.status(now)
@@ -266,13 +266,12 @@ class Coach:
                 rec = decision.to_dict()
                 if decision.cue is None and last is not None:
                     # only the metrics whose state changed; a cue's line has them all
-                    views = self.processor.views(
+                    rec["metrics"] = self.processor.view_dicts(
                         now,
                         [i for i, (a, b) in enumerate(zip(status, last[2], strict=True)) if a != b],
                     )
                 else:
-                    views = self.processor.views(now)
-                rec["metrics"] = [m.to_dict() for m in views]
+                    rec["metrics"] = self.processor.view_dicts(now)
                 self._decisions.write(rec)
         if decision.cue is not None:
             self._perform(decision.cue, now)

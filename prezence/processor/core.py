@@ -39,7 +39,7 @@ from prezence.config.model import Config
 from prezence.metrics import default_stale_after_s
 from prezence.processor.resolve import ConflictPolicy
 from prezence.processor.state import MetricState
-from prezence.processor.types import Candidate, Cue, Decision, Kind, MetricView
+from prezence.processor.types import Candidate, Cue, Decision, Kind, MetricView, _logged
 from prezence.samples import MAX_AHEAD_S, Sample
 
 #: The reason of a free decision point with no candidate.
@@ -297,6 +297,29 @@ class Processor:
             return tuple([self._view(st, now) for st in self._states.values()])
         states = tuple(self._states.values())
         return tuple([self._view(states[i], now) for i in only])
+
+    def view_dicts(self, now: float, only: Iterable[int] | None = None) -> list[dict[str, Any]]:
+        """``[v.to_dict() for v in self.views(now, only)]``, made without the views (the
+        decision log's lines: a frozen view's fields are set one by one, at a cost)."""
+        states = tuple(self._states.values())
+        refractory_s = self.settings.refractory_s
+        out = []
+        for st in states if only is None else [states[i] for i in only]:
+            offset = st.rule.offset
+            value = st.value
+            d = {
+                "metric": st.rule.metric,
+                "value": value + offset if offset and value is not None else value,
+                "deviation": _logged(st.deviation()),
+                "weight": _logged(st.weight_at(now)),
+                "stale": st.stale(now),
+                "refractory": now - st.last_fired < refractory_s,
+                "strict_pending": st.strict_pending,
+            }
+            if offset:
+                d["offset"] = offset
+            out.append(d)
+        return out
 
     def status(self, now: float) -> tuple[tuple[bool, str | None, bool], ...]:
         """A cheap summary of every metric's state: (stale or no value, side out of range,

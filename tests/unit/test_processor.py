@@ -517,6 +517,37 @@ def test_a_samples_own_integration_and_judgement_are_the_methods_ones() -> None:
                 assert (st.dev, st.side) == rule.judge(value)
 
 
+def test_the_logs_view_dicts_are_the_views_own() -> None:
+    # session 26: the decision log's metric records are made without MetricView objects; they
+    # must be what the views' to_dict() gives, key order included (the log is compared byte
+    # for byte), with offsets, stale metrics, refractory times and strict warnings
+    import json
+
+    rules = (
+        Rule("speech_speed", Check.IN_RANGE, 140, 180, below="speedUp", above="slowDown"),
+        Rule("speech_volume", Check.MIN, low=60, scale=6, below="louder", offset=-4.5),
+        Rule("speech_accuracy", Check.MIN, low=0.8, strict=True, below="articulate"),
+        Rule("cv_headGaze", Check.MIN, low=-15, scale=10, below="lookUp"),
+    )
+    p = make(*rules, threshold=50.0, refractory_s=10.0)
+    seen = 0
+    for k in range(1, 200):
+        t = k * 0.5
+        batch = [
+            Sample("speech_speed", t, 120.0 + (k % 40) * 2),
+            Sample("speech_accuracy", t, 0.6 if k % 30 < 5 else 0.9),
+        ]
+        if k < 60 or k > 120:  # the volume and the gaze go stale in between
+            batch += [Sample("speech_volume", t, 58.0 + k % 9), Sample("cv_headGaze", t, -30.0)]
+        p.step(t, batch, free_since=0.0 if k % 20 else None, with_views=False)
+        for only in (None, [0, 2], [3]):
+            got = p.view_dicts(t, only)
+            want = [v.to_dict() for v in p.views(t, only)]
+            assert json.dumps(got) == json.dumps(want)
+            seen += 1
+    assert seen
+
+
 def test_praise_waits_for_a_metric_out_of_range_before_it_went_silent() -> None:
     # a rehearsal read 125 wpm, then paused for a minute and a half: only the volume came back
     # first, and the robot said "Good, keep it up!" (every metric in range for a while) though
