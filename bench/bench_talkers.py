@@ -150,10 +150,12 @@ def analyse(path: Path) -> dict[str, Any]:
     samples += an.finish()
     cpu = time.process_time() - t
     sp = [(s.t, s.value) for s in samples if s.metric == speech.SPEECH_SPEED]
-    why = [int(s.value) for s in samples if s.metric == speech.SPEECH_UNTIMED_REASON]
+    why_t = [(s.t, int(s.value)) for s in samples if s.metric == speech.SPEECH_UNTIMED_REASON]
+    why = [c for _, c in why_t]
     return {
         "speed": sp,
         "why": why,
+        "why_t": why_t,
         "cpu": cpu,
         "dur": len(x) / 16000,
         "log": an.window_log,
@@ -171,6 +173,9 @@ def run(cdir: Path, split: str | None, only: str | None, save: str | None) -> No
         if (split is None or manifest[n]["split"] == split) and (only is None or only in n)
     ]
     res = {}
+    # per level ("clean", "15-25 dB", "30 dB"): full windows, those timed, those more than 10 %
+    # off the truth, those said to have other voices near
+    groups: dict[str, list[int]] = {}
     print(f"{'file':<28}{'truth':>7}{'med':>7}{'p90':>7}{'timed':>7}{'other':>7}  codes")
     cpu = dur = 0.0
     other = int(getattr(Untimed, "OTHER_VOICES", 11))
@@ -187,10 +192,23 @@ def run(cdir: Path, split: str | None, only: str | None, save: str | None) -> No
         med = (np.median(full) / truth - 1) * 100 if len(full) else float("nan")
         p90 = (np.percentile(full, 90) / truth - 1) * 100 if len(full) else float("nan")
         codes = {c: why.count(c) for c in sorted(set(why))}
+        level = m["level_db"]
+        g = groups.setdefault(
+            "clean" if level is None else "15-25 dB" if level <= 25 else "30 dB", [0, 0, 0, 0]
+        )
+        g[0] += sum(1 for w in r["log"] if w["t"] >= speech.WORD_WINDOW_S - 1e-6)
+        g[1] += len(full)
+        g[2] += int(np.sum(np.abs(full / truth - 1) > 0.10))
+        g[3] += sum(1 for t, c in r["why_t"] if c == other and t >= speech.WORD_WINDOW_S - 1e-6)
         print(
             f"{n:<28}{truth:>7.1f}{med:>+7.1f}{p90:>+7.1f}{len(speed):>7}"
             f"{codes.get(other, 0):>7}  {codes}",
             flush=True,
+        )
+    for g_name, (n_w, n_t, n_off, n_other) in sorted(groups.items()):
+        print(
+            f"{g_name}: {n_w} full windows, {n_t} timed, {n_off} of them more than 10 % off, "
+            f"{n_other} said 'other voices'"
         )
     print(f"CPU per audio second: {cpu / max(dur, 1e-9):.3f}")
     if save:
