@@ -93,6 +93,9 @@ class Untimed(enum.IntEnum):
     UNSURE = 9
     #: The talk is not in English (``--language``): pace and clarity are not measured.
     LANGUAGE = 10
+    #: Other people talking near the presenter: words far under the presenter's level and at
+    #: another pitch in the word window (the recogniser would count theirs too).
+    OTHER_VOICES = 11
 
 
 #: The report's words for each reason the speech module gives for a window it could not time
@@ -110,11 +113,19 @@ UNTIMED_WORDS: Mapping[int, str] = {
     Untimed.NARROWBAND: "telephone-quality audio",
     Untimed.UNSURE: "words the recogniser was unsure of",
     Untimed.LANGUAGE: "a talk not in English",
+    Untimed.OTHER_VOICES: "other voices near yours",
 }
 #: The codes decided over the word window, once a count could be chosen (the others, over the
 #: level window): for a talk not in English each such window is :attr:`Untimed.LANGUAGE`.
 WORD_WINDOW_REASONS = frozenset(
-    {Untimed.NOISE_NEAR, Untimed.CLIPPED, Untimed.NOISY, Untimed.NARROWBAND, Untimed.UNSURE}
+    {
+        Untimed.NOISE_NEAR,
+        Untimed.CLIPPED,
+        Untimed.OTHER_VOICES,
+        Untimed.NOISY,
+        Untimed.NARROWBAND,
+        Untimed.UNSURE,
+    }
 )
 
 

@@ -494,6 +494,7 @@ UNTIMED_SPOKEN: Mapping[int, str] = {
     Untimed.NOISE_NEAR: "Music or noise was near your words.",
     Untimed.CLIPPED: "Your recording is clipped.",
     Untimed.NOISY: "There was too much background noise.",
+    Untimed.OTHER_VOICES: "Other people were talking near you.",
 }
 #: A reason is named when it held at least this long: a lone window of one is no reason to
 #: give a presenter (the level window of music can hold under 1 s of voice activity: a "pause").
