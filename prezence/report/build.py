@@ -704,9 +704,10 @@ def off_sides(
     first, and a side none of whose readings were out by more than the error is listed with
     no advice (``within_error``): a pace read 132 for most of a talk and 200 for a fifth of it
     is "slow down", not "pick up the pace, but at times slow down". A side the coach cued
-    (``said``) is advised on as cued, and when the coach cued one side only, it comes first
-    (session 26: a talk cued "slow down" on 200 wpm for a fifth of it, 132 the rest, read
-    "pick up the pace, but at times slow down").
+    (``said``) is always advised on (session 26: a talk cued "slow down" on 200 wpm for a
+    fifth of it, 132 the rest, read "pick up the pace, but at times slow down"); the order
+    stays the deviation's beyond the error (the side cued once early in a talk mostly out on
+    the other is not first).
 
     Args:
         d: the metric's :func:`deviation_seconds`.
@@ -731,8 +732,6 @@ def off_sides(
     beyond = hedge and "below_beyond" in d and "above_beyond" in d
     if beyond and d["below_beyond"] != d["above_beyond"]:
         order = ["above", "below"] if d["above_beyond"] > d["below_beyond"] else ["below", "above"]
-    if len(set(said)) == 1:  # what the robot said comes first
-        order = sorted(order, key=lambda x: x not in said)
     rows: list[dict[str, Any]] = []
     for side in order:
         got = m.get(f"{side}_s")
@@ -1661,7 +1660,15 @@ def _rebuild(
         time_used["stopped_at_limit"] = True
     if voiced and voiced[0] >= LATE_START_S:
         time_used["first_voice_s"] = round(voiced[0], 1)
-    cued = {str(c["metric"]) for c in cues if c.get("metric")}
+    # a metric the robot cued is listed (it said so), but only for a cue it gave (a dropped
+    # cue was never heard) on a side the talk was out on by these rules (a replay under
+    # another band, a command of a rule changed since, names none: session 26's tester)
+    said = cued_sides(cfg, [c for c in cues if not c.get("dropped")])
+    said = {
+        k: {x for x in v if float((metrics.get(k) or {}).get(f"{x}_s") or 0.0) > 0.0}
+        for k, v in said.items()
+    }
+    cued = {k for k, v in said.items() if v}
     # advice only on what was measured long enough, and not by a fallback (MIN_JUDGED_S)
     judged_dev = {k: v for k, v in dev_s.items() if judged(metrics.get(k) or {})}
     # every metric that needs work is listed, in order: one left out would be read as fine
@@ -1672,7 +1679,7 @@ def _rebuild(
         cued=cued,
         metrics=metrics,
         top=None,
-        cued_sides=cued_sides(cfg, cues),
+        cued_sides=said,
     )
     a_little_off = slightly_off(cfg, judged_dev, metrics, listed=[p["metric"] for p in priorities])
     edge = at_edge(cfg, metrics, listed=[r["metric"] for r in [*priorities, *a_little_off]])
