@@ -299,8 +299,9 @@ def _trend(values: Sequence[float | None], sides: Sequence[str | None] | None = 
 
 
 def median_move(rule: Rule, medians: Sequence[float | None], sides: Sequence[str | None]) -> str:
-    """What a "steady" trend leaves out: the newest rehearsal's median reading (``p50``)
-    against the one before's, when both were out of the band on the same side and the median
+    """What a "steady" trend leaves out: the newest rehearsal's median reading (``p50``, as
+    judged: a rule's offset is in it) against the one before's (the two the trend compares:
+    ``medians`` holds theirs alone), when both were out of the band on the same side and the median
     moved nearer to it or further from it by more than the module's stated measurement error
     (:func:`prezence.report.build.error_margins`); "" otherwise (no error stated, no median
     recorded, in range, or a move within the error).
@@ -328,8 +329,7 @@ def median_move(rule: Rule, medians: Sequence[float | None], sides: Sequence[str
         return ""
     margin = margins[0] if side == "below" else margins[1]
 
-    def out(m: float) -> float:  # how far out of the band, as judged (the rule's offset added)
-        v = m + rule.offset
+    def out(v: float) -> float:  # how far out of the band (``p50`` is as judged: offset in)
         return max(0.0, bound - v) if side == "below" else max(0.0, v - bound)
 
     moved = out(now) - out(before)
@@ -559,10 +559,14 @@ def _table(
         kept = [None if o else v for v, o in zip(values, other, strict=True)]
         trend = _trend(kept, out_on)
         rule = (newest_rules or {}).get(name)
-        if trend.startswith("steady") and rule is not None:
-            # 0 % in range twice says nothing of 232 wpm then 190 (session 25's tester)
-            meds = [None if v is None else m.get(name) for v, m in zip(kept, medians, strict=True)]
-            trend += median_move(rule, meds, out_on)
+        compared = [i for i, v in enumerate(kept) if v is not None][-2:]  # as _trend does
+        if trend.startswith("steady") and rule is not None and len(compared) == 2:
+            # 0 % in range twice says nothing of 232 wpm then 190 (session 25's tester); the
+            # medians of the two rehearsals the trend compares, or none (a summary.json
+            # written before it kept p50: session 26's tester)
+            meds = [medians[i].get(name) for i in compared]
+            if all(x is not None for x in meds):
+                trend += median_move(rule, meds, [out_on[i] for i in compared])
         rows.append(
             {
                 "metric": name,

@@ -353,7 +353,14 @@ def test_a_rehearsal_whose_summary_is_torn_is_rebuilt_from_its_streams_and_said_
     ) in out
 
 
-def _rehearsals(tmp_path: Path, paces: list[Callable[[int], float]], until: int = 300) -> Path:
+def _rehearsals(
+    tmp_path: Path,
+    paces: list[Callable[[int], float]],
+    until: int = 300,
+    *,
+    metric: str = "speech_speed",
+    config: Path | None = None,
+) -> Path:
     """A folder of rehearsals, one per pace (one reading a second from 10 s to ``until``),
     each a replay of its stream given the meta of a live talk a minute after the one before
     (progress leaves replays out: the same talk coached again)."""
@@ -362,10 +369,11 @@ def _rehearsals(tmp_path: Path, paces: list[Callable[[int], float]], until: int 
         name = f"r{i + 1}"
         streams = tmp_path / f"src_{name}" / "streams"
         streams.mkdir(parents=True)
-        (streams / "speech_speed.txt").write_text(
+        (streams / f"{metric}.txt").write_text(
             "".join(f"{t} {pace(t)}\n" for t in range(10, until))
         )
-        assert main(["replay", str(streams), "--out", str(talks / name), "-q"]) == 0
+        rules = ["--config", str(config)] if config else []
+        assert main(["replay", str(streams), "--out", str(talks / name), "-q", *rules]) == 0
         meta = {"format": 1, "kind": "live", "t0_epoch": 1e9 + 60 * i}
         (talks / name / "session.json").write_text(json.dumps(meta))
     return talks
@@ -450,3 +458,34 @@ def test_a_steady_time_in_range_says_when_the_median_moved_beyond_the_error(
     out = capsys.readouterr().out
     pace = next(ln for ln in out.splitlines() if ln.startswith("pace"))
     assert pace.endswith(f"  {trend}"), pace
+
+
+def test_the_median_move_is_of_the_two_rehearsals_compared_as_judged(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # session 26's tester: with a rule's offset (+8) a head pitch read -32 then -24 raw
+    # (-24 then -16 as judged against -15) was "steady": the offset, already in p50, was added
+    # again; the same judged medians without an offset read "nearer"
+    config = tmp_path / "gaze.toml"
+    config.write_text(
+        'format = 1\n\n[[rules]]\nmetric = "cv_headGaze"\ncheck = "min"\nlow = -15\n'
+        'below = "lookUp"\nscale = 10\noffset = 8.0\nunit = "degrees"\n'
+    )
+    talks = _rehearsals(
+        tmp_path / "o", [lambda t: -32.0, lambda t: -24.0], metric="cv_headGaze", config=config
+    )
+    capsys.readouterr()
+    assert main(["progress", str(talks)]) == 0
+    row = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("head pitch"))
+    assert row.endswith("steady, but its median read nearer the range (-24 then -16 degrees)"), row
+    # and of the two rehearsals the trend compares: a newest summary.json written before it
+    # kept p50 gives no median sentence (it described the two before: "232 then 190")
+    talks = _rehearsals(tmp_path / "n", [lambda t: 232.0, lambda t: 190.0, lambda t: 190.0])
+    summary = json.loads((talks / "r3" / "summary.json").read_text())
+    for key in ("p10", "p50", "p90", "within_error_s"):
+        summary["metrics"]["speech_speed"].pop(key, None)
+    (talks / "r3" / "summary.json").write_text(json.dumps(summary))
+    capsys.readouterr()
+    assert main(["progress", str(talks)]) == 0
+    pace = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("pace"))
+    assert pace.endswith("  steady"), pace
