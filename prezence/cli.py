@@ -63,6 +63,8 @@ def _mmss(t: float | None) -> str:
         return "  -  "
     sign = "-" if t < 0 else ""
     t = abs(t)
+    if t >= 3600:  # a talk of hours: "1:00:00.5", not "60:00.5"
+        return f"{sign}{int(t // 3600)}:{int(t % 3600 // 60):02d}:{t % 60:04.1f}"
     return f"{sign}{int(t // 60)}:{t % 60:04.1f}"
 
 

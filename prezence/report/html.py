@@ -17,6 +17,7 @@ from prezence.report.speech import (
     measured_s,
     measured_share,
     metric_notes,
+    mmss,
     off_sides_text,
     praise_line,
     priority_sides,
@@ -67,11 +68,8 @@ def _e(x: object) -> str:
 
 
 def _mmss(t: float | None) -> str:
-    if t is None:
-        return "–"
-    # halves up: round() takes them to even, so 325.5 s read "5:26" but 522.5 s "8:42"
-    total = int(max(0.0, float(t)) + 0.5)
-    return f"{total // 60}:{total % 60:02d}"
+    """:func:`prezence.report.speech.mmss` (h:mm:ss past an hour), "–" for none."""
+    return "–" if t is None else mmss(t)
 
 
 def _pct(x: float | None) -> str:

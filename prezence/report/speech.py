@@ -59,20 +59,29 @@ def _spoken_value(s: float) -> float:
     return half if half < 3600 else 60.0 * math.floor(s / 60.0 + 0.5)  # hours: whole minutes
 
 
+def _hours_minutes(minutes: int) -> list[str]:
+    """Whole minutes as spoken parts: ``["1 hour", "6 minutes"]``, ``["9 minutes"]``, []."""
+    h, m = divmod(minutes, 60)
+    parts = [f"{h} hour{'' if h == 1 else 's'}"] if h else []
+    return parts + ([f"{m} minute{'' if m == 1 else 's'}"] if m else [])
+
+
 def _spoken_exact(s: float) -> str:
-    """Seconds to the second: ``"9 minutes 48 seconds"``, ``"10 minutes"``, ``"1 minute"``."""
-    m, sec = divmod(int(round(max(0.0, s))), 60)
-    parts = [f"{m} minute{'' if m == 1 else 's'}"] if m else []
+    """Seconds to the second: ``"9 minutes 48 seconds"``, ``"10 minutes"``, ``"1 minute"``;
+    past an hour ``"1 hour 6 minutes 39 seconds"`` (halves up, as :func:`mmss`)."""
+    m, sec = divmod(math.floor(max(0.0, s) + 0.5), 60)
+    parts = _hours_minutes(m)
     if sec or not m:
         parts.append(f"{sec} second{'' if sec == 1 else 's'}")
     return " ".join(parts)
 
 
 def _spoken_tenths(s: float) -> str:
-    """Seconds to the tenth: ``"17.6 seconds"``, ``"1 minute 5.4 seconds"``."""
-    tenths = int(round(max(0.0, s) * 10))
+    """Seconds to the tenth: ``"17.6 seconds"``, ``"1 minute 5.4 seconds"``, ``"1 hour 0.5
+    seconds"``."""
+    tenths = math.floor(max(0.0, s) * 10 + 0.5)
     m, rest = divmod(tenths, 600)
-    parts = [f"{m} minute{'' if m == 1 else 's'}"] if m else []
+    parts = _hours_minutes(m)
     if rest or not m:
         sec = rest / 10
         parts.append(f"{sec:g} second{'' if sec == 1 else 's'}")
@@ -1304,7 +1313,13 @@ def advice_caveat(report: Mapping[str, Any], row: Mapping[str, Any]) -> list[str
     secs = measured_s(m)
     gap = any(g is m for g, _, _ in _gap_rows(report))
     if gap and untimed_words(m) and secs < SPOKEN_SHARE * talk:
-        out.append(f"I measured your {label} over only {_share_words(secs / talk)} of the talk.")
+        part = _share_words(secs / talk)
+        # not "over only less than 1%", nor "over only 50%" of under half (session 26's tester)
+        if part == "50%":
+            part = "just under half"
+        elif not part.startswith("less"):
+            part = f"only {part}"
+        out.append(f"I measured your {label} over {part} of the talk.")
         why = untimed_sentence(report, metric)
         if why:
             out.append(why)

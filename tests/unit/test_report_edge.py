@@ -499,6 +499,20 @@ def test_a_length_is_spoken_rounded_as_a_listener_rounds_and_in_hours_past_one(
     assert mmss(21600.0) == "6:00:00" and mmss(3599.4) == "59:59"
 
 
+def test_a_time_used_of_an_allocation_past_an_hour_is_said_in_hours(tmp_path: Path) -> None:
+    # session 26's tester: "You used 66 minutes 39 seconds of 60 minutes, 11% over", and the
+    # page's "time used 66:39 ... the 60:00 allocated"
+    from prezence.report.speech import time_sentence
+
+    time = {"used_s": 3999.0, "allocated_s": 3600.0, "over_under_pct": 11.1}
+    assert time_sentence({"time": time}) == (
+        "You used 1 hour 6 minutes 39 seconds of 1 hour, 11% over."
+    )
+    config = Config(rules=(SPEED, GAZE), time=TimeSettings(allocated_s=3600))
+    _report, _text, page, _phrase = said(talk(tmp_path / "t", 3999, around(160.0), rules=config))
+    assert "1:06:39" in page and "66:39" not in page.replace("1:06:39", "")
+
+
 def test_a_cued_metric_advises_the_side_the_robot_cued(tmp_path: Path) -> None:
     # session 25's "Not done": the coach cued "slow down" on 200 wpm (a fifth of the talk,
     # beyond the pace's 8 %); the rest read 132 (within the error of 140). The report ordered

@@ -237,3 +237,19 @@ def test_the_robot_says_over_how_much_of_the_talk_it_measured_a_pace_a_little_of
     report = build_report(telephone(tmp_path / "e", sources=True, pace=132.0).root)
     assert [e["metric"] for e in report["at_edge"]] == ["speech_speed"]
     assert "it may have been fine" in summary_phrase(report)
+
+
+def test_the_robots_share_of_the_talk_measured_reads_as_english_at_its_ends() -> None:
+    # session 26's tester: "I measured your pace over only less than 1% of the talk", and
+    # "over only 50%" for 49.6 %
+    from prezence.report.speech import advice_caveat
+
+    def caveat(measured: float) -> str:
+        m = {"label": "pace", "in_range_s": measured, "out_of_range_s": 0.0, "samples": 3}
+        m["untimed"] = [{"code": 1, "s": 60.0}]
+        report = {"talk_s": 100.0, "metrics": {"speech_speed": m}}
+        return advice_caveat(report, {"metric": "speech_speed"})[0]
+
+    assert caveat(0.3) == "I measured your pace over less than 1% of the talk."
+    assert caveat(49.6) == "I measured your pace over just under half of the talk."
+    assert caveat(40.0) == "I measured your pace over only 40% of the talk."
