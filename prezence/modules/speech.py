@@ -601,6 +601,9 @@ class SpeechOptions:
         max_utterance_s: longest utterance decoded in one piece.
         word_window_s: seconds of talk the word-based metrics count over.
         max_pause_s: a pause counts as at most this many seconds of talk.
+        other_voices: leave out words at another level and pitch than the presenter's as
+            other people's (:data:`OTHER_VOICE_GAP_DB`); off unless asked (``--other-voices``):
+            a lone presenter's quieter, lower sentence endings are taken for them too.
     """
 
     window_s: float = 10.0
@@ -612,6 +615,7 @@ class SpeechOptions:
     max_utterance_s: float = MAX_UTTERANCE_S
     word_window_s: float = WORD_WINDOW_S
     max_pause_s: float = MAX_PAUSE_S
+    other_voices: bool = False
 
     def __post_init__(self) -> None:
         for name in (
@@ -1342,7 +1346,9 @@ class SpeechAnalyser:
         # presenter; the recogniser gives their words in the presenter's pauses): not counted,
         # and where there are many of them the pace is not written (see OTHER_VOICE_GAP_DB).
         ref = self._ref_db(lo, t, spans)
-        lo_st, hi_st = self._pitch_range(lo, t, spans, ref)
+        lo_st, hi_st = (
+            self._pitch_range(lo, t, spans, ref) if opt.other_voices else (-math.inf, math.inf)
+        )
         others = 0
         for w in self._words:
             if w.start >= t:
@@ -1352,8 +1358,10 @@ class SpeechAnalyser:
                 continue
             gap = ref - w.peak_db
             # a word with no voiced frame has no pitch to tell: counted
-            if gap > OTHER_VOICE_GAP_DB and not (
-                math.isnan(w.pitch_st) or lo_st <= w.pitch_st <= hi_st
+            if (
+                opt.other_voices
+                and gap > OTHER_VOICE_GAP_DB
+                and not (math.isnan(w.pitch_st) or lo_st <= w.pitch_st <= hi_st)
             ):
                 if gap <= OTHER_VOICE_FLOOR_DB:
                     others += 1
@@ -1977,6 +1985,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="the talk's language (default %(default)s); pace and clarity are measured for "
         "English only: for another language they are not written, and volume is",
     )
+    p.add_argument(
+        "--other-voices",
+        action="store_true",
+        help="other people talk near you: leave out quiet words at another pitch than yours "
+        "(and leave the pace unwritten where there are many); off by default, as a lone "
+        "speaker's quieter, lower sentence endings are taken for someone else's too",
+    )
     p.add_argument("--device", default=None, help="mic: sounddevice device name or number")
     return p
 
@@ -1994,6 +2009,7 @@ def main(argv: list[str] | None = None) -> int:
             calibration_db=(
                 DEFAULT_CALIBRATION_DB if args.calibration_db is None else args.calibration_db
             ),
+            other_voices=args.other_voices,
         )
         source: FileSource | MicSource
         t_offset: float | Callable[[], float]
