@@ -379,8 +379,10 @@ def _edges(s: SessionDir, metrics: Mapping[str, Any], rules: Mapping[str, Rule] 
     first on this: pick up the pace"). The report's own code decides (rebuilt from the
     streams, as ``prezence report`` does), for such a rehearsal only, and for one whose
     ``summary.json`` was written before it recorded the median (``p50``), of a metric marked
-    low or high whose module states an error; none when it fails."""
-    from prezence.report.build import build_report, error_margins
+    low or high whose module states an error; none when it fails. Also those marked low or
+    high with the median in range whose report puts them in or near range, every reading out
+    within the error (session 26)."""
+    from prezence.report.build import _median_in_band, build_report, error_margins
 
     near = {str(k) for k, v in metrics.items() if at_edge((rules or {}).get(str(k)), v)}
     near |= {  # an old summary.json: the report rebuilds the median from the streams
@@ -392,18 +394,42 @@ def _edges(s: SessionDir, metrics: Mapping[str, Any], rules: Mapping[str, Rule] 
         and (rule := (rules or {}).get(str(k))) is not None
         and error_margins(rule) is not None
     }
-    if not near:
+    # marked low / high with its median in range: the report calls it in or near range when
+    # every reading out was within the error (session 26's review: 136 and 184 wpm by turns
+    # read "0% low" beside "stayed in or near the ideal range … by less than my measuring
+    # error")
+    inside = {
+        str(k)
+        for k, v in metrics.items()
+        if isinstance(v, dict)
+        and off_side(v)
+        and (rule := (rules or {}).get(str(k))) is not None
+        and error_margins(rule) is not None
+        and _median_in_band(rule, v)
+    }
+    if not near and not inside:
         return set()
 
     token = _QUIET.set(True)  # what the rebuild finds is the report's to say, not the table's
     try:
-        said = build_report(s.root).get("at_edge") or []
+        report = build_report(s.root)
     except (PrezenceError, OSError) as e:
         log.warning("%s: its report could not be rebuilt (%s); no metric marked ~", s.root, e)
         return set()
     finally:
         _QUIET.reset(token)
-    return near & {str(r.get("metric")) for r in said if isinstance(r, Mapping)}
+    said = report.get("at_edge") or []
+    within = {  # in or near range, every reading out within the error
+        str(r.get("metric"))
+        for r in report.get("near_range") or []
+        if isinstance(r, Mapping)
+        and r.get("within_error_s") is not None
+        and float(r["within_error_s"])
+        >= sum(float(x.get("out_s") or 0.0) for x in r.get("sides") or []) - 0.05
+    }
+    return (near & {str(r.get("metric")) for r in said if isinstance(r, Mapping)}) | (
+        inside & within
+    )
 
 
 def _band_text(rule: Rule) -> str:
@@ -596,7 +622,8 @@ def _table(
         )
         notes.append(
             "~: its median reading was out of its ideal range by less than the measurement's "
-            f"error ({errors}): it may have been in range (the report says so)"
+            f"error ({errors}), or, its median in range, every reading out was: it may have "
+            "been in range (the report says so)"
         )
     named = any(isinstance(m.get("speaker"), str) and m.get("speaker") for _, _, m in sessions)
     if len(recordings) > 1 and not named:
