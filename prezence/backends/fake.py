@@ -42,9 +42,17 @@ class FakeBackend(Backend):
         if self._running:
             super().advance(now)
 
-    def idle_until(self) -> float:
+    def idle_until(self) -> float | None:
         """The first time a running motion ends (inf with none): before it, :meth:`advance`
-        changes nothing."""
+        changes nothing. None (no promise) for a subclass that moves its motions its own way
+        (overrides ``advance``, ``_advance`` or ``busy``): its motions may end earlier."""
+        cls = type(self)
+        if cls is not FakeBackend and (
+            cls.advance is not FakeBackend.advance
+            or cls._advance is not FakeBackend._advance
+            or cls.busy is not FakeBackend.busy
+        ):
+            return None
         running = self._running
         if not running:
             return math.inf

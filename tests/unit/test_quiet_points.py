@@ -8,6 +8,7 @@ counted. The decision log, the cues and the count must be those of stepping ever
 
 from __future__ import annotations
 
+import math
 import random
 from pathlib import Path
 
@@ -122,3 +123,15 @@ def test_counted_points_leave_the_same_decisions_as_stepped_ones(
     for name in ("decisions.jsonl", "cues.jsonl"):
         assert (tmp_path / "quick" / name).read_bytes() == (tmp_path / "full" / name).read_bytes()
     assert quick.summary["decisions"] == full.summary["decisions"]
+
+
+def test_a_fake_backend_that_moves_its_motions_its_own_way_promises_no_quiet_time() -> None:
+    # session 26's review: a subclass ending its motions early (as test_robot_exit's
+    # LosingBackend does) inherited FakeBackend's "nothing changes until the planned end",
+    # so a replay could skip the decision point where its motion ended
+    class Early(FakeBackend):
+        def _advance(self, now: float) -> None:
+            super()._advance(now)
+
+    assert FakeBackend().idle_until() == math.inf
+    assert Early().idle_until() is None
