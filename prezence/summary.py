@@ -479,7 +479,7 @@ def measured_intervals(
         >>> [(x["start"], x["end"], x["side"]) for x in measured_intervals(r, ss, 10.0, 2.0)]
         [(0.0, 2.0, 'below'), (3.0, 5.0, 'below')]
     """
-    ss = sorted(samples, key=attrgetter("t"))
+    ss = sorted(samples, key=_T)
     n = len(ss)
     ts = np.fromiter(map(_T, ss), dtype=float, count=n)
     vs = np.fromiter(map(_VALUE, ss), dtype=float, count=n)
@@ -903,7 +903,7 @@ def build_summary(
     # each metric's times and values in time order, made once (a 6-hour replay has 108k)
     columns: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for rule in config.rules:
-        ss = sorted(streams.get(rule.metric, ()), key=attrgetter("t"))
+        ss = sorted(streams.get(rule.metric, ()), key=_T)
         ts = np.fromiter(map(_T, ss), dtype=float, count=len(ss))
         vals = np.fromiter(map(_VALUE, ss), dtype=float, count=len(ss))
         columns[rule.metric] = (ts, vals)

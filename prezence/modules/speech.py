@@ -1096,14 +1096,11 @@ class SpeechAnalyser:
             # Segment.prob is already a linear posterior (do not exp() it).
             prob = float(min(1.0, max(0.0, seg.prob)))
             start, stop = t0 + seg.start_frame / frate, t0 + _seg_end(seg, frate)
-            word = Word(
-                start,
-                stop,
-                w,
-                prob,
-                self._peak_db(start, stop),
-                self._word_pitch(start, stop),
-            )
+            word = Word(start, stop, w, prob)
+            if self.options.other_voices:  # its level and pitch: only that rule reads them
+                word = Word(
+                    start, stop, w, prob, self._peak_db(start, stop), self._word_pitch(start, stop)
+                )
             if self.word_log is not None:
                 self.word_log.append(word)
             self._words.append(word)
@@ -1345,7 +1342,9 @@ class SpeechAnalyser:
         # Words far under the speaker's level are someone else's (people talking behind the
         # presenter; the recogniser gives their words in the presenter's pauses): not counted,
         # and where there are many of them the pace is not written (see OTHER_VOICE_GAP_DB).
-        ref = self._ref_db(lo, t, spans)
+        # Only with --other-voices (off by default: a lone presenter's quieter, lower endings
+        # are taken for other voices too); without it no word is left out.
+        ref = self._ref_db(lo, t, spans) if opt.other_voices else math.inf
         lo_st, hi_st = (
             self._pitch_range(lo, t, spans, ref) if opt.other_voices else (-math.inf, math.inf)
         )
